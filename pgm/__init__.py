@@ -1,0 +1,1 @@
+"""pgm: visual trackers as explicit probabilistic factor graphs."""

@@ -1,0 +1,61 @@
+"""What the engine hands to likelihood factors for one frame.
+
+A :class:`FrameContext` carries the image (and, for multi-target models, the
+measurements) of one frame plus a cache, so that per-frame work — colour
+quantisation, integral images, gradients — is computed once per frame and shared by
+every factor that scores that frame::
+
+    bins = ctx.cached(("hsv-bins", "perez", 16, 4, 16), lambda: quantize(ctx.image))
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Hashable
+from typing import Any
+
+import numpy as np
+
+__all__ = ["FrameContext"]
+
+
+class FrameContext:
+    """One frame's evidence.
+
+    Parameters
+    ----------
+    index : int
+        Frame number, 1-based, in the source's order.
+    image : ndarray, shape (H, W, 3), uint8, BGR, or None
+        The frame (greyscale sources are delivered as three equal channels).
+    measurements : ndarray, shape (M, k), optional
+        Point or box measurements for set-valued variables.
+    """
+
+    __slots__ = ("index", "image", "measurements", "_cache")
+
+    def __init__(self, index: int, image: np.ndarray | None = None,
+                 measurements: np.ndarray | None = None):
+        self.index = int(index)
+        self.image = image
+        self.measurements = measurements
+        self._cache: dict[Hashable, Any] = {}
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """``(height, width)`` of the image."""
+        if self.image is None:
+            raise ValueError(f"frame {self.index} has no image")
+        return int(self.image.shape[0]), int(self.image.shape[1])
+
+    def cached(self, key: Hashable, compute: Callable[[], Any]) -> Any:
+        """Return ``compute()``, computed at most once per frame for ``key``."""
+        try:
+            return self._cache[key]
+        except KeyError:
+            value = compute()
+            self._cache[key] = value
+            return value
+
+    def __repr__(self) -> str:
+        shape = None if self.image is None else self.image.shape
+        return f"FrameContext(index={self.index}, image={shape})"
