@@ -1,0 +1,8 @@
+"""pgm.inference: the generic engine and its algorithms (SMC, particle BP, VB, PHD)."""
+
+from . import resampling
+from .engine import DEFAULT_RULES, Engine, RuleTable, Schedule, StepRecord, derive_schedule
+from .kalman import KalmanResult, kalman_filter, linear_gaussian_matrices
+
+__all__ = ["Engine", "RuleTable", "DEFAULT_RULES", "Schedule", "StepRecord", "derive_schedule",
+           "kalman_filter", "KalmanResult", "linear_gaussian_matrices", "resampling"]

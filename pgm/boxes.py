@@ -52,4 +52,4 @@ def iou_xywh(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     union = a[..., 2] * a[..., 3] + b[..., 2] * b[..., 3] - inter
     with np.errstate(invalid="ignore", divide="ignore"):
         out = np.where(union > 0, inter / union, 0.0)
-    return out
+    return np.clip(out, 0.0, 1.0)  # rounding can push identical boxes to 1 + 1e-14

@@ -1,0 +1,418 @@
+"""The generic engine: one per-frame schedule derived from the graph, rules by dispatch.
+
+A frame's step (DESIGN.md):
+
+1. **predict** — every variable with a transition factor moves its belief;
+2. **in-frame** — coupling factors (particle BP) and conjugate factors (mean-field VB)
+   exchange messages, repeated ``inframe_iterations`` times;
+3. **weight** — likelihood factors score the belief against the frame;
+4. **resample** — ESS-triggered, scheme chosen by the user; mass is kept;
+5. **estimate** — per-variable estimates and a record of what happened.
+
+The first frame replaces *predict* by *prior*: each variable's belief is drawn from its
+prior factor and likelihood factors may learn from the frame (e.g. a colour template at
+the prior mean) before it is weighted.
+
+Every stage dispatches through a :class:`RuleTable` keyed by ``(operation, belief
+type)`` — ``operation`` is a factor kind (``prior``, ``transition``, ``likelihood``,
+``coupling``, ``conjugate``) or a belief operation (``resample``, ``estimate``) — and
+the lookup walks the belief type's MRO, so a subclass (e.g. :class:`~pgm.Intensity`)
+inherits rules it does not override. The engine never knows which model it runs:
+particle BP, VB and the PHD corrector are rules registered in this table.
+
+Example
+-------
+>>> import numpy as np
+>>> from pgm.models import linear_gaussian
+>>> from pgm.frame import FrameContext
+>>> from pgm.inference import Engine
+>>> graph = linear_gaussian.build_graph(linear_gaussian.Params())
+>>> engine = Engine(graph, rng=np.random.default_rng(0), num_particles=500)
+>>> rec = engine.step(FrameContext(1, measurements=np.array([0.3])))
+>>> rec.estimates["x"].shape
+(2,)
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from pgm.beliefs import Intensity, Particles
+from pgm.factors import Factor
+from pgm.frame import FrameContext
+from pgm.graph import FactorGraph
+
+from .resampling import ess_triggered, get_resampler
+
+__all__ = ["Engine", "RuleTable", "DEFAULT_RULES", "StepRecord", "Schedule", "derive_schedule",
+           "STAGES", "BELIEF_FOR_ROLE"]
+
+STAGES = ("prior", "predict", "inframe", "weight", "resample", "estimate")
+OPERATIONS = ("prior", "transition", "likelihood", "coupling", "conjugate", "resample",
+              "estimate")
+
+#: belief type the engine creates for each variable role (``noise`` joins with VB)
+BELIEF_FOR_ROLE: dict[str, type] = {"part": Particles, "state": Particles,
+                                    "latent": Particles, "set": Intensity}
+
+Rule = Callable[..., Any]
+
+
+class RuleTable:
+    """Inference rules keyed by ``(operation, belief type)``, looked up along the MRO.
+
+    Factor rules are called as ``rule(engine, factor, frame)`` and update
+    ``engine.beliefs``; belief rules (``resample``, ``estimate``) as
+    ``rule(engine, variable_name, frame)``. A rule may return a dict of diagnostics,
+    stored in the step record under the factor's (or variable's) name.
+    """
+
+    def __init__(self, rules: dict[tuple[str, type], Rule] | None = None):
+        self._rules: dict[tuple[str, type], Rule] = dict(rules or {})
+
+    def register(self, operation: str, belief_type: type) -> Callable[[Rule], Rule]:
+        """Decorator registering ``rule`` for ``(operation, belief_type)``."""
+        if operation not in OPERATIONS:
+            raise ValueError(f"unknown operation {operation!r} (expected one of {OPERATIONS})")
+
+        def deco(rule: Rule) -> Rule:
+            self._rules[(operation, belief_type)] = rule
+            return rule
+
+        return deco
+
+    def lookup(self, operation: str, belief_type: type) -> Rule:
+        """The rule for ``operation`` on the nearest registered base of ``belief_type``."""
+        for t in belief_type.__mro__:
+            rule = self._rules.get((operation, t))
+            if rule is not None:
+                return rule
+        raise ValueError(f"no inference rule for ({operation!r}, {belief_type.__name__}): "
+                         f"register one with RuleTable.register")
+
+    def has(self, operation: str, belief_type: type) -> bool:
+        """Whether :meth:`lookup` would succeed."""
+        return any((operation, t) in self._rules for t in belief_type.__mro__)
+
+    def copy(self) -> RuleTable:
+        """An independent copy (to add rules for one engine only)."""
+        return RuleTable(self._rules)
+
+    def __repr__(self) -> str:
+        keys = ", ".join(f"({op}, {t.__name__})" for op, t in self._rules)
+        return f"RuleTable([{keys}])"
+
+
+DEFAULT_RULES = RuleTable()
+
+
+@dataclass
+class Schedule:
+    """The per-frame schedule: ``phases`` is a list of ``(stage, items)``.
+
+    ``items`` are factor names for factor stages and variable names for ``resample``
+    and ``estimate``. The ``inframe`` phase appears ``inframe_iterations`` times.
+    """
+
+    first_frame: list[tuple[str, list[str]]]
+    phases: list[tuple[str, list[str]]]
+
+    def __repr__(self) -> str:
+        def fmt(ph):
+            return " → ".join(f"{s}[{', '.join(items)}]" for s, items in ph if items)
+
+        return f"Schedule(\n  first: {fmt(self.first_frame)}\n  step:  {fmt(self.phases)}\n)"
+
+
+def derive_schedule(graph: FactorGraph, inframe_iterations: int = 1) -> Schedule:
+    """Derive the per-frame schedule from the factor kinds of ``graph``."""
+    if inframe_iterations < 0:
+        raise ValueError(f"inframe_iterations must be >= 0, got {inframe_iterations}")
+    names = lambda kind: [f.name for f in graph.factors_by_kind(kind)]  # noqa: E731
+    inframe = names("coupling") + names("conjugate")
+    particle_vars = [v.name for v in graph.variables.values() if v.role != "noise"]
+    tail = [("weight", names("likelihood")), ("resample", particle_vars),
+            ("estimate", list(graph.variables))]
+    loops = [("inframe", inframe)] * (inframe_iterations if inframe else 0)
+    return Schedule(first_frame=[("prior", names("prior"))] + loops + tail,
+                    phases=[("predict", names("transition"))] + loops + tail)
+
+
+@dataclass
+class StepRecord:
+    """What happened in one frame (for output, inspection and tests).
+
+    Attributes
+    ----------
+    frame : int
+    estimates : dict
+        Variable name → estimate (the weighted mean for particle beliefs).
+    beliefs : dict
+        Variable name → posterior belief after resampling (immutable objects).
+    ess : dict
+        ESS after weighting, before resampling.
+    resampled : dict
+        Whether each variable was resampled.
+    log_evidence : dict
+        ``log p(z_t | z_{1:t-1})`` estimate per weighted variable (the log of the mean
+        incremental weight), the particle filter's marginal-likelihood increment.
+    info : dict
+        Diagnostics returned by rules (messages, VB iterations, ...), keyed by factor
+        or variable name.
+    """
+
+    frame: int
+    estimates: dict[str, Any] = field(default_factory=dict)
+    beliefs: dict[str, Any] = field(default_factory=dict)
+    ess: dict[str, float] = field(default_factory=dict)
+    resampled: dict[str, bool] = field(default_factory=dict)
+    log_evidence: dict[str, float] = field(default_factory=dict)
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+Hook = Callable[["Engine", str, FrameContext, StepRecord], None]
+
+
+class Engine:
+    """Runs a :class:`~pgm.FactorGraph` frame by frame.
+
+    Parameters
+    ----------
+    graph : FactorGraph
+        The model. The engine works on a deep copy, so factors that learn from the
+        first frame (templates) never change the caller's graph; the learned copy is
+        ``engine.graph``.
+    rng : numpy.random.Generator
+        The only source of randomness.
+    num_particles : int or dict, optional
+        Particles per variable (one int for all, or name → int). Default:
+        ``graph.meta["engine"]["num_particles"]``, else 100.
+    resampling : str or callable
+        ``"systematic"`` (default), ``"multinomial"``, ``"stratified"``, ``"residual"``.
+    ess_threshold : float
+        Resample when ESS < ``ess_threshold`` × N (0.5 default; 1 = every frame).
+    inframe_iterations : int
+        Repetitions of the in-frame message-passing phase.
+    rules : RuleTable, optional
+        Defaults to :data:`DEFAULT_RULES`.
+    options : dict, optional
+        Extra settings read by rules (e.g. particle-BP fusion), merged over
+        ``graph.meta["engine"]``.
+    """
+
+    def __init__(self, graph: FactorGraph, rng: np.random.Generator, *,
+                 num_particles: int | dict[str, int] | None = None,
+                 resampling: str | Callable = "systematic", ess_threshold: float = 0.5,
+                 inframe_iterations: int = 1, rules: RuleTable | None = None,
+                 options: dict[str, Any] | None = None):
+        if not isinstance(graph, FactorGraph):
+            raise ValueError(f"Engine needs a FactorGraph, got {type(graph).__name__}")
+        if not isinstance(rng, np.random.Generator):
+            raise ValueError("Engine needs rng=numpy.random.Generator (e.g. "
+                             "numpy.random.default_rng(seed))")
+        self.graph = copy.deepcopy(graph)
+        self.rng = rng
+        defaults = dict(self.graph.meta.get("engine", {}))
+        self.options: dict[str, Any] = {**defaults, **(options or {})}
+        if num_particles is None:
+            num_particles = self.options.get("num_particles", 100)
+        self.num_particles = self._particle_counts(num_particles)
+        self.resampler = get_resampler(resampling)
+        if not np.isfinite(ess_threshold) or not 0.0 <= ess_threshold <= 1.0:
+            raise ValueError(f"ess_threshold must be in [0, 1], got {ess_threshold}")
+        self.ess_threshold = float(ess_threshold)
+        self.rules = rules if rules is not None else DEFAULT_RULES
+        self.schedule = derive_schedule(self.graph, inframe_iterations)
+        self.beliefs: dict[str, Any] = {}
+        self.frame: FrameContext | None = None
+        self.t = 0
+        self._hooks: dict[str, list[Hook]] = {s: [] for s in STAGES}
+        self._check_rules()
+
+    # -- set-up ------------------------------------------------------------------------
+    def _particle_counts(self, num_particles) -> dict[str, int]:
+        names = [v.name for v in self.graph.variables.values() if v.role != "noise"]
+        if isinstance(num_particles, dict):
+            unknown = set(num_particles) - set(names)
+            if unknown:
+                raise ValueError(f"num_particles names unknown variables {sorted(unknown)}")
+            counts = {n: num_particles.get(n, self.options.get("num_particles", 100))
+                      for n in names}
+        else:
+            counts = {n: num_particles for n in names}
+        for n, c in counts.items():
+            if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or c < 1:
+                raise ValueError(f"number of particles for {n!r} must be a positive integer, "
+                                 f"got {c!r}")
+        return {n: int(c) for n, c in counts.items()}
+
+    def belief_type(self, variable: str) -> type:
+        """Belief class of a variable (from its role)."""
+        role = self.graph.variables[variable].role
+        bt = self.options.get("belief_types", {}).get(variable) or BELIEF_FOR_ROLE.get(role)
+        if bt is None:
+            raise ValueError(f"variable {variable!r}: no belief type for role {role!r} in this "
+                             f"engine")
+        return bt
+
+    def _factor_belief_type(self, factor: Factor) -> type:
+        for v in factor.variables:
+            if self.graph.variables[v].role != "noise":
+                return self.belief_type(v)
+        return self.belief_type(factor.variables[0])
+
+    def _check_rules(self) -> None:
+        """Fail at construction, naming the factor, if some stage has no rule."""
+        op_of_stage = {"prior": None, "predict": None, "inframe": None, "weight": None}
+        for phases in (self.schedule.first_frame, self.schedule.phases):
+            for stage, items in phases:
+                for item in items:
+                    if stage in op_of_stage:
+                        f = self.graph.factors[item]
+                        bt = self._factor_belief_type(f)
+                        if not self.rules.has(f.kind, bt):
+                            raise ValueError(f"factor {f.name!r}: no inference rule for "
+                                             f"({f.kind!r}, {bt.__name__}) in this engine")
+                    else:
+                        bt = self.belief_type(item)
+                        if not self.rules.has(stage, bt):
+                            raise ValueError(f"variable {item!r}: no {stage} rule for "
+                                             f"{bt.__name__}")
+
+    def add_hook(self, stage: str, hook: Hook) -> None:
+        """Call ``hook(engine, stage, frame, record)`` after every ``stage``."""
+        if stage not in STAGES:
+            raise ValueError(f"unknown stage {stage!r} (expected one of {STAGES})")
+        self._hooks[stage].append(hook)
+
+    # -- running -----------------------------------------------------------------------
+    def step(self, frame: FrameContext) -> StepRecord:
+        """Process one frame (the first call initialises from the priors)."""
+        if not isinstance(frame, FrameContext):
+            raise ValueError(f"step() needs a FrameContext, got {type(frame).__name__}")
+        self.frame = frame
+        record = StepRecord(frame=frame.index)
+        phases = self.schedule.first_frame if self.t == 0 else self.schedule.phases
+        for stage, items in phases:
+            getattr(self, f"_stage_{stage}")(items, frame, record)
+            for hook in self._hooks[stage]:
+                hook(self, stage, frame, record)
+        record.beliefs = dict(self.beliefs)
+        self.t += 1
+        return record
+
+    def run(self, frames: Iterable[FrameContext]) -> Iterator[StepRecord]:
+        """Step through ``frames`` lazily, yielding one :class:`StepRecord` per frame."""
+        for frame in frames:
+            yield self.step(frame)
+
+    # -- stages ------------------------------------------------------------------------
+    def _apply_factor(self, name: str, frame: FrameContext, record: StepRecord) -> None:
+        f = self.graph.factors[name]
+        rule = self.rules.lookup(f.kind, self._factor_belief_type(f))
+        info = rule(self, f, frame)
+        if info:
+            record.info[name] = info
+
+    def _stage_prior(self, items, frame, record) -> None:
+        for name in items:
+            self._apply_factor(name, frame, record)
+        for f in self.graph.factors_by_kind("likelihood"):
+            var = f.variables[0]
+            f.initialize(frame, self.graph.factors_of(var, "prior")[0].mean())
+
+    def _stage_predict(self, items, frame, record) -> None:
+        for name in items:
+            self._apply_factor(name, frame, record)
+
+    _stage_inframe = _stage_predict
+
+    def _stage_weight(self, items, frame, record) -> None:
+        before = {v: self.beliefs[v].log_mass for v in self.beliefs
+                  if isinstance(self.beliefs[v], Particles)}
+        weighted: list[str] = []
+        for name in items:
+            self._apply_factor(name, frame, record)
+            for v in self.graph.factors[name].variables:
+                if v in before and v not in weighted:
+                    weighted.append(v)
+        for v in weighted:
+            b = self.beliefs[v]
+            record.log_evidence[v] = b.log_mass - before[v]
+            record.ess[v] = b.ess
+            if not isinstance(b, Intensity):
+                self.beliefs[v] = b.normalized()
+
+    def _stage_resample(self, items, frame, record) -> None:
+        for v in items:
+            rule = self.rules.lookup("resample", type(self.beliefs[v]))
+            info = rule(self, v, frame)
+            record.resampled.setdefault(v, False)
+            if info:
+                record.info.setdefault(v, {}).update(info)
+                record.resampled[v] = bool(info.get("resampled", False))
+
+    def _stage_estimate(self, items, frame, record) -> None:
+        for v in items:
+            rule = self.rules.lookup("estimate", type(self.beliefs[v]))
+            record.estimates[v] = rule(self, v, frame)
+
+
+# -------------------------------------------------------------------------------------
+# default rules for particle beliefs (sequential Monte Carlo)
+# -------------------------------------------------------------------------------------
+def _history_len(engine: Engine, variable: str) -> int:
+    trans = engine.graph.factors_of(variable, "transition")
+    return max(0, getattr(trans[0], "order", 1) - 1) if trans else 0
+
+
+@DEFAULT_RULES.register("prior", Particles)
+def _prior_particles(engine: Engine, factor, frame) -> None:
+    var = factor.variables[0]
+    n = engine.num_particles[var]
+    x = np.asarray(factor.sample(engine.rng, n), dtype=float).reshape(n, -1)
+    cls = engine.belief_type(var)
+    engine.beliefs[var] = cls.uniform(x, mass=1.0, history_len=_history_len(engine, var))
+
+
+@DEFAULT_RULES.register("transition", Particles)
+def _predict_particles(engine: Engine, factor, frame) -> None:
+    var = factor.variables[0]
+    b: Particles = engine.beliefs[var]
+    x_new = np.asarray(factor.sample(engine.rng, b.x, *b.history), dtype=float)
+    if x_new.shape != b.x.shape:
+        raise ValueError(f"factor {factor.name!r}: sample() returned shape {x_new.shape}, "
+                         f"expected {b.x.shape}")
+    engine.beliefs[var] = b.moved(x_new, history_len=max(0, factor.order - 1))
+
+
+@DEFAULT_RULES.register("likelihood", Particles)
+def _weight_particles(engine: Engine, factor, frame) -> None:
+    var = factor.variables[0]
+    b: Particles = engine.beliefs[var]
+    ll = np.asarray(factor.log_likelihood(b.x, frame), dtype=float)
+    if ll.shape != (b.num,):
+        raise ValueError(f"factor {factor.name!r}: log_likelihood returned shape {ll.shape}, "
+                         f"expected ({b.num},)")
+    engine.beliefs[var] = b.reweight(ll)
+
+
+@DEFAULT_RULES.register("resample", Particles)
+def _resample_particles(engine: Engine, variable: str, frame) -> dict[str, Any]:
+    b: Particles = engine.beliefs[variable]
+    ess = b.ess
+    if ess_triggered(ess, b.num, engine.ess_threshold):
+        engine.beliefs[variable] = b.resample(engine.rng, engine.resampler,
+                                              engine.num_particles[variable])
+        return {"resampled": True, "ess": ess}
+    return {"resampled": False, "ess": ess}
+
+
+@DEFAULT_RULES.register("estimate", Particles)
+def _estimate_particles(engine: Engine, variable: str, frame) -> np.ndarray:
+    return engine.beliefs[variable].mean()

@@ -1,0 +1,143 @@
+"""Belief representations.
+
+* :class:`Particles` — weighted particles ``(x, log_weights)`` with a leading particle
+  axis. Log-weights are *unnormalised*: ``log_mass = logsumexp(log_weights)`` is the
+  total mass (1 for a normalised posterior, the expected target count for a PHD
+  intensity). Beliefs are immutable: methods return new objects.
+* :class:`Intensity` — particles whose total weight is an expected number of targets
+  (the belief of a ``set`` variable); its resampling keeps the mass.
+
+Exponential-family beliefs for variational Bayes (Gaussian, inverse-Gamma) join this
+module with the VB engine.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .numerics import ess_from_log_weights, log_normalize, logsumexp
+
+__all__ = ["Particles", "Intensity"]
+
+
+@dataclass(frozen=True)
+class Particles:
+    r"""Weighted particle approximation :math:`\sum_i e^{\ell_i} \delta_{x_i}`.
+
+    Parameters
+    ----------
+    x : ndarray, shape (N, d)
+        Current values.
+    log_weights : ndarray, shape (N,)
+        Unnormalised log-weights (NaN is treated as -inf).
+    history : tuple of ndarray, each (N, d)
+        Past values, most recent first (``history[0]`` is ``x_{t-1}``), kept for
+        higher-order transition factors and resampled together with ``x``.
+    """
+
+    x: np.ndarray
+    log_weights: np.ndarray
+    history: tuple[np.ndarray, ...] = field(default=())
+
+    def __post_init__(self) -> None:
+        x = np.asarray(self.x, dtype=float)
+        if x.ndim != 2:
+            raise ValueError(f"particles must have shape (N, d), got {x.shape}")
+        lw = np.asarray(self.log_weights, dtype=float)
+        if lw.shape != (x.shape[0],):
+            raise ValueError(f"log_weights shape {lw.shape} does not match {x.shape[0]} particles")
+        lw = np.where(np.isnan(lw), -np.inf, lw)
+        for h in self.history:
+            if np.shape(h) != x.shape:
+                raise ValueError(f"history entry shape {np.shape(h)} != particles {x.shape}")
+        object.__setattr__(self, "x", x)
+        object.__setattr__(self, "log_weights", lw)
+        object.__setattr__(self, "history", tuple(np.asarray(h, dtype=float)
+                                                  for h in self.history))
+
+    # -- construction -------------------------------------------------------------------
+    @classmethod
+    def uniform(cls, x: np.ndarray, mass: float = 1.0, history_len: int = 0) -> Particles:
+        """Equally weighted particles of total ``mass``; history filled with ``x``."""
+        x = np.asarray(x, dtype=float)
+        n = x.shape[0]
+        lw = np.full(n, np.log(mass) - np.log(n)) if mass > 0 else np.full(n, -np.inf)
+        return cls(x, lw, tuple(x.copy() for _ in range(history_len)))
+
+    # -- properties ---------------------------------------------------------------------
+    @property
+    def num(self) -> int:
+        """Number of particles ``N``."""
+        return self.x.shape[0]
+
+    @property
+    def dim(self) -> int:
+        """Dimension ``d`` of one particle."""
+        return self.x.shape[1]
+
+    @property
+    def log_mass(self) -> float:
+        """``logsumexp(log_weights)``."""
+        return float(logsumexp(self.log_weights))
+
+    @property
+    def mass(self) -> float:
+        """Total weight."""
+        return float(np.exp(self.log_mass))
+
+    @property
+    def weights(self) -> np.ndarray:
+        """Normalised weights, shape ``(N,)``."""
+        return np.exp(log_normalize(self.log_weights))
+
+    @property
+    def ess(self) -> float:
+        """Effective sample size ``1 / sum(w^2)`` of the normalised weights."""
+        return ess_from_log_weights(self.log_weights)
+
+    def mean(self) -> np.ndarray:
+        """Weighted mean, shape ``(d,)``."""
+        return self.weights @ self.x
+
+    def cov(self) -> np.ndarray:
+        """Weighted covariance, shape ``(d, d)``."""
+        w = self.weights
+        c = self.x - w @ self.x
+        return (c * w[:, None]).T @ c
+
+    # -- transformations ----------------------------------------------------------------
+    def reweight(self, delta_log_weights: np.ndarray) -> Particles:
+        """Add ``delta_log_weights`` (shape ``(N,)``) to the log-weights."""
+        return type(self)(self.x, self.log_weights + delta_log_weights, self.history)
+
+    def normalized(self) -> Particles:
+        """The same particles with total mass 1."""
+        return type(self)(self.x, log_normalize(self.log_weights), self.history)
+
+    def moved(self, x_new: np.ndarray, history_len: int | None = None) -> Particles:
+        """Particles moved to ``x_new``; the current ``x`` is pushed onto the history."""
+        n_hist = len(self.history) if history_len is None else history_len
+        hist = ((self.x,) + self.history)[:n_hist]
+        return type(self)(x_new, self.log_weights, hist)
+
+    def take(self, indices: np.ndarray, log_weights: np.ndarray) -> Particles:
+        """Select particles (and their histories) by index with new log-weights."""
+        idx = np.asarray(indices)
+        return type(self)(self.x[idx], log_weights, tuple(h[idx] for h in self.history))
+
+    def resample(self, rng: np.random.Generator, scheme, num: int | None = None) -> Particles:
+        """Resample ``num`` particles (default ``N``) keeping the total mass.
+
+        ``scheme`` is a function ``(rng, weights, num) -> indices`` (see
+        :mod:`pgm.inference.resampling`). Every new particle gets weight ``mass / num``.
+        """
+        num = self.num if num is None else int(num)
+        idx = scheme(rng, self.weights, num)
+        return self.take(idx, np.full(num, self.log_mass - np.log(num)))
+
+
+@dataclass(frozen=True)
+class Intensity(Particles):
+    """A PHD intensity: particles whose total weight is the expected number of targets."""

@@ -1,0 +1,275 @@
+"""The ``pgm`` command line.
+
+::
+
+    pgm track SOURCE --model colour-pf (--init X,Y,W,H | --gt FILE) --out DIR
+              [--particles N] [--seed S] [--no-video] [--show-particles]
+    pgm eval --gt FILE --pred DIR/tracks.txt [--json]
+    pgm graph MODEL --out FILE.{png,svg,pdf,dot}
+    pgm demo --out DIR
+
+Bad input (a missing or corrupt video, a malformed box or ground-truth file, a bad
+parameter) gets a one-line ``pgm: error: ...`` and exit code 2, never a traceback.
+The CLI sits on top of everything and may import :mod:`pgm.models` (STYLE.md §4.1).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+
+__all__ = ["main", "build_parser", "parse_box"]
+
+EXIT_BAD_INPUT = 2
+
+
+def parse_box(text: str) -> np.ndarray:
+    """Parse ``"X,Y,W,H"`` (top-left corner and size, 1-based like MOT/OTB files)."""
+    parts = [p for p in text.replace(" ", "").split(",") if p]
+    try:
+        vals = np.array([float(p) for p in parts])
+    except ValueError:
+        raise InputError(f"--init must be four numbers X,Y,W,H, got {text!r}") from None
+    if vals.shape != (4,) or not np.all(np.isfinite(vals)):
+        raise InputError(f"--init must be four finite numbers X,Y,W,H, got {text!r}")
+    if vals[2] <= 0 or vals[3] <= 0:
+        raise InputError(f"--init box {text!r} has zero or negative area")
+    vals[:2] -= 1.0  # 1-based file convention -> 0-based internal
+    return vals
+
+
+def _positive_int(name: str):
+    def conv(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be an integer, got {text!r}") from None
+        if v < 1:
+            raise argparse.ArgumentTypeError(f"{name} must be a positive integer, got {v}")
+        return v
+
+    return conv
+
+
+def _nonneg_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"seed must be an integer, got {text!r}") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"seed must be non-negative, got {v}")
+    return v
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``pgm``."""
+    from .models import MODELS
+
+    p = argparse.ArgumentParser(
+        prog="pgm", description="Visual trackers declared as factor graphs, run by one engine.")
+    p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    t = sub.add_parser("track", help="track an object through a video or image sequence")
+    t.add_argument("source", help="video file, image folder, MOTChallenge or OTB sequence folder")
+    t.add_argument("--model", default="colour-pf",
+                   help=f"model name ({', '.join(sorted(MODELS))}) or a saved model .json")
+    init = t.add_mutually_exclusive_group()
+    init.add_argument("--init", help="box in frame 1: X,Y,W,H (top-left, 1-based like MOT/OTB)")
+    t.add_argument("--gt", help="ground-truth file (initialises from frame 1 when --init is "
+                                "absent; writes metrics.json)")
+    t.add_argument("--out", required=True, help="output folder")
+    t.add_argument("--particles", type=_positive_int("--particles"), default=None,
+                   help="particles per variable (default: the model's)")
+    t.add_argument("--seed", type=_nonneg_int, default=0)
+    t.add_argument("--no-video", action="store_true", help="do not write annotated.mp4")
+    t.add_argument("--show-particles", action="store_true",
+                   help="draw particles in the annotated video")
+    t.add_argument("--max-frames", type=_positive_int("--max-frames"), default=None)
+    t.add_argument("--quiet", action="store_true", help="no progress bar")
+
+    e = sub.add_parser("eval", help="score a tracks.txt against ground truth")
+    e.add_argument("--gt", required=True, help="ground truth (OTB, MILTrack or MOT gt.txt)")
+    e.add_argument("--pred", required=True, help="tracks.txt written by pgm track")
+    e.add_argument("--json", action="store_true", help="print JSON instead of a table")
+
+    g = sub.add_parser("graph", help="draw a model's factor graph")
+    g.add_argument("model", help=f"model name ({', '.join(sorted(MODELS))}) or a model .json")
+    g.add_argument("--out", required=True, help="FILE.png, .svg, .pdf or .dot")
+
+    d = sub.add_parser("demo", help="render a synthetic scene, track it, write every output")
+    d.add_argument("--out", required=True, help="output folder")
+    d.add_argument("--seed", type=_nonneg_int, default=0)
+    d.add_argument("--frames", type=_positive_int("--frames"), default=90)
+    d.add_argument("--particles", type=_positive_int("--particles"), default=100)
+    d.add_argument("--quiet", action="store_true")
+    return p
+
+
+# -- commands ---------------------------------------------------------------------------
+def _load_model_graph(model: str, init_box_cxcywh: np.ndarray, num_particles: int | None):
+    from .graph import FactorGraph
+    from .models import get_model
+
+    if model.endswith(".json"):
+        return FactorGraph.load(model)
+    module = get_model(model)
+    kwargs = {"init_box": tuple(float(v) for v in init_box_cxcywh)}
+    if num_particles is not None:
+        kwargs["num_particles"] = num_particles
+    return module.build_graph(module.Params(**kwargs))
+
+
+def _check_box_in_image(box_xywh: np.ndarray, size: tuple[int, int]) -> None:
+    w_img, h_img = size
+    x, y, w, h = box_xywh
+    if x >= w_img or y >= h_img or x + w <= 0 or y + h <= 0:
+        raise InputError(f"initial box ({x + 1:g},{y + 1:g},{w:g},{h:g}) lies outside the "
+                         f"{w_img}x{h_img} image")
+
+
+def _print_metrics(metrics: dict, stream=sys.stdout) -> None:
+    rows = [("frames scored", f"{metrics['n_frames']}"),
+            ("success AUC", f"{metrics['success_auc']:.3f}"),
+            ("precision@20px", f"{metrics['precision_20']:.3f}"),
+            ("mean IoU", f"{metrics['mean_iou']:.3f}"),
+            ("mean centre error (px)", f"{metrics['mean_centre_error']:.2f}")]
+    if "fps" in metrics:
+        rows.append(("frames per second", f"{metrics['fps']:.1f}"))
+    width = max(len(r[0]) for r in rows)
+    for k, v in rows:
+        print(f"{k:<{width}}  {v}", file=stream)
+
+
+def cmd_track(args) -> int:
+    from ._rng import as_generator
+    from .io.annotations import load_single_gt
+    from .io.video import open_source
+    from .inference.runner import init_box_from_gt, track
+
+    source = open_source(args.source)
+    gt = None
+    gt_path = args.gt
+    if gt_path is None and args.init is None and source.gt_path is not None:
+        gt_path = str(source.gt_path)
+        print(f"pgm: using the sequence's ground truth {gt_path}", file=sys.stderr)
+    if gt_path is not None:
+        gt = load_single_gt(gt_path)
+    if args.init is not None:
+        box_xywh = parse_box(args.init)
+    elif gt is not None:
+        c = init_box_from_gt(gt, 1)
+        box_xywh = np.array([c[0] - c[2] / 2, c[1] - c[3] / 2, c[2], c[3]])
+    else:
+        raise InputError("give the initial box with --init X,Y,W,H or a ground truth with --gt")
+    _check_box_in_image(box_xywh, source.size)
+    init_c = np.array([box_xywh[0] + box_xywh[2] / 2, box_xywh[1] + box_xywh[3] / 2,
+                       box_xywh[2], box_xywh[3]])
+    graph = _load_model_graph(args.model, init_c, args.particles)
+    result = track(source, graph, rng=as_generator(args.seed), out_dir=args.out, gt=gt,
+                   num_particles=args.particles, write_video=not args.no_video,
+                   show_particles=args.show_particles, progress=not args.quiet,
+                   max_frames=args.max_frames)
+    print(f"tracked {len(result.frames)} frames at {result.fps:.1f} frames/s "
+          f"(inference only) -> {Path(args.out) / 'tracks.txt'}")
+    if result.metrics is not None:
+        _print_metrics({**result.metrics, "fps": result.fps})
+    return 0
+
+
+def cmd_eval(args) -> int:
+    from .io.annotations import load_single_gt, load_tracks
+    from .metrics import single_object_metrics
+
+    gt = load_single_gt(args.gt)
+    pred = load_tracks(args.pred)
+    ids = np.unique(pred.ids)
+    if ids.size > 1:
+        raise InputError(f"{args.pred} has {ids.size} identities; single-object evaluation "
+                         f"needs one")
+    metrics = single_object_metrics(gt, pred.frames, pred.boxes)
+    if args.json:
+        print(json.dumps(metrics, indent=1))
+    else:
+        _print_metrics(metrics)
+    return 0
+
+
+def cmd_graph(args) -> int:
+    out = Path(args.out)
+    if out.suffix.lower() not in (".png", ".svg", ".pdf", ".dot"):
+        raise InputError(f"--out must end in .png, .svg, .pdf or .dot, got {out.name}")
+    graph = _load_model_graph(args.model, np.array([50.0, 50.0, 20.0, 30.0]), None)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    graph.draw(out)
+    print(f"wrote {out}")
+    return 0
+
+
+def cmd_demo(args) -> int:
+    from ._rng import as_generator
+    from .inference.runner import track
+    from .models import colour_pf
+    from .synthetic import demo_scene
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    seq = demo_scene(seed=args.seed, n_frames=args.frames)
+    scene_dir = out / "scene"
+    seq.write_otb(scene_dir, obj_index=0)
+    gt_path = scene_dir / "groundtruth_rect.txt"
+    from .io.annotations import load_single_gt
+    from .io.video import open_source
+
+    gt = load_single_gt(gt_path)
+    x, y, w, h = gt.boxes[0]
+    graph = colour_pf.build_graph(colour_pf.Params(init_box=(x + w / 2, y + h / 2, w, h),
+                                                   num_particles=args.particles))
+    graph.draw(out / "graph.png")
+    (out / "graph.dot").write_text(graph.to_dot())
+    result = track(open_source(scene_dir), graph, rng=as_generator(args.seed), out_dir=out,
+                   gt=gt, show_particles=True, progress=not args.quiet)
+    print(f"demo: synthetic scene ({len(result.frames)} frames) in {scene_dir}")
+    print(f"demo: wrote {out / 'tracks.txt'}, {out / 'annotated.mp4'}, {out / 'metrics.json'}, "
+          f"{out / 'graph.png'}")
+    _print_metrics({**result.metrics, "fps": result.fps})
+    return 0
+
+
+COMMANDS = {"track": cmd_track, "eval": cmd_eval, "graph": cmd_graph, "demo": cmd_demo}
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``pgm`` console script; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    debug = args.debug or os.environ.get("PGM_DEBUG") == "1"
+    try:
+        return COMMANDS[args.command](args)
+    except KeyboardInterrupt:
+        print("pgm: interrupted; results written so far are kept", file=sys.stderr)
+        return 130
+    except (InputError, ValueError, FileNotFoundError) as exc:
+        if debug:
+            raise
+        msg = " ".join(str(exc).split())  # one line
+        print(f"pgm: error: {msg}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except Exception as exc:  # noqa: BLE001 - last resort: one line, not a traceback
+        if debug:
+            raise
+        msg = " ".join(str(exc).split())
+        print(f"pgm: internal error: {type(exc).__name__}: {msg} (rerun with --debug for "
+              f"the traceback)", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

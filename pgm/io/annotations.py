@@ -1,0 +1,469 @@
+"""Ground-truth and result files: OTB, MILTrack and MOTChallenge.
+
+Every box returned here is top-left ``(x, y, w, h)`` in the toolkit's 0-based pixel
+coordinates (pixel ``(row i, column j)`` covers ``[j, j+1) x [i, i+1)``); use
+:func:`pgm.boxes.xywh_to_cxcywh` for centre form. Files keep their own conventions and
+are converted at the boundary:
+
+* **OTB** ``groundtruth_rect.txt`` and **MOTChallenge** ``gt.txt``/``det.txt``/results:
+  1-based (MATLAB) top-left ``x, y`` — 1 is subtracted on reading, added on writing.
+* **MILTrack** ``*_gt.txt`` (FaceOcc1): 0-based (C++/OpenCV origin) — read as is.
+
+Frame numbers are 1-based everywhere.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import IO
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = [
+    "SingleTrack",
+    "MotTable",
+    "MotWriter",
+    "load_single_gt",
+    "load_mot",
+    "load_tracks",
+    "detect_gt_format",
+]
+
+_SPLIT = re.compile(r"[,\s]+")
+_FORMATS = ("otb", "miltrack", "mot")
+
+
+# --------------------------------------------------------------------------- parsing
+
+
+def _read_lines(path: Path) -> list[str]:
+    """Lines of a text file, trailing blank lines dropped."""
+    if not path.exists():
+        raise InputError(f"no such file: {path}")
+    if not path.is_file():
+        raise InputError(f"not a file: {path}")
+    try:
+        text = path.read_text(encoding="utf-8-sig", errors="replace")
+    except OSError as exc:
+        raise InputError(f"cannot read {path}: {' '.join(str(exc).split())}") from None
+    lines = text.splitlines()
+    while lines and not lines[-1].strip():
+        lines.pop()
+    return lines
+
+
+def _parse_table(path: Path, lines: list[str], *, min_cols: int, max_cols: int | None,
+                 sep: re.Pattern[str] = _SPLIT, what: str = "values") -> tuple[np.ndarray,
+                                                                               np.ndarray]:
+    """Parse numeric rows; returns ``(values (n, width), line_numbers (n,))``.
+
+    Blank lines are an error (they would shift the line-to-frame pairing); rows shorter
+    than the widest row are padded with NaN. ``line_numbers`` are 1-based.
+    """
+    rows = [sep.split(s.strip()) for s in lines]
+    lengths = np.fromiter((0 if r == [""] else len(r) for r in rows), dtype=int,
+                          count=len(rows))
+    if rows:
+        upper = max_cols if max_cols is not None else int(lengths.max())
+        bad = np.flatnonzero((lengths < min_cols) | (lengths > upper))
+        if bad.size:
+            i = int(bad[0])
+            want = (f"{min_cols}" if max_cols == min_cols
+                    else f"{min_cols} to {max_cols}" if max_cols is not None
+                    else f"at least {min_cols}")
+            raise InputError(f"{path}:{i + 1}: expected {want} {what}, got {lengths[i]}"
+                             f" ({lines[i].strip()[:60]!r})")
+    width = int(lengths.max()) if rows else min_cols
+    table = np.full((len(rows), width), np.nan)
+    flat = [v for r in rows for v in r]
+    try:
+        values = np.array(flat, dtype=float)
+    except ValueError:
+        for i, r in enumerate(rows):
+            try:
+                [float(v) for v in r]
+            except ValueError:
+                raise InputError(f"{path}:{i + 1}: non-numeric value in"
+                                 f" {lines[i].strip()[:60]!r}") from None
+        raise  # pragma: no cover - unreachable: some row must have failed
+    if np.all(lengths == width):
+        table[:] = values.reshape(len(rows), width)
+    else:
+        row_idx = np.repeat(np.arange(len(rows)), lengths)
+        col_idx = np.arange(values.size) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+        table[row_idx, col_idx] = values
+    return table, np.arange(1, len(rows) + 1)
+
+
+# --------------------------------------------------------------------------- single object
+
+
+@dataclass(frozen=True, eq=False)
+class SingleTrack:
+    """One object's boxes on the frames where it is annotated.
+
+    Attributes
+    ----------
+    frames : ndarray of int, shape (K,)
+        1-based frame numbers that carry a box, increasing.
+    boxes : ndarray of float, shape (K, 4)
+        Top-left ``(x, y, w, h)``, 0-based internal pixel coordinates, ``w, h > 0``.
+    """
+
+    frames: np.ndarray
+    boxes: np.ndarray
+
+    def __post_init__(self) -> None:
+        frames = np.asarray(self.frames, dtype=np.int64).reshape(-1)
+        boxes = np.asarray(self.boxes, dtype=float).reshape(-1, 4)
+        if frames.shape[0] != boxes.shape[0]:
+            raise ValueError(f"{frames.shape[0]} frames but {boxes.shape[0]} boxes")
+        object.__setattr__(self, "frames", frames)
+        object.__setattr__(self, "boxes", boxes)
+
+    def __len__(self) -> int:
+        return int(self.frames.shape[0])
+
+
+def detect_gt_format(path: str | Path) -> str:
+    """Guess ``'otb'``, ``'miltrack'`` or ``'mot'`` for a ground-truth file.
+
+    ``groundtruth_rect*.txt`` is OTB; ``gt.txt`` is MOT; any other ``*_gt.txt`` is
+    MILTrack; otherwise a first line with 6 or more columns is MOT and anything else
+    is taken as OTB (1-based).
+    """
+    p = Path(path)
+    name = p.name.lower()
+    if name.startswith("groundtruth_rect"):
+        return "otb"
+    if name == "gt.txt":
+        return "mot"
+    if name.endswith("_gt.txt"):
+        return "miltrack"
+    for line in _read_lines(p):
+        if line.strip():
+            return "mot" if len(_SPLIT.split(line.strip())) >= 6 else "otb"
+    return "otb"
+
+
+def load_single_gt(path: str | Path, fmt: str = "auto", *, obj_id: int | None = None
+                   ) -> SingleTrack:
+    """Load a single object's ground truth.
+
+    Parameters
+    ----------
+    path : str or Path
+        The annotation file.
+    fmt : {'auto', 'otb', 'miltrack', 'mot'}
+        * ``'otb'`` — ``groundtruth_rect.txt``: line *i* (1-based) is frame *i*, four
+          numbers ``x, y, w, h`` separated by commas, tabs or spaces; 1-based ``x, y``.
+          A line with NaN or a non-positive width/height marks a frame without a box
+          (OTB's way of saying absent); it is skipped.
+        * ``'miltrack'`` — ``*_gt.txt`` of the MILTrack release (FaceOcc1): line *k*
+          (0-based) is frame *k + 1*; ``0,0,0,0`` means "not annotated" and is skipped;
+          **0-based** ``x, y`` (C++/OpenCV origin), read unchanged.
+        * ``'mot'`` — a MOTChallenge ``gt.txt``; the identity ``obj_id`` (default: the
+          first identity in frame order) is taken; rows with flag 0 (ignore) are skipped.
+        * ``'auto'`` — :func:`detect_gt_format`.
+    obj_id : int, optional
+        Identity to take from a MOT file.
+
+    Returns
+    -------
+    SingleTrack
+        The annotated frames and their 0-based top-left boxes.
+
+    Raises
+    ------
+    InputError
+        Missing file, unknown format, a line that does not parse (named with its line
+        number), no annotated frame at all, or ``obj_id`` not in the file.
+    """
+    p = Path(path)
+    if fmt == "auto":
+        fmt = detect_gt_format(p)
+    if fmt not in _FORMATS:
+        raise InputError(f"unknown ground-truth format {fmt!r} for {p}"
+                         f" (expected one of auto, {', '.join(_FORMATS)})")
+    if fmt == "mot":
+        return _single_from_mot(p, obj_id)
+    lines = _read_lines(p)
+    table, _ = _parse_table(p, lines, min_cols=4, max_cols=4, what="numbers (x, y, w, h)")
+    boxes = table[:, :4]
+    frames = np.arange(1, len(lines) + 1, dtype=np.int64)
+    valid = np.all(np.isfinite(boxes), axis=1) & (boxes[:, 2] > 0) & (boxes[:, 3] > 0)
+    if fmt == "otb":
+        boxes = boxes.copy()
+        boxes[:, :2] -= 1.0
+    if not np.any(valid):
+        raise InputError(f"no annotated box in {p}")
+    return SingleTrack(frames=frames[valid], boxes=boxes[valid])
+
+
+def _single_from_mot(p: Path, obj_id: int | None) -> SingleTrack:
+    table = load_mot(p, kind="gt")
+    if len(table) == 0:
+        raise InputError(f"no annotated box in {p}")
+    if obj_id is None:
+        obj_id = int(table.ids[0])  # rows are sorted by frame, file order within a frame
+    sel = table.ids == obj_id
+    if not np.any(sel):
+        raise InputError(f"identity {obj_id} not found in {p}")
+    frames = table.frames[sel]
+    if np.any(np.diff(frames) == 0):
+        dup = int(frames[np.flatnonzero(np.diff(frames) == 0)[0]])
+        raise InputError(f"identity {obj_id} has two boxes in frame {dup} of {p}")
+    keep = ~table.ignore[sel]
+    if not np.any(keep):
+        raise InputError(f"identity {obj_id} has only ignored (flag 0) rows in {p}")
+    return SingleTrack(frames=frames[keep], boxes=table.boxes[sel][keep])
+
+
+# --------------------------------------------------------------------------- MOTChallenge
+
+
+@dataclass(frozen=True, eq=False)
+class MotTable:
+    """Rows of a MOTChallenge-style file, sorted by frame (file order kept within a frame).
+
+    Attributes
+    ----------
+    frames : ndarray of int, shape (K,)
+        1-based frame numbers.
+    ids : ndarray of int, shape (K,)
+        Identities (``-1`` for detections).
+    boxes : ndarray of float, shape (K, 4)
+        Top-left ``(x, y, w, h)``, 0-based internal coordinates.
+    conf : ndarray of float, shape (K,)
+        Column 7: the evaluation flag for ground truth, the score for detections and
+        results (1.0 when the file has only six columns).
+    ignore : ndarray of bool, shape (K,)
+        Ground-truth rows with flag 0 (ignore regions in MOT15 evaluation); all False
+        for detections and results.
+    """
+
+    frames: np.ndarray
+    ids: np.ndarray
+    boxes: np.ndarray
+    conf: np.ndarray
+    ignore: np.ndarray | None = None
+    _index: dict[int, tuple[int, int]] = field(init=False, repr=False, default_factory=dict)
+
+    def __post_init__(self) -> None:
+        # copies: the columns are made read-only, which must not touch the caller's arrays
+        frames = np.array(self.frames, dtype=np.int64).reshape(-1)
+        k = frames.shape[0]
+        ids = np.array(self.ids, dtype=np.int64).reshape(-1)
+        boxes = np.array(self.boxes, dtype=float).reshape(-1, 4)
+        conf = np.array(self.conf, dtype=float).reshape(-1)
+        ignore = (np.zeros(k, dtype=bool) if self.ignore is None
+                  else np.array(self.ignore, dtype=bool).reshape(-1))
+        if not (ids.shape[0] == boxes.shape[0] == conf.shape[0] == ignore.shape[0] == k):
+            raise ValueError("MotTable columns have different lengths")
+        order = np.argsort(frames, kind="stable")
+        if np.any(order != np.arange(k)):
+            frames, ids, boxes, conf, ignore = (frames[order], ids[order], boxes[order],
+                                                conf[order], ignore[order])
+        for name, value in (("frames", frames), ("ids", ids), ("boxes", boxes),
+                            ("conf", conf), ("ignore", ignore)):
+            value.setflags(write=False)
+            object.__setattr__(self, name, value)
+        uniq, starts, counts = np.unique(frames, return_index=True, return_counts=True)
+        index = {int(f): (int(s), int(s + c)) for f, s, c in zip(uniq, starts, counts,
+                                                                  strict=True)}
+        object.__setattr__(self, "_index", index)
+
+    def __len__(self) -> int:
+        return int(self.frames.shape[0])
+
+    def frame_numbers(self) -> np.ndarray:
+        """Sorted distinct frame numbers that have at least one row."""
+        return np.fromiter(self._index.keys(), dtype=np.int64, count=len(self._index))
+
+    def rows(self, frame: int) -> slice:
+        """Slice of the rows of ``frame`` (empty when it has none); O(1)."""
+        start, stop = self._index.get(int(frame), (0, 0))
+        return slice(start, stop)
+
+    def at(self, frame: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(ids (n,), boxes (n, 4), conf (n,))`` of one frame (read-only views)."""
+        s = self.rows(frame)
+        return self.ids[s], self.boxes[s], self.conf[s]
+
+
+def load_mot(path: str | Path, *, kind: str = "gt", min_score: float | None = None
+             ) -> MotTable:
+    """Read a MOTChallenge ``gt.txt``, ``det.txt`` or result file.
+
+    Rows are ``frame, id, x, y, w, h, conf[, ...]`` with 1-based top-left ``x, y``
+    (converted to 0-based); extra columns (world coordinates, class, visibility) are
+    ignored.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    kind : {'gt', 'det'}
+        ``'gt'``: column 7 is the evaluation flag; rows with flag 0 are kept and marked
+        in :attr:`MotTable.ignore`. ``'det'``: column 7 is a score.
+    min_score : float, optional
+        For ``kind='det'``: keep only rows with score ``>= min_score``.
+
+    Raises
+    ------
+    InputError
+        Missing file, fewer than 6 columns, a non-numeric value, a non-integer frame or
+        id, a frame number below 1, or a non-positive or non-finite box (named with the
+        file and line number); ``min_score`` with ``kind='gt'``.
+    """
+    p = Path(path)
+    if kind not in ("gt", "det"):
+        raise InputError(f"kind must be 'gt' or 'det' (got {kind!r}) for {p}")
+    if min_score is not None and kind != "det":
+        raise InputError(f"min_score applies to detections (kind='det') only, for {p}")
+    lines = _read_lines(p)
+    table, lineno = _parse_table(p, lines, min_cols=6, max_cols=None,
+                                 what="comma-separated columns")
+    if table.shape[1] < 7:
+        table = np.concatenate([table, np.full((table.shape[0], 7 - table.shape[1]),
+                                               np.nan)], axis=1)
+    frames_f, ids_f, boxes, conf = table[:, 0], table[:, 1], table[:, 2:6], table[:, 6]
+    checks = (
+        (~np.isfinite(frames_f) | (frames_f != np.round(frames_f)) | (frames_f < 1),
+         "frame must be an integer >= 1"),
+        (~np.isfinite(ids_f) | (ids_f != np.round(ids_f)), "id must be an integer"),
+        (~np.all(np.isfinite(boxes), axis=1), "box is not finite"),
+        (~((boxes[:, 2] > 0) & (boxes[:, 3] > 0)), "box width and height must be > 0"),
+    )
+    for bad, message in checks:
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            raise InputError(f"{p}:{lineno[i]}: {message} ({lines[i].strip()[:60]!r})")
+    conf = np.where(np.isnan(conf), 1.0, conf)
+    boxes = boxes.copy()
+    boxes[:, :2] -= 1.0
+    keep = np.ones(len(lines), dtype=bool)
+    if min_score is not None:
+        keep = conf >= float(min_score)
+    ignore = (conf == 0) if kind == "gt" else np.zeros(len(lines), dtype=bool)
+    return MotTable(frames=frames_f[keep].astype(np.int64), ids=ids_f[keep].astype(np.int64),
+                    boxes=boxes[keep], conf=conf[keep], ignore=ignore[keep])
+
+
+def load_tracks(path: str | Path) -> MotTable:
+    """Read a tracker's MOTChallenge result file (as written by :class:`MotWriter`).
+
+    Same as ``load_mot(path, kind='det')``, and an identity may appear at most once per
+    frame.
+
+    Raises
+    ------
+    InputError
+        As :func:`load_mot`, or an identity with two boxes in one frame.
+    """
+    p = Path(path)
+    table = load_mot(p, kind="det")
+    if len(table):
+        pairs = np.stack([table.frames, table.ids], axis=1)
+        uniq, counts = np.unique(pairs, axis=0, return_counts=True)
+        if np.any(counts > 1):
+            f, i = uniq[np.flatnonzero(counts > 1)[0]]
+            raise InputError(f"track {int(i)} has two boxes in frame {int(f)} of {p}")
+    return table
+
+
+def _fmt(values: np.ndarray) -> list[str]:
+    """Numbers with up to 3 decimals, trailing zeros dropped (``71.0`` -> ``71``)."""
+    out = []
+    for v in np.round(values, 3).tolist():
+        s = f"{v:.3f}".rstrip("0").rstrip(".")
+        out.append("0" if s in ("-0", "") else s)
+    return out
+
+
+class MotWriter:
+    """Write MOTChallenge result rows ``frame,id,x,y,w,h,conf,-1,-1,-1``.
+
+    Boxes are given 0-based top-left and written 1-based (``x + 1, y + 1``), numbers
+    with up to 3 decimals. The file is created (parent folders too) and truncated on
+    construction, and flushed after each :meth:`write`, so an interrupted run keeps
+    every frame it finished. Use as a context manager or call :meth:`close`.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file.
+
+    Examples
+    --------
+    >>> with MotWriter(tmp / "tracks.txt") as w:           # doctest: +SKIP
+    ...     w.write(1, [3], [[10.0, 20.0, 30.0, 60.0]], [0.9])
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._fh: IO[str] | None = open(self.path, "w", encoding="utf-8", newline="\n")
+        except OSError as exc:
+            raise InputError(f"cannot write {self.path}: {' '.join(str(exc).split())}"
+                             ) from None
+        self.rows_written = 0
+
+    def write(self, frame: int, ids: np.ndarray, boxes_xywh0: np.ndarray,
+              confs: np.ndarray | float | None = None) -> None:
+        """Append the boxes of one frame.
+
+        Parameters
+        ----------
+        frame : int
+            1-based frame number.
+        ids : array of int, shape (n,)
+            Track identities.
+        boxes_xywh0 : array, shape (n, 4)
+            Top-left ``(x, y, w, h)``, 0-based internal coordinates.
+        confs : array, shape (n,), or float, optional
+            Confidence per box (default 1).
+        """
+        if self._fh is None:
+            raise InputError(f"MotWriter for {self.path} is closed")
+        ids_a = np.asarray(ids).reshape(-1)
+        boxes = np.asarray(boxes_xywh0, dtype=float).reshape(-1, 4)
+        n = boxes.shape[0]
+        conf = np.asarray(1.0 if confs is None else confs, dtype=float)
+        conf = np.full(n, float(conf)) if conf.ndim == 0 else conf.reshape(-1)
+        if int(frame) != frame or frame < 1:
+            raise InputError(f"frame must be an integer >= 1 (got {frame!r}) for {self.path}")
+        if ids_a.shape[0] != n or conf.shape[0] != n:
+            raise InputError(f"{ids_a.shape[0]} ids, {n} boxes and {conf.shape[0]} confidences"
+                             f" for frame {frame} of {self.path}")
+        if n == 0:
+            return
+        if not np.all(np.isfinite(boxes)) or not np.all(np.isfinite(conf)):
+            raise InputError(f"non-finite box or confidence in frame {frame} of {self.path}")
+        out = boxes.copy()
+        out[:, :2] += 1.0
+        cols = [_fmt(out[:, j]) for j in range(4)] + [_fmt(conf)]
+        ids_i = ids_a.astype(np.int64).tolist()
+        f = int(frame)
+        text = "".join(f"{f},{i},{x},{y},{w},{h},{c},-1,-1,-1\n"
+                       for i, x, y, w, h, c in zip(ids_i, *cols, strict=True))
+        self._fh.write(text)
+        self._fh.flush()
+        self.rows_written += n
+
+    def close(self) -> None:
+        """Close the file (idempotent)."""
+        if self._fh is not None:
+            self._fh.close()
+            self._fh = None
+
+    def __enter__(self) -> MotWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,167 @@
+"""The generic engine: Kalman oracle, dispatch, schedule, hooks, reproducibility."""
+
+import numpy as np
+import pytest
+
+from pgm import (
+    AR2Transition,
+    CouplingFactor,
+    FactorGraph,
+    FrameContext,
+    GaussianPrior,
+    LinearGaussianLikelihood,
+    Particles,
+    Variable,
+)
+from pgm.inference import DEFAULT_RULES, Engine, kalman_filter, linear_gaussian_matrices
+from pgm.models import linear_gaussian as lg
+
+T = 50
+
+
+def _frames(ys):
+    return [FrameContext(t + 1, measurements=ys[t]) for t in range(len(ys))]
+
+
+@pytest.fixture(scope="module")
+def lg_problem():
+    params = lg.Params()
+    graph = lg.build_graph(params)
+    _, ys = lg.simulate(np.random.default_rng(1), params, T)
+    kf = kalman_filter(**linear_gaussian_matrices(graph, "x"), ys=ys)
+    return graph, ys, kf
+
+
+@pytest.mark.parametrize("scheme", ["systematic", "multinomial", "stratified", "residual"])
+def test_particle_filter_matches_kalman(lg_problem, scheme):
+    """Replicated PF runs: the mean over R runs is within 6 standard errors of the KF mean.
+
+    The standard error is the spread of the R independent runs / sqrt(R), so the
+    tolerance comes from the Monte-Carlo error itself, at every time step and for both
+    state components; the same holds for the marginal log-likelihood.
+    """
+    graph, ys, kf = lg_problem
+    R, N = 16, 2000
+    means = np.zeros((R, T, 2))
+    loglik = np.zeros(R)
+    for r, stream in enumerate(np.random.default_rng(123).spawn(R)):
+        eng = Engine(graph, stream, num_particles=N, resampling=scheme)
+        recs = list(eng.run(_frames(ys)))
+        means[r] = [rec.estimates["x"] for rec in recs]
+        loglik[r] = sum(rec.log_evidence["x"] for rec in recs)
+    se = means.std(axis=0, ddof=1) / np.sqrt(R)
+    err = np.abs(means.mean(axis=0) - kf.filtered_means)
+    assert np.all(err < 6 * se + 1e-9), f"max z = {np.max(err / se):.2f}"
+    # each single run is also close: within 6 sqrt(var / N_eff_min) with N_eff >= N/2
+    sd = np.sqrt(np.diagonal(kf.filtered_covs, axis1=1, axis2=2))
+    assert np.all(np.abs(means - kf.filtered_means) < 6 * sd / np.sqrt(N / 4))
+    ll_se = loglik.std(ddof=1) / np.sqrt(R)
+    assert abs(loglik.mean() - kf.marginal_log_likelihood) < 6 * ll_se + 1e-3
+
+
+def test_missing_measurements_predict_only(lg_problem):
+    graph, ys, kf_full = lg_problem
+    ys_gap = ys.copy()
+    ys_gap[10:20] = np.nan
+    kf = kalman_filter(**linear_gaussian_matrices(graph, "x"), ys=ys_gap)
+    frames = [FrameContext(t + 1, measurements=None if np.isnan(ys_gap[t, 0]) else ys_gap[t])
+              for t in range(T)]
+    R, N = 12, 2000
+    means = np.array([[rec.estimates["x"] for rec in Engine(graph, s, num_particles=N).run(frames)]
+                      for s in np.random.default_rng(5).spawn(R)])
+    se = means.std(axis=0, ddof=1) / np.sqrt(R)
+    assert np.all(np.abs(means.mean(axis=0) - kf.filtered_means) < 6 * se + 1e-9)
+
+
+def test_schedule_is_derived_from_the_graph(lg_problem):
+    graph, _, _ = lg_problem
+    eng = Engine(graph, np.random.default_rng(0), num_particles=10)
+    assert [s for s, items in eng.schedule.first_frame if items] == \
+        ["prior", "weight", "resample", "estimate"]
+    assert [s for s, items in eng.schedule.phases if items] == \
+        ["predict", "weight", "resample", "estimate"]
+    assert "predict[transition:x]" in repr(eng.schedule)
+
+
+def test_hooks_see_every_stage_in_order(lg_problem):
+    graph, ys, _ = lg_problem
+    eng = Engine(graph, np.random.default_rng(0), num_particles=50)
+    seen = []
+    for stage in ("prior", "predict", "weight", "resample", "estimate"):
+        eng.add_hook(stage, lambda e, s, f, r: seen.append((f.index, s)))
+    list(eng.run(_frames(ys[:2])))
+    assert seen == [(1, "prior"), (1, "weight"), (1, "resample"), (1, "estimate"),
+                    (2, "predict"), (2, "weight"), (2, "resample"), (2, "estimate")]
+    with pytest.raises(ValueError, match="unknown stage"):
+        eng.add_hook("bogus", lambda *a: None)
+
+
+def test_seeded_runs_are_reproducible(lg_problem):
+    graph, ys, _ = lg_problem
+    a = [r.estimates["x"] for r in Engine(graph, np.random.default_rng(9), num_particles=300)
+         .run(_frames(ys))]
+    b = [r.estimates["x"] for r in Engine(graph, np.random.default_rng(9), num_particles=300)
+         .run(_frames(ys))]
+    c = [r.estimates["x"] for r in Engine(graph, np.random.default_rng(10), num_particles=300)
+         .run(_frames(ys))]
+    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a, c)
+
+
+class MyParticles(Particles):
+    """A user's belief subclass: inherits every particle rule."""
+
+
+def test_dispatch_walks_the_mro_and_missing_rules_fail_early(lg_problem):
+    graph, ys, _ = lg_problem
+    eng = Engine(graph, np.random.default_rng(0), num_particles=20,
+                 options={"belief_types": {"x": MyParticles}})
+    rec = eng.step(_frames(ys)[0])
+    assert type(rec.beliefs["x"]) is MyParticles
+
+    class Stiff(CouplingFactor):
+        pass
+
+    g2 = FactorGraph([Variable("a", 1), Variable("b", 1)],
+                     [GaussianPrior("a", mean=[0.0]), GaussianPrior("b", mean=[0.0]),
+                      Stiff("a", "b")])
+    rules = DEFAULT_RULES.copy()
+    with pytest.raises(ValueError, match="factor 'coupling:a-b': no inference rule for "
+                                         r"\('coupling', Particles\)"):
+        Engine(g2, np.random.default_rng(0), rules=rules)
+    calls = []
+    rules.register("coupling", Particles)(lambda eng, f, frame: calls.append(f.name))
+    eng2 = Engine(g2, np.random.default_rng(0), rules=rules, inframe_iterations=2)
+    eng2.step(FrameContext(1))
+    assert calls == ["coupling:a-b", "coupling:a-b"]
+    # the default table is untouched
+    assert not DEFAULT_RULES.has("coupling", Particles)
+
+
+def test_second_order_transition_starts_with_zero_velocity():
+    g = FactorGraph([Variable("x", 1)],
+                    [GaussianPrior("x", mean=[5.0]),
+                     AR2Transition("x", noise_std=[0.0], damping=1.0),
+                     LinearGaussianLikelihood("x", H=[[1.0]], R=1.0)])
+    eng = Engine(g, np.random.default_rng(0), num_particles=4)
+    eng.step(FrameContext(1))
+    b = eng.step(FrameContext(2)).beliefs["x"]
+    assert np.allclose(b.x, 5.0) and len(b.history) == 1
+    # move the particles by hand: the AR(2) model extrapolates their velocity
+    eng.beliefs["x"] = Particles(b.x + 1.0, b.log_weights, b.history)
+    b3 = eng.step(FrameContext(3)).beliefs["x"]
+    assert np.allclose(b3.x, 7.0)
+
+
+def test_engine_argument_errors(lg_problem):
+    graph, _, _ = lg_problem
+    with pytest.raises(ValueError, match="positive integer"):
+        Engine(graph, np.random.default_rng(0), num_particles=0)
+    with pytest.raises(ValueError, match="rng=numpy.random.Generator"):
+        Engine(graph, 0)
+    with pytest.raises(ValueError, match="ess_threshold"):
+        Engine(graph, np.random.default_rng(0), ess_threshold=float("nan"))
+    with pytest.raises(ValueError, match="unknown resampling scheme"):
+        Engine(graph, np.random.default_rng(0), resampling="magic")
+    with pytest.raises(ValueError, match="unknown variables"):
+        Engine(graph, np.random.default_rng(0), num_particles={"y": 3})
