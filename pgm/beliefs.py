@@ -14,10 +14,11 @@ module with the VB engine.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
-from .numerics import ess_from_log_weights, log_normalize, logsumexp
+from .numerics import log_normalize, logsumexp
 
 __all__ = ["Particles", "Intensity"]
 
@@ -77,7 +78,7 @@ class Particles:
         """Dimension ``d`` of one particle."""
         return self.x.shape[1]
 
-    @property
+    @cached_property
     def log_mass(self) -> float:
         """``logsumexp(log_weights)``."""
         return float(logsumexp(self.log_weights))
@@ -87,15 +88,18 @@ class Particles:
         """Total weight."""
         return float(np.exp(self.log_mass))
 
-    @property
+    @cached_property
     def weights(self) -> np.ndarray:
-        """Normalised weights, shape ``(N,)``."""
-        return np.exp(log_normalize(self.log_weights))
+        """Normalised weights, shape ``(N,)`` (computed once; do not modify in place)."""
+        w = np.exp(log_normalize(self.log_weights))
+        w.flags.writeable = False
+        return w
 
-    @property
+    @cached_property
     def ess(self) -> float:
         """Effective sample size ``1 / sum(w^2)`` of the normalised weights."""
-        return ess_from_log_weights(self.log_weights)
+        w = self.weights
+        return float(1.0 / np.dot(w, w))
 
     def mean(self) -> np.ndarray:
         """Weighted mean, shape ``(d,)``."""

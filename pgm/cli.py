@@ -68,14 +68,22 @@ def _nonneg_int(text: str) -> int:
     return v
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (``pgm track: error: ...``), exit 2."""
+
+    def error(self, message: str):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {' '.join(message.split())} "
+                                  f"(see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``pgm``."""
     from .models import MODELS
 
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="pgm", description="Visual trackers declared as factor graphs, run by one engine.")
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
-    sub = p.add_subparsers(dest="command", required=True)
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     t = sub.add_parser("track", help="track an object through a video or image sequence")
     t.add_argument("source", help="video file, image folder, MOTChallenge or OTB sequence folder")
@@ -135,10 +143,11 @@ def _check_box_in_image(box_xywh: np.ndarray, size: tuple[int, int]) -> None:
                          f"{w_img}x{h_img} image")
 
 
-def _print_metrics(metrics: dict, stream=sys.stdout) -> None:
+def _print_metrics(metrics: dict, stream=None) -> None:
+    stream = sys.stdout if stream is None else stream
     rows = [("frames scored", f"{metrics['n_frames']}"),
             ("success AUC", f"{metrics['success_auc']:.3f}"),
-            ("precision@20px", f"{metrics['precision_20']:.3f}"),
+            ("precision@20px", f"{metrics['precision_at_20']:.3f}"),
             ("mean IoU", f"{metrics['mean_iou']:.3f}"),
             ("mean centre error (px)", f"{metrics['mean_centre_error']:.2f}")]
     if "fps" in metrics:
@@ -150,9 +159,9 @@ def _print_metrics(metrics: dict, stream=sys.stdout) -> None:
 
 def cmd_track(args) -> int:
     from ._rng import as_generator
+    from .inference.runner import init_box_from_gt, track
     from .io.annotations import load_single_gt
     from .io.video import open_source
-    from .inference.runner import init_box_from_gt, track
 
     source = open_source(args.source)
     gt = None

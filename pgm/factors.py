@@ -56,7 +56,7 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
-class Factor(ABC):
+class Factor(ABC):  # noqa: B024 - kind base classes declare the abstract methods
     """Base class of all factors.
 
     Subclasses set the class attribute ``kind`` (via one of the kind base classes),
@@ -102,7 +102,7 @@ class Factor(ABC):
         """Keyword arguments that rebuild this factor (JSON-ready after conversion)."""
         return {}
 
-    def check(self, variables: dict[str, Variable]) -> None:
+    def check(self, variables: dict[str, Variable]) -> None:  # noqa: B027 - optional hook
         """Validate against the graph's variables; raise ``ValueError`` naming the factor."""
 
     def _check_dim(self, variables: dict[str, Variable], var: str, expected: int, what: str):

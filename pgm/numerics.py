@@ -3,12 +3,29 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.special import logsumexp
 
 from .errors import DegenerateWeightsError
 
 __all__ = ["logsumexp", "log_normalize", "normalized_weights", "ess_from_log_weights",
            "check_finite_param"]
+
+
+def logsumexp(a: np.ndarray, axis: int | None = None) -> np.ndarray | float:
+    """``log(sum(exp(a)))`` with the max-shift trick; ``-inf`` for all-``-inf`` input.
+
+    A plain-numpy version: ``scipy.special.logsumexp`` costs ~0.2 ms per call in array-API
+    dispatch, which dominates a 100-particle filter step.
+    """
+    a = np.asarray(a, dtype=float)
+    if a.size == 0:
+        return -np.inf if axis is None else np.full(np.delete(a.shape, axis), -np.inf)
+    m = np.max(a, axis=axis, keepdims=True)
+    m = np.where(np.isfinite(m), m, 0.0)
+    with np.errstate(divide="ignore"):
+        out = np.log(np.sum(np.exp(a - m), axis=axis, keepdims=True)) + m
+    if axis is None:
+        return float(out.reshape(()))
+    return np.squeeze(out, axis=axis)
 
 
 def log_normalize(log_weights: np.ndarray) -> np.ndarray:

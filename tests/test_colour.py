@@ -114,19 +114,40 @@ def test_box_histograms_equal_loop_reference(layout):
     assert np.all(in_frac[inside > 0] > 0)
 
 
-def test_box_histograms_blocked_paths_equal_reference(monkeypatch):
-    # Force several bin blocks and the block-by-block one-hot (large-union path).
+@pytest.mark.parametrize("n_boxes", [3, 40, 150])
+def test_all_integral_paths_equal_reference(monkeypatch, n_boxes):
+    # dense: several bin blocks, block-by-block one-hot (large-union path);
+    # compressed: the grid of distinct corner coordinates (few boxes)
     rng = np.random.default_rng(22)
     img = rng.integers(0, 256, (80, 90, 3), dtype=np.uint8)
     bins, n_bins = quantize_colour(img, "hsv")
-    boxes = _random_boxes(rng, 150, 90, 80)
+    boxes = _random_boxes(rng, n_boxes, 90, 80)
     counts, _ = _reference_box_histograms(bins, n_bins, boxes)
     ref = counts / np.maximum(counts.sum(axis=1), 1)[:, None]
-    for block, onehot in [(1, 1 << 40), (50_000, 1 << 40), (50_000, 1), (1, 1)]:
+    for ratio, block, onehot in [(0.0, 1, 1 << 40), (0.0, 50_000, 1 << 40),
+                                 (0.0, 50_000, 1), (0.0, 1, 1), (1e9, 1 << 20, 1 << 40)]:
+        monkeypatch.setattr(colour, "_COMPRESS_RATIO", ratio)
         monkeypatch.setattr(colour, "_BLOCK_BYTES", block)
         monkeypatch.setattr(colour, "_ONEHOT_BYTES", onehot)
         hist, _ = box_histograms(bins, n_bins, boxes)
         np.testing.assert_allclose(hist, ref, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("method", ["dense", "compressed"])
+def test_counts_paths_on_clustered_boxes(method):
+    # tracker-like boxes: 40x80 around a point, some beyond the top-left corner
+    rng = np.random.default_rng(23)
+    img = rng.integers(0, 256, (120, 160, 3), dtype=np.uint8)
+    bins, n_bins = quantize_colour(img, "perez")
+    for centre in ([80.0, 60.0], [10.0, 15.0]):
+        for n in (5, 30, 200):
+            boxes = np.column_stack([centre + 12 * rng.standard_normal((n, 2)),
+                                     np.full(n, 40.0), np.full(n, 80.0)])
+            xa, xb, ya, yb, _, _ = colour._pixel_bounds(boxes, *bins.shape)
+            counts = colour._corner_counts(bins, xa, xb, ya, yb, np.arange(n_bins),
+                                           n_bins, method)
+            ref, _ = _reference_box_histograms(bins, n_bins, boxes)
+            np.testing.assert_array_equal(counts.T, ref)
 
 
 def test_rounding_convention():
@@ -145,6 +166,11 @@ def test_empty_box_list():
     bins = np.zeros((5, 5), np.uint8)
     hist, frac = box_histograms(bins, 80, np.zeros((0, 4)))
     assert hist.shape == (0, 80) and frac.shape == (0,)
+    img = np.random.default_rng(13).integers(0, 256, (20, 20, 3), dtype=np.uint8)
+    for kernel in ("uniform", "epanechnikov", "grid-uniform"):
+        scorer = ColourHistogramScorer(kernel=kernel)
+        scorer.template(img, (10, 10, 8, 8))
+        assert scorer.rho(img, np.zeros((0, 4))).shape == (0,)
 
 
 # --- rho -------------------------------------------------------------------------------

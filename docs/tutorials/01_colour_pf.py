@@ -88,9 +88,9 @@ cx, cy, bw, bh = record.estimates["object"]
 print(f"frame {record.frame}: box centre ({cx:.1f}, {cy:.1f}), ESS per frame "
       f"{np.round(ess_log, 1).tolist()}")
 
-from pgm.viz import annotate  # noqa: E402
-
 import cv2  # noqa: E402
+
+from pgm.viz import annotate  # noqa: E402
 
 belief = record.beliefs["object"]
 cv2.imwrite(str(out / "frame_particles.png"),
@@ -105,4 +105,4 @@ result = track(source, graph, rng=np.random.default_rng(0), out_dir=out, gt=gt,
                num_particles=args.particles, max_frames=args.max_frames, progress=False)
 m = result.metrics
 print(f"{len(result.frames)} frames at {result.fps:.0f} frames/s: success AUC "
-      f"{m['success_auc']:.3f}, precision@20px {m['precision_20']:.3f}")
+      f"{m['success_auc']:.3f}, precision@20px {m['precision_at_20']:.3f}")

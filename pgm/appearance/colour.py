@@ -5,20 +5,27 @@ boxes of one frame against a template histogram ``q``. It is one vectorised
 computation, with no Python loop over boxes:
 
 1. **Quantise once per frame** (:func:`quantize_colour`): one ``cv2.cvtColor`` to
-   8-bit HSV, then per-channel lookup tables combined with saturating ``cv2`` adds
-   and a ``cv2.min``. :class:`ColourHistogramScorer` caches the bin image in the
+   8-bit HSV, then per-channel lookup tables (bit shifts for power-of-two bin counts)
+   combined with saturating ``cv2`` adds and a ``cv2.min``.
+   :class:`ColourHistogramScorer` caches the bin image in the
    :class:`~pgm.frame.FrameContext` under ``("colour-bins", layout, n_h, n_s, n_v)``,
    so every factor that shares a layout quantises a frame once.
 2. **Integral histograms over the union rectangle only** (:func:`box_histograms`):
    the boxes are rounded to integer pixel bounds and clipped to the image; the
    union bounding rectangle of the clipped boxes is cropped, turned into a uint8
    one-hot cube laid out *bin-major in groups of four bins* (``(G, h, w, 4)``), and
-   integrated by ``cv2.integral`` in a single call per block of groups (the groups
-   are stacked vertically: a rectangle sum inside one group never reads another
+   integrated by one ``cv2.integral`` call per block of groups (the groups are
+   stacked vertically: a rectangle sum inside one group never reads another
    group's rows, so stacking is exact). The four corners of every box are then
    gathered with one ``np.take`` per block: ``4 N`` rows of four int32 per group.
    Blocks are sized so that a block's integral (about 2 MiB) stays in cache between
-   ``cv2.integral`` and the gather; this matters for 256-bin layouts.
+   ``cv2.integral`` and the gather (this matters for 256-bin layouts), and the
+   temporaries live in per-thread scratch buffers reused between calls (fresh
+   multi-MB allocations cost page faults on every call: 4.5 instead of 1.5 µs per box).
+   With few boxes (distinct corner coordinates spanning under a quarter of the
+   union's pixels, typically N <= 50) the integral is taken on the *compressed
+   grid* of the boxes' distinct corner coordinates instead: one ``np.bincount``
+   per (bin, cell), then ``cv2.integral`` over far fewer cells. Both are exact.
 3. **Only the template's bins** (:meth:`ColourHistogramScorer.rho`): the
    Bhattacharyya coefficient ``sum_u sqrt(p_u q_u)`` needs ``p_u`` only where
    ``q_u > 0``, and the normaliser of ``p`` is the box's in-image pixel count, known
@@ -26,17 +33,16 @@ computation, with no Python loop over boxes:
    (typically 30-90 of 256 HSV bins, at most 16 of 80 "perez" bins on a greyscale
    frame). This is exact, not an approximation.
 
-Measured alternatives (768x576 PETS frame, 40x80 boxes with centres N(point, 20 px),
-one thread; see ``benchmarks/likelihood.py``): ``np.cumsum`` over an int32 or
-uint16 one-hot cube is 10-15x slower than ``cv2.integral`` (numpy's accumulate is
-not vectorised along either axis: ~2.6 ns per element per axis); a pixel-major cube
-integrated by ``cv2.integral`` with 80 channels is 2x slower than bin-major groups
-of four (and it cannot take 256 channels); single-channel bin planes are 1.2-1.5x
-slower than groups of four, both to integrate and to gather; an unblocked 256-bin
-cube is 2.5x slower than the blocked one at N = 1000 (cache misses in the gather);
-a coordinate-compressed integral (cells between the boxes' distinct corner
-coordinates, counted with ``np.bincount``) is 25 % faster at N = 30 but slower from
-N = 100 on, so it is not used.
+Measured alternatives (integral cube for the union, 162x196 px, of 1000 boxes 40x80
+with centres N(point, 20 px) on a 768x576 PETS frame, one thread, ms; all 256 HSV
+bins / the template's 86): ``np.cumsum`` over an int32 one-hot cube 63 / 22, over a
+uint16 cube 46 / 16 (numpy's accumulate is not vectorised along either axis);
+``np.add`` row-then-column loops in uint16 7.3 / 3.0; ``cv2.integral`` pixel-major
+with B channels 32 / 3.3 (at most 128 channels per call); ``cv2.integral`` on
+single-bin planes 3.4 / 1.0; on bin-major groups of four (used) 2.7 / 0.8. Gathers
+from bin-major groups of four beat single-bin planes 2x; an unblocked 256-bin cube
+is 2.5x slower at N = 1000 (cache misses in the gather). See
+``benchmarks/likelihood.py --alternatives``.
 
 Box rounding: a box ``(cx, cy, w, h)`` covers pixel columns
 ``[x0, x1) = [floor(cx - w/2 + 1/2), floor(cx + w/2 + 1/2))`` (round half up), with
@@ -48,6 +54,7 @@ the in-image pixels only (``SPEC.md`` §1: pixels outside the image are absent).
 
 from __future__ import annotations
 
+import math
 import threading
 from typing import Any
 
@@ -71,6 +78,8 @@ _V_MIN = 52
 _CN = 4                       # bins per cv2.integral group (4-channel fast path)
 _BLOCK_BYTES = 2 << 20        # int32 integral bytes per block (kept cache-resident)
 _ONEHOT_BYTES = 16 << 20      # above this the one-hot cube is built block by block
+_COMPRESS_RATIO = 0.25        # compressed grid when cells < this x union pixels
+_MAX_BINS = 1 << 16
 
 
 # --------------------------------------------------------------------------------------
@@ -92,11 +101,16 @@ def _resolve_layout(layout: str, n_h: int, n_s: int, n_v: int | None,
         raise InputError(f"unknown colour layout {layout!r}; expected one of {LAYOUTS}")
     if layout == "rgb":
         n = _check_count("n_rgb", n_rgb, 256)
-        return ("rgb", n, n, n)
-    if n_v is None:
-        n_v = 16 if layout == "perez" else 4
-    return (layout, _check_count("n_h", n_h, 180), _check_count("n_s", n_s, 256),
-            _check_count("n_v", n_v, 256))
+        canon = ("rgb", n, n, n)
+    else:
+        if n_v is None:
+            n_v = 16 if layout == "perez" else 4
+        canon = (layout, _check_count("n_h", n_h, 180), _check_count("n_s", n_s, 256),
+                 _check_count("n_v", n_v, 256))
+    if _bin_count(canon) > _MAX_BINS:
+        raise InputError(f"colour layout {canon} has {_bin_count(canon)} bins; at most "
+                         f"{_MAX_BINS} are supported")
+    return canon
 
 
 def _bin_count(canon: tuple[str, int, int, int]) -> int:
@@ -246,8 +260,13 @@ def _check_bins(bins: Any, n_bins: Any) -> tuple[np.ndarray, int]:
     if bins.ndim != 2 or bins.size == 0 or bins.dtype.kind != "u":
         raise InputError(f"bins must be a non-empty (H, W) unsigned integer image, "
                          f"got shape {bins.shape} dtype {bins.dtype}")
-    n = _check_count("n_bins", n_bins, 1 << 16)
+    n = _check_count("n_bins", n_bins, _MAX_BINS)
     return bins, n
+
+
+def _clip(x: np.ndarray, lo, hi) -> np.ndarray:
+    """``np.clip`` without its Python-level overhead (~5 µs a call)."""
+    return np.minimum(np.maximum(x, lo), hi)
 
 
 def _pixel_bounds(b: np.ndarray, height: int, width: int):
@@ -260,13 +279,13 @@ def _pixel_bounds(b: np.ndarray, height: int, width: int):
     x1 = np.maximum(np.floor(b[:, 0] + b[:, 2] / 2.0 + 0.5), x0 + 1.0)
     y0 = np.floor(b[:, 1] - b[:, 3] / 2.0 + 0.5)
     y1 = np.maximum(np.floor(b[:, 1] + b[:, 3] / 2.0 + 0.5), y0 + 1.0)
-    xa = np.clip(x0, 0, width).astype(np.intp)
-    xb = np.clip(x1, 0, width).astype(np.intp)
-    ya = np.clip(y0, 0, height).astype(np.intp)
-    yb = np.clip(y1, 0, height).astype(np.intp)
+    xa = _clip(x0, 0, width).astype(np.intp)
+    xb = _clip(x1, 0, width).astype(np.intp)
+    ya = _clip(y0, 0, height).astype(np.intp)
+    yb = _clip(y1, 0, height).astype(np.intp)
     inside = (xb - xa) * (yb - ya)
     total = np.maximum((x1 - x0) * (y1 - y0), 1.0)
-    in_frac = np.clip(inside / total, 0.0, 1.0)
+    in_frac = _clip(inside / total, 0.0, 1.0)
     return xa, xb, ya, yb, inside, in_frac
 
 
@@ -286,7 +305,7 @@ class _Scratch(threading.local):
 
     def get(self, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
         dtype = np.dtype(dtype)
-        nbytes = int(np.prod(shape)) * dtype.itemsize
+        nbytes = math.prod(shape) * dtype.itemsize
         buf = self.buffers.get(name)
         if buf is None or buf.nbytes < nbytes:
             buf = np.empty(max(nbytes, 64), dtype=np.uint8)
@@ -310,28 +329,90 @@ def _clear_scratch() -> None:
 
 
 def _corner_counts(bins: np.ndarray, xa, xb, ya, yb, slot_of_bin: np.ndarray,
-                   n_slots: int) -> np.ndarray:
+                   n_slots: int, method: str = "auto") -> np.ndarray:
     """Pixel counts ``(n_slots, N)`` int32 of every box, per selected bin.
 
     ``slot_of_bin[u]`` is the row of bin ``u`` in the result, or ``n_slots`` for a
     bin that is not counted. Integral histogram over the union rectangle of the
-    non-empty boxes (see the module docstring for the layout). The result is a view
-    of a per-thread scratch buffer: valid until the next call in the same thread.
+    non-empty boxes: ``"dense"`` at pixel resolution (see the module docstring),
+    ``"compressed"`` on the grid of the boxes' distinct corner coordinates (cheaper
+    when there are few boxes: fewer cells than pixels), ``"auto"`` picks by cell
+    count. The result may be a view of a per-thread scratch buffer: valid until the
+    next call in the same thread.
     """
     n = len(xa)
     nonempty = (xb > xa) & (yb > ya)
     if n_slots == 0 or not nonempty.any():
         return np.zeros((n_slots, n), dtype=np.int32)
-    ws = _SCRATCH
     ux0, ux1 = int(xa[nonempty].min()), int(xb[nonempty].max())
     uy0, uy1 = int(ya[nonempty].min()), int(yb[nonempty].max())
     # Empty boxes are clipped into the union too; clipping keeps them empty and
     # leaves every non-empty box unchanged.
-    xa = np.clip(xa, ux0, ux1) - ux0
-    xb = np.clip(xb, ux0, ux1) - ux0
-    ya = np.clip(ya, uy0, uy1) - uy0
-    yb = np.clip(yb, uy0, uy1) - uy0
+    xa = _clip(xa, ux0, ux1) - ux0
+    xb = _clip(xb, ux0, ux1) - ux0
+    ya = _clip(ya, uy0, uy1) - uy0
+    yb = _clip(yb, uy0, uy1) - uy0
     crop = bins[uy0:uy1, ux0:ux1]
+    if method == "auto":
+        # distinct corner coordinates bound the compressed grid; it pays when it has
+        # well under a quarter of the union's pixels (measured crossover ~0.25-0.3)
+        cells = min(2 * n, crop.shape[0]) * min(2 * n, crop.shape[1])
+        if cells < _COMPRESS_RATIO * crop.size:
+            xs = np.unique(np.concatenate([xa, xb]))
+            ys = np.unique(np.concatenate([ya, yb]))
+            cells = (len(xs) - 1) * (len(ys) - 1)
+            method = "compressed" if cells < _COMPRESS_RATIO * crop.size else "dense"
+        else:
+            method = "dense"
+    if method == "compressed":
+        return _compressed_counts(crop, xa, xb, ya, yb, slot_of_bin, n_slots)
+    return _dense_counts(crop, xa, xb, ya, yb, slot_of_bin, n_slots)
+
+
+def _compressed_counts(crop: np.ndarray, xa, xb, ya, yb, slot_of_bin: np.ndarray,
+                       n_slots: int) -> np.ndarray:
+    """Integral histogram on the grid of distinct corner coordinates.
+
+    Cells lie between consecutive distinct ``x`` (and ``y``) corner coordinates;
+    one ``np.bincount`` counts every (slot, cell row, cell column), one
+    ``cv2.integral`` over the slot planes stacked vertically integrates them
+    (float32: exact while the union has fewer than 2**24 pixels, float64 beyond),
+    and 4 gathers per box and slot read the corners.
+    """
+    h, w = crop.shape
+    n = len(xa)
+    xs = np.unique(np.concatenate([xa, xb]))            # contains 0 and w
+    ys = np.unique(np.concatenate([ya, yb]))
+    nx, ny = len(xs) - 1, len(ys) - 1
+    col_cell = np.searchsorted(xs, np.arange(w), side="right") - 1
+    row_cell = np.searchsorted(ys, np.arange(h), side="right") - 1
+    plane = ny * nx
+    key = np.take(slot_of_bin * plane, crop)            # dropped bins: plane n_slots
+    key += (row_cell * nx)[:, None]
+    key += col_cell[None, :]
+    cnt = np.bincount(key.reshape(-1), minlength=(n_slots + 1) * plane)
+    exact32 = h * w < (1 << 24)
+    cnt = cnt[:n_slots * plane].astype(np.float32 if exact32 else np.float64)
+    integ = cv2.integral(cnt.reshape(n_slots * ny, nx),
+                         sdepth=cv2.CV_32F if exact32 else cv2.CV_64F)
+    w1 = nx + 1
+    ix0, ix1 = np.searchsorted(xs, xa), np.searchsorted(xs, xb)
+    iy0, iy1 = np.searchsorted(ys, ya), np.searchsorted(ys, yb)
+    corners = np.concatenate([iy1 * w1 + ix1, iy0 * w1 + ix1, iy1 * w1 + ix0,
+                              iy0 * w1 + ix0])
+    idx = corners[None, :] + (np.arange(n_slots) * (ny * w1))[:, None]
+    t = np.take(integ.reshape(-1), idx)
+    c = t[:, :n] - t[:, n:2 * n]
+    c -= t[:, 2 * n:3 * n]
+    c += t[:, 3 * n:]
+    return np.rint(c).astype(np.int32)
+
+
+def _dense_counts(crop: np.ndarray, xa, xb, ya, yb, slot_of_bin: np.ndarray,
+                  n_slots: int) -> np.ndarray:
+    """Pixel-resolution integral histogram (bin-major groups of four, blocked)."""
+    n = len(xa)
+    ws = _SCRATCH
     h, w = crop.shape
     cn = _CN
     n_groups = -(-n_slots // cn)
@@ -360,6 +441,13 @@ def _corner_counts(bins: np.ndarray, xa, xb, ya, yb, slot_of_bin: np.ndarray,
         onehot = ws.get("onehot", ((n_groups + 1) * plane,), np.uint8)
         onehot.fill(0)
         onehot[lin] = 1
+    else:
+        # one-hot built block by block: pixels sorted by group (radix sort of small
+        # integers), so each block scatters a contiguous run of them
+        group = lin // plane
+        order = np.argsort(group, kind="stable")
+        lin = lin[order]
+        starts = np.searchsorted(group[order], np.arange(n_groups + 1))
     for g0 in range(0, n_groups, per_block):        # blocks of bins, not boxes
         g1 = min(n_groups, g0 + per_block)
         nb = g1 - g0
@@ -368,8 +456,7 @@ def _corner_counts(bins: np.ndarray, xa, xb, ya, yb, slot_of_bin: np.ndarray,
         else:
             src = ws.get("onehot", (nb * plane,), np.uint8)
             src.fill(0)
-            sel = lin[(lin >= g0 * plane) & (lin < g1 * plane)]
-            src[sel - g0 * plane] = 1
+            src[lin[starts[g0]:starts[g1]] - g0 * plane] = 1
         res = cv2.integral(src.reshape(nb * h, w, cn), integral[:nb * h + 1],
                            sdepth=cv2.CV_32S)
         t = taken[:nb]
@@ -465,8 +552,8 @@ def _grid_histograms(bins: np.ndarray, n_bins: int, b: np.ndarray, kernel: str,
     rows = np.floor(b[:, 1:2] + b[:, 3:4] * u[None, :])
     in_c = (cols >= 0) & (cols < width)
     in_r = (rows >= 0) & (rows < height)
-    ci = np.clip(cols, 0, width - 1).astype(np.intp)
-    ri = np.clip(rows, 0, height - 1).astype(np.intp) * width
+    ci = _clip(cols, 0, width - 1).astype(np.intp)
+    ri = _clip(rows, 0, height - 1).astype(np.intp) * width
     m = len(kk)
     ws = _SCRATCH                                           # see _Scratch: no faults
     pix = ws.get("grid-pix", (n, m), np.intp)
@@ -496,7 +583,7 @@ def _grid_histograms(bins: np.ndarray, n_bins: int, b: np.ndarray, kernel: str,
         mass = (np.full(n, float(m)) if all_in
                 else inside.sum(axis=1).astype(np.float64))
         total = float(m)
-    hist = hist.reshape(n, n_bins)
+    hist = hist.astype(np.float64, copy=False).reshape(n, n_bins)
     hist /= np.maximum(mass, np.finfo(float).tiny)[:, None]
     return hist, mass / total
 

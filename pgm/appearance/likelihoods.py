@@ -40,7 +40,8 @@ class ColourHistogramLikelihood(LikelihoodFactor):
         Bin layout (SPEC §1): ``"perez"`` keeps a value-only histogram for
         low-saturation pixels, so greyscale video works.
     n_h, n_s, n_v : int
-        Bin counts of the layout.
+        Bin counts of the layout (``n_v=None``: 16 value bins for ``"perez"``, 4 for
+        ``"hsv"``).
     kernel : {"uniform", "epanechnikov"}
         Pixel weighting inside the box.
     template : array_like, shape (B,), optional
@@ -51,12 +52,13 @@ class ColourHistogramLikelihood(LikelihoodFactor):
     """
 
     def __init__(self, variable: str, *, lam: float = 20.0, layout: str = "perez",
-                 n_h: int = 16, n_s: int = 4, n_v: int = 16, kernel: str = "uniform",
+                 n_h: int = 16, n_s: int = 4, n_v: int | None = None, kernel: str = "uniform",
                  template=None, box_indices=(0, 1, 2, 3), name: str | None = None):
         super().__init__(variable, name=name)
         self.lam = float(check_finite_param(f"{self.name}.lam", lam, positive=True))
         self.layout, self.kernel = layout, kernel
-        self.n_h, self.n_s, self.n_v = int(n_h), int(n_s), int(n_v)
+        self.n_h, self.n_s = int(n_h), int(n_s)
+        self.n_v = None if n_v is None else int(n_v)
         self.box_indices = tuple(int(i) for i in box_indices)
         if len(self.box_indices) != 4:
             raise ValueError(f"factor {self.name!r}: box_indices must have 4 entries")
@@ -68,8 +70,10 @@ class ColourHistogramLikelihood(LikelihoodFactor):
 
     def params(self) -> dict[str, Any]:
         p: dict[str, Any] = {"lam": self.lam, "layout": self.layout, "n_h": self.n_h,
-                             "n_s": self.n_s, "n_v": self.n_v, "kernel": self.kernel,
+                             "n_s": self.n_s, "kernel": self.kernel,
                              "box_indices": list(self.box_indices)}
+        if self.n_v is not None:
+            p["n_v"] = self.n_v
         if self.template is not None:
             p["template"] = self.template
         return p

@@ -1,0 +1,199 @@
+"""The command line and the video runner: outputs, interruption, and every bad input."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from pgm.cli import main
+from pgm.inference.runner import track
+from pgm.io.annotations import load_single_gt, load_tracks
+from pgm.models import colour_pf
+from pgm.synthetic import demo_scene
+
+
+@pytest.fixture(scope="module")
+def scene_dir(tmp_path_factory):
+    """The demo scene (30 frames) as an OTB folder."""
+    d = tmp_path_factory.mktemp("scene")
+    demo_scene(seed=0, n_frames=30).write_otb(d)
+    return d
+
+
+def run_cli(capsys, *argv):
+    code = main(list(map(str, argv)))
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def assert_one_line_error(code, err, *needles):
+    assert code == 2, err
+    lines = [ln for ln in err.splitlines() if ln.strip() and not ln.startswith("pgm: using")]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    for n in needles:
+        assert n in lines[0], lines[0]
+
+
+def test_track_writes_every_output(scene_dir, tmp_path, capsys):
+    out = tmp_path / "out"
+    code, stdout, _ = run_cli(capsys, "track", scene_dir, "--model", "colour-pf", "--gt",
+                              scene_dir / "groundtruth_rect.txt", "--out", out,
+                              "--particles", 50, "--seed", 3, "--quiet")
+    assert code == 0
+    assert "success AUC" in stdout
+    rows = (out / "tracks.txt").read_text().splitlines()
+    assert len(rows) == 30
+    first = rows[0].split(",")
+    assert first[0] == "1" and first[1] == "1" and first[7:] == ["-1", "-1", "-1"]
+    gt = load_single_gt(scene_dir / "groundtruth_rect.txt")
+    # frame 1 reports the initial box (1-based in the file, as the ground truth)
+    np.testing.assert_allclose([float(v) for v in first[2:6]],
+                               gt.boxes[0] + [1, 1, 0, 0], atol=1e-3)
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["n_frames"] == 30 and 0.0 <= metrics["success_auc"] <= 1.0
+    assert metrics["success_auc"] > 0.5  # the visible upper half keeps it on the person
+    assert (out / "annotated.mp4").stat().st_size > 1000
+    assert json.loads((out / "model.json").read_text())["format"] == "pgm-factor-graph"
+    code, stdout, _ = run_cli(capsys, "eval", "--gt", scene_dir / "groundtruth_rect.txt",
+                              "--pred", out / "tracks.txt", "--json")
+    assert code == 0
+    assert json.loads(stdout)["success_auc"] == pytest.approx(metrics["success_auc"])
+
+
+def test_init_box_and_no_video(scene_dir, tmp_path, capsys):
+    gt = load_single_gt(scene_dir / "groundtruth_rect.txt")
+    x, y, w, h = gt.boxes[0]
+    code, _, _ = run_cli(capsys, "track", scene_dir, "--init", f"{x + 1},{y + 1},{w},{h}",
+                         "--out", tmp_path, "--no-video", "--max-frames", 5, "--quiet")
+    assert code == 0
+    assert not (tmp_path / "annotated.mp4").exists()
+    assert not (tmp_path / "metrics.json").exists()
+    assert len(load_tracks(tmp_path / "tracks.txt").frames) == 5
+
+
+def test_interrupted_run_keeps_what_it_computed(scene_dir, tmp_path):
+    gt = load_single_gt(scene_dir / "groundtruth_rect.txt")
+    x, y, w, h = gt.boxes[0]
+    graph = colour_pf.build_graph(colour_pf.Params(init_box=(x + w / 2, y + h / 2, w, h)))
+
+    def frames():
+        from pgm.io.video import open_source
+
+        for k, item in enumerate(open_source(scene_dir).frames()):
+            if k == 12:
+                raise KeyboardInterrupt
+            yield item
+
+    with pytest.raises(KeyboardInterrupt):
+        track(frames(), graph, rng=np.random.default_rng(0), out_dir=tmp_path,
+              progress=False)
+    assert len((tmp_path / "tracks.txt").read_text().splitlines()) == 12
+    assert (tmp_path / "annotated.mp4").stat().st_size > 0
+
+
+def test_graph_command(tmp_path, capsys):
+    for ext in ("png", "svg", "dot"):
+        code, _, _ = run_cli(capsys, "graph", "colour-pf", "--out", tmp_path / f"g.{ext}")
+        assert code == 0 and (tmp_path / f"g.{ext}").stat().st_size > 100
+    code, _, err = run_cli(capsys, "graph", "colour-pf", "--out", tmp_path / "g.gif")
+    assert_one_line_error(code, err, ".gif")
+
+
+# -- bad input: one line, exit code 2, no traceback -------------------------------------
+def test_missing_video(tmp_path, capsys):
+    code, _, err = run_cli(capsys, "track", tmp_path / "nope.mp4", "--init", "1,1,5,5",
+                           "--out", tmp_path / "o")
+    assert_one_line_error(code, err, "nope.mp4")
+
+
+def test_corrupt_video(tmp_path, capsys):
+    bad = tmp_path / "bad.mp4"
+    bad.write_bytes(np.random.default_rng(0).integers(0, 256, 4000, dtype=np.uint8).tobytes())
+    code, _, err = run_cli(capsys, "track", bad, "--init", "1,1,5,5", "--out", tmp_path / "o")
+    assert_one_line_error(code, err, "bad.mp4")
+
+
+def test_empty_folder(tmp_path, capsys):
+    (tmp_path / "empty").mkdir()
+    code, _, err = run_cli(capsys, "track", tmp_path / "empty", "--init", "1,1,5,5",
+                           "--out", tmp_path / "o")
+    assert_one_line_error(code, err, "empty")
+
+
+def test_unreadable_frame(scene_dir, tmp_path, capsys):
+    import shutil
+
+    broken = tmp_path / "broken"
+    shutil.copytree(scene_dir, broken)
+    victim = sorted((broken / "img").iterdir())[4]
+    victim.write_bytes(b"not a png at all")
+    code, _, err = run_cli(capsys, "track", broken, "--out", tmp_path / "o", "--no-video",
+                           "--quiet")
+    assert_one_line_error(code, err, victim.name)
+    # results before the bad frame are kept
+    assert len((tmp_path / "o" / "tracks.txt").read_text().splitlines()) == 4
+
+
+@pytest.mark.parametrize("box, needle", [("1000,1000,10,10", "outside"),
+                                         ("-50,-50,10,10", "outside"),
+                                         ("5,5,0,10", "zero or negative area"),
+                                         ("5,5,10", "four"), ("a,b,c,d", "four"),
+                                         ("5,nan,10,10", "finite")])
+def test_bad_initial_box(scene_dir, tmp_path, capsys, box, needle):
+    code, _, err = run_cli(capsys, "track", scene_dir, f"--init={box}", "--out", tmp_path)
+    assert_one_line_error(code, err, needle)
+
+
+def test_malformed_ground_truth(scene_dir, tmp_path, capsys):
+    bad = tmp_path / "groundtruth_rect.txt"
+    bad.write_text("10,10,5,5\nhello world\n")
+    code, _, err = run_cli(capsys, "track", scene_dir, "--gt", bad, "--out", tmp_path / "o")
+    assert_one_line_error(code, err, "groundtruth_rect.txt", "2")
+    code, _, err = run_cli(capsys, "eval", "--gt", bad, "--pred", bad)
+    assert_one_line_error(code, err, "groundtruth_rect.txt")
+
+
+@pytest.mark.parametrize("count", ["0", "-3", "ten"])
+def test_non_positive_particle_count(scene_dir, tmp_path, capsys, count):
+    with pytest.raises(SystemExit) as exc:
+        main(["track", str(scene_dir), "--particles", count, "--out", str(tmp_path)])
+    assert exc.value.code == 2
+    assert_one_line_error(2, capsys.readouterr().err, "--particles")
+
+
+def test_unknown_model(scene_dir, tmp_path, capsys):
+    code, _, err = run_cli(capsys, "track", scene_dir, "--model", "kalman-magic",
+                           "--out", tmp_path)
+    assert_one_line_error(code, err, "unknown model 'kalman-magic'")
+    code, _, err = run_cli(capsys, "graph", "kalman-magic", "--out", tmp_path / "g.png")
+    assert_one_line_error(code, err, "kalman-magic")
+
+
+def test_api_raises_value_error(scene_dir):
+    graph = colour_pf.build_graph(colour_pf.Params(init_box=(50, 50, 10, 10)))
+    with pytest.raises(ValueError, match="positive integer"):
+        track(scene_dir, graph, rng=np.random.default_rng(0), num_particles=0, progress=False)
+    with pytest.raises(ValueError, match="no such file or folder"):
+        track(scene_dir / "missing", graph, rng=np.random.default_rng(0), progress=False)
+    with pytest.raises(ValueError, match="positive width and height"):
+        colour_pf.build_graph(colour_pf.Params(init_box=(50, 50, 0, 10)))
+    with pytest.raises(ValueError, match="finite"):
+        colour_pf.build_graph(colour_pf.Params(init_box=(50, np.nan, 5, 10)))
+
+
+def test_console_script_end_to_end(tmp_path):
+    """The installed entry point: demo writes everything; a bad call is one line, exit 2."""
+    res = subprocess.run([sys.executable, "-m", "pgm.cli", "demo", "--out", str(tmp_path),
+                          "--frames", "20", "--quiet"], capture_output=True, text=True,
+                         timeout=300)
+    assert res.returncode == 0, res.stderr
+    for name in ("tracks.txt", "annotated.mp4", "metrics.json", "graph.png", "graph.dot"):
+        assert (tmp_path / name).stat().st_size > 0
+    res = subprocess.run([sys.executable, "-m", "pgm.cli", "track", str(tmp_path / "nope"),
+                          "--init", "1,1,2,2", "--out", str(tmp_path / "o")],
+                         capture_output=True, text=True, timeout=300)
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1
