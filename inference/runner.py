@@ -182,7 +182,9 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
         raise InputError("the source has no frames")
     frames_arr = np.asarray(frames_done)
     boxes_arr = np.asarray(boxes_done)
-    metrics = single_object_metrics(gt, frames_arr, boxes_arr) if gt is not None else None
+    # score the annotated frames up to the last frame processed (max_frames may stop early)
+    metrics = (single_object_metrics(gt.until(frames_arr.max()), frames_arr, boxes_arr)
+               if gt is not None else None)
     result = TrackResult(frames_arr, boxes_arr, metrics, seconds, out, records)
     if out is not None:
         run = {"model": graph.name, "frames": len(frames_done),

@@ -128,6 +128,11 @@ class SingleTrack:
     def __len__(self) -> int:
         return int(self.frames.shape[0])
 
+    def until(self, last_frame: int) -> SingleTrack:
+        """The annotations of frames ``<= last_frame`` (to score a run that stopped early)."""
+        keep = self.frames <= int(last_frame)
+        return SingleTrack(self.frames[keep], self.boxes[keep])
+
 
 def detect_gt_format(path: str | Path) -> str:
     """Guess ``'otb'``, ``'miltrack'`` or ``'mot'`` for a ground-truth file.
