@@ -3,11 +3,19 @@
 A frame's step (DESIGN.md):
 
 1. **predict** — every variable with a transition factor moves its belief;
-2. **in-frame** — coupling factors (particle BP) and conjugate factors (mean-field VB)
-   exchange messages, repeated ``inframe_iterations`` times;
-3. **weight** — likelihood factors score the belief against the frame;
-4. **resample** — ESS-triggered, scheme chosen by the user; mass is kept;
-5. **estimate** — per-variable estimates and a record of what happened.
+2. **weight** — likelihood factors score the belief against the frame (the local
+   evidence, kept unnormalised in ``engine.evidence`` for the messages);
+3. **in-frame** — coupling factors (particle BP) and conjugate factors (mean-field VB)
+   exchange messages, then **fuse** combines each variable's own particles with its
+   incoming messages (``"mixture"`` or ``"product"``, :mod:`pgm.inference.pbp`);
+4. **estimate** — per-variable estimates (before resampling: lower variance), then
+   factors that learn after a frame (adaptive offsets) are updated;
+5. **resample** — ESS-triggered, scheme chosen by the user; mass is kept; a fused
+   mixture is always brought back to the variable's particle count.
+
+DESIGN.md lists in-frame passes before weighting; both fusion rules of SPEC §2 need
+each part's local evidence first (a message carries its source's likelihood), so the
+weight stage comes first here.
 
 The first frame replaces *predict* by *prior*: each variable's belief is drawn from its
 prior factor and likelihood factors may learn from the frame (e.g. a colour template at
@@ -52,9 +60,10 @@ from .resampling import ess_triggered, get_resampler
 __all__ = ["Engine", "RuleTable", "DEFAULT_RULES", "StepRecord", "Schedule", "derive_schedule",
            "STAGES", "BELIEF_FOR_ROLE"]
 
-STAGES = ("prior", "predict", "inframe", "weight", "resample", "estimate")
-OPERATIONS = ("prior", "transition", "likelihood", "coupling", "conjugate", "resample",
+STAGES = ("prior", "predict", "weight", "inframe", "fuse", "estimate", "resample")
+OPERATIONS = ("prior", "transition", "likelihood", "coupling", "conjugate", "fuse", "resample",
               "estimate")
+FUSIONS = ("mixture", "product")
 
 #: belief type the engine creates for each variable role (``noise`` joins with VB)
 BELIEF_FOR_ROLE: dict[str, type] = {"part": Particles, "state": Particles,
@@ -67,7 +76,8 @@ class RuleTable:
     """Inference rules keyed by ``(operation, belief type)``, looked up along the MRO.
 
     Factor rules are called as ``rule(engine, factor, frame)`` and update
-    ``engine.beliefs``; belief rules (``resample``, ``estimate``) as
+    ``engine.beliefs``; coupling rules as ``rule(engine, factor, frame, src, dst)`` (one
+    directed message); belief rules (``fuse``, ``resample``, ``estimate``) as
     ``rule(engine, variable_name, frame)``. A rule may return a dict of diagnostics,
     stored in the step record under the factor's (or variable's) name.
     """
@@ -99,6 +109,10 @@ class RuleTable:
         """Whether :meth:`lookup` would succeed."""
         return any((operation, t) in self._rules for t in belief_type.__mro__)
 
+    def remove(self, operation: str, belief_type: type) -> None:
+        """Drop the rule registered exactly for ``(operation, belief_type)``."""
+        self._rules.pop((operation, belief_type), None)
+
     def copy(self) -> RuleTable:
         """An independent copy (to add rules for one engine only)."""
         return RuleTable(self._rules)
@@ -115,32 +129,75 @@ DEFAULT_RULES = RuleTable()
 class Schedule:
     """The per-frame schedule: ``phases`` is a list of ``(stage, items)``.
 
-    ``items`` are factor names for factor stages and variable names for ``resample``
-    and ``estimate``. The ``inframe`` phase appears ``inframe_iterations`` times.
+    ``items`` are factor names for factor stages, ``(coupling, src, dst)`` triples for
+    directed messages in the ``inframe`` stage, and variable names for ``fuse``,
+    ``estimate`` and ``resample``.
     """
 
-    first_frame: list[tuple[str, list[str]]]
-    phases: list[tuple[str, list[str]]]
+    first_frame: list[tuple[str, list]]
+    phases: list[tuple[str, list]]
 
     def __repr__(self) -> str:
+        def item(i):
+            return f"{i[1]}→{i[2]}" if isinstance(i, tuple) else str(i)
+
         def fmt(ph):
-            return " → ".join(f"{s}[{', '.join(items)}]" for s, items in ph if items)
+            return " → ".join(f"{s}[{', '.join(item(i) for i in items)}]"
+                              for s, items in ph if items)
 
         return f"Schedule(\n  first: {fmt(self.first_frame)}\n  step:  {fmt(self.phases)}\n)"
 
 
-def derive_schedule(graph: FactorGraph, inframe_iterations: int = 1) -> Schedule:
+def message_order(graph: FactorGraph, fusion: str = "mixture",
+                  iterations: int = 1) -> list[tuple[str, str, str]]:
+    """Directed coupling messages ``(factor, src, dst)`` for one frame.
+
+    ``"mixture"``: every directed edge once (all messages leave this frame's predicted
+    particles). ``"product"``: on a forest, a leaves-to-root then root-to-leaves sweep
+    (exact for trees); with loops, ``iterations`` flooding rounds.
+    """
+    import networkx as nx
+
+    couplings = graph.factors_by_kind("coupling")
+    if not couplings:
+        return []
+    flood = [(f.name, f.variables[1], f.variables[0]) for f in couplings] + \
+            [(f.name, f.variables[0], f.variables[1]) for f in couplings]
+    if fusion == "mixture":
+        return flood
+    g = nx.MultiGraph()
+    for f in couplings:
+        g.add_edge(*f.variables, key=f.name)
+    if not nx.is_forest(nx.Graph(g)) or g.number_of_edges() != nx.Graph(g).number_of_edges():
+        return flood * max(1, iterations)
+    by_pair = {frozenset(f.variables): f.name for f in couplings}
+    order: list[tuple[str, str, str]] = []
+    for comp in nx.connected_components(g):
+        root = min(comp, key=list(graph.variables).index)
+        tree_edges = list(nx.dfs_edges(nx.Graph(g).subgraph(comp), root))  # parent -> child
+        up = [(by_pair[frozenset((p, c))], c, p) for p, c in reversed(tree_edges)]
+        down = [(by_pair[frozenset((p, c))], p, c) for p, c in tree_edges]
+        order += up + down
+    return order
+
+
+def derive_schedule(graph: FactorGraph, inframe_iterations: int = 1,
+                    fusion: str = "mixture") -> Schedule:
     """Derive the per-frame schedule from the factor kinds of ``graph``."""
     if inframe_iterations < 0:
         raise ValueError(f"inframe_iterations must be >= 0, got {inframe_iterations}")
+    if fusion not in FUSIONS:
+        raise ValueError(f"unknown fusion {fusion!r} (choose from {FUSIONS})")
     names = lambda kind: [f.name for f in graph.factors_by_kind(kind)]  # noqa: E731
-    inframe = names("coupling") + names("conjugate")
+    messages = message_order(graph, fusion, inframe_iterations)
+    conjugates = names("conjugate") * (inframe_iterations if names("conjugate") else 0)
+    receivers = [v for v in graph.variables if any(dst == v for _, _, dst in messages)]
     particle_vars = [v.name for v in graph.variables.values() if v.role != "noise"]
-    tail = [("weight", names("likelihood")), ("resample", particle_vars),
-            ("estimate", list(graph.variables))]
-    loops = [("inframe", inframe)] * (inframe_iterations if inframe else 0)
-    return Schedule(first_frame=[("prior", names("prior"))] + loops + tail,
-                    phases=[("predict", names("transition"))] + loops + tail)
+    tail = [("weight", names("likelihood")), ("inframe", messages + conjugates),
+            ("fuse", receivers), ("estimate", list(graph.variables)),
+            ("resample", particle_vars)]
+    return Schedule(first_frame=[("prior", names("prior"))] + tail,
+                    phases=[("predict", names("transition"))] + tail)
 
 
 @dataclass
@@ -154,6 +211,8 @@ class StepRecord:
         Variable name → estimate (the weighted mean for particle beliefs).
     beliefs : dict
         Variable name → posterior belief after resampling (immutable objects).
+    messages : dict
+        ``(src, dst)`` → the message of this frame (particle BP), for inspection.
     ess : dict
         ESS after weighting, before resampling.
     resampled : dict
@@ -172,6 +231,7 @@ class StepRecord:
     ess: dict[str, float] = field(default_factory=dict)
     resampled: dict[str, bool] = field(default_factory=dict)
     log_evidence: dict[str, float] = field(default_factory=dict)
+    messages: dict[tuple[str, str], Any] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)
 
 
@@ -197,7 +257,10 @@ class Engine:
     ess_threshold : float
         Resample when ESS < ``ess_threshold`` × N (0.5 default; 1 = every frame).
     inframe_iterations : int
-        Repetitions of the in-frame message-passing phase.
+        Flooding rounds of the in-frame phase on loopy graphs (trees need one sweep).
+    fusion : {"mixture", "product"}, optional
+        Particle-BP fusion rule (:mod:`pgm.inference.pbp`); default
+        ``graph.meta["engine"]["fusion"]``, else ``"mixture"``.
     rules : RuleTable, optional
         Defaults to :data:`DEFAULT_RULES`.
     options : dict, optional
@@ -208,8 +271,8 @@ class Engine:
     def __init__(self, graph: FactorGraph, rng: np.random.Generator, *,
                  num_particles: int | dict[str, int] | None = None,
                  resampling: str | Callable = "systematic", ess_threshold: float = 0.5,
-                 inframe_iterations: int = 1, rules: RuleTable | None = None,
-                 options: dict[str, Any] | None = None):
+                 inframe_iterations: int | None = None, fusion: str | None = None,
+                 rules: RuleTable | None = None, options: dict[str, Any] | None = None):
         if not isinstance(graph, FactorGraph):
             raise ValueError(f"Engine needs a FactorGraph, got {type(graph).__name__}")
         if not isinstance(rng, np.random.Generator):
@@ -227,8 +290,18 @@ class Engine:
             raise ValueError(f"ess_threshold must be in [0, 1], got {ess_threshold}")
         self.ess_threshold = float(ess_threshold)
         self.rules = rules if rules is not None else DEFAULT_RULES
-        self.schedule = derive_schedule(self.graph, inframe_iterations)
+        if fusion is not None:
+            self.options["fusion"] = fusion
+        self.options.setdefault("fusion", "mixture")
+        if inframe_iterations is None:
+            inframe_iterations = int(self.options.get("inframe_iterations", 1))
+        self.schedule = derive_schedule(self.graph, inframe_iterations, self.options["fusion"])
         self.beliefs: dict[str, Any] = {}
+        #: per variable, this frame's ``(prior_log_weights, log_likelihood)`` (weight stage)
+        self.evidence: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        #: this frame's messages ``(src, dst) -> message`` (in-frame stage)
+        self.messages: dict[tuple[str, str], Any] = {}
+        self._learners = [f for f in self.graph.factors.values() if f.learns]
         self.frame: FrameContext | None = None
         self.t = 0
         self._hooks: dict[str, list[Hook]] = {s: [] for s in STAGES}
@@ -273,7 +346,7 @@ class Engine:
             for stage, items in phases:
                 for item in items:
                     if stage in op_of_stage:
-                        f = self.graph.factors[item]
+                        f = self.graph.factors[item[0] if isinstance(item, tuple) else item]
                         bt = self._factor_belief_type(f)
                         if not self.rules.has(f.kind, bt):
                             raise ValueError(f"factor {f.name!r}: no inference rule for "
@@ -296,6 +369,8 @@ class Engine:
         if not isinstance(frame, FrameContext):
             raise ValueError(f"step() needs a FrameContext, got {type(frame).__name__}")
         self.frame = frame
+        self.evidence = {}
+        self.messages = {}
         record = StepRecord(frame=frame.index)
         phases = self.schedule.first_frame if self.t == 0 else self.schedule.phases
         for stage, items in phases:
@@ -303,6 +378,7 @@ class Engine:
             for hook in self._hooks[stage]:
                 hook(self, stage, frame, record)
         record.beliefs = dict(self.beliefs)
+        record.messages = dict(self.messages)
         self.t += 1
         return record
 
@@ -330,10 +406,26 @@ class Engine:
         for name in items:
             self._apply_factor(name, frame, record)
 
-    _stage_inframe = _stage_predict
+    def _stage_inframe(self, items, frame, record) -> None:
+        for item in items:
+            if isinstance(item, tuple):
+                name, src, dst = item
+                f = self.graph.factors[name]
+                rule = self.rules.lookup(f.kind, self.belief_type(dst))
+                info = rule(self, f, frame, src, dst)
+                if info:
+                    record.info.setdefault(name, {})[(src, dst)] = info
+            else:
+                self._apply_factor(item, frame, record)
+
+    def _stage_fuse(self, items, frame, record) -> None:
+        for v in items:
+            info = self.rules.lookup("fuse", type(self.beliefs[v]))(self, v, frame)
+            if info:
+                record.info.setdefault(v, {}).update(info)
 
     def _stage_weight(self, items, frame, record) -> None:
-        before = {v: self.beliefs[v].log_mass for v in self.beliefs
+        before = {v: self.beliefs[v] for v in self.beliefs
                   if isinstance(self.beliefs[v], Particles)}
         weighted: list[str] = []
         for name in items:
@@ -342,8 +434,12 @@ class Engine:
                 if v in before and v not in weighted:
                     weighted.append(v)
         for v in weighted:
-            b = self.beliefs[v]
-            record.log_evidence[v] = b.log_mass - before[v]
+            b, b0 = self.beliefs[v], before[v]
+            with np.errstate(invalid="ignore"):
+                log_lik = np.where(np.isfinite(b0.log_weights), b.log_weights - b0.log_weights,
+                                   -np.inf)
+            self.evidence[v] = (b0.log_weights, log_lik)
+            record.log_evidence[v] = b.log_mass - b0.log_mass
             record.ess[v] = b.ess
             if not isinstance(b, Intensity):
                 self.beliefs[v] = b.normalized()
@@ -361,6 +457,23 @@ class Engine:
         for v in items:
             rule = self.rules.lookup("estimate", type(self.beliefs[v]))
             record.estimates[v] = rule(self, v, frame)
+        if self._learners:
+            scores = {v: self.score_at(v, record.estimates[v], frame) for v in items
+                      if self.graph.factors_of(v, "likelihood")}
+            for f in self._learners:
+                f.update(record.estimates, scores)
+
+    def log_likelihood(self, variable: str, x: np.ndarray, frame: FrameContext) -> np.ndarray:
+        """Sum of ``variable``'s likelihood factors at particles ``x`` ``(N, d)``."""
+        total = np.zeros(x.shape[0])
+        for f in self.graph.factors_of(variable, "likelihood"):
+            total = total + f.log_likelihood(x, frame)
+        return total
+
+    def score_at(self, variable: str, value: np.ndarray, frame: FrameContext) -> float:
+        """Summed log-likelihood of ``variable``'s likelihood factors at one value."""
+        x = np.asarray(value, dtype=float).reshape(1, -1)
+        return float(self.log_likelihood(variable, x, frame)[0])
 
 
 # -------------------------------------------------------------------------------------
@@ -406,7 +519,8 @@ def _weight_particles(engine: Engine, factor, frame) -> None:
 def _resample_particles(engine: Engine, variable: str, frame) -> dict[str, Any]:
     b: Particles = engine.beliefs[variable]
     ess = b.ess
-    if ess_triggered(ess, b.num, engine.ess_threshold):
+    if b.num != engine.num_particles[variable] or ess_triggered(ess, b.num,
+                                                                engine.ess_threshold):
         engine.beliefs[variable] = b.resample(engine.rng, engine.resampler,
                                               engine.num_particles[variable])
         return {"resampled": True, "ess": ess}

@@ -200,15 +200,16 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
 
 def _annotated_frame(engine: Engine, record: StepRecord, image: np.ndarray, box: np.ndarray,
                      gt_box: np.ndarray | None, show_particles: bool) -> np.ndarray:
-    particles = weights = parts = None
+    particles = weights = parts = messages = None
     names = engine.graph.output
     if show_particles:
         particles = {n: record.beliefs[n].x for n in names}
         weights = {n: record.beliefs[n].weights for n in names}
+        messages = {f"{s}->{d}": m.x for (s, d), m in record.messages.items()}
     if len(names) > 1:
         parts = {n: record.estimates[n] for n in names}
-    ess = " ".join(f"ESS {v:.0f}" for v in record.ess.values())
+    ess = "ESS " + "/".join(f"{v:.0f}" for v in record.ess.values())
     return annotate(image, boxes=box[None], ids=[1],
                     gt_boxes=None if gt_box is None else gt_box[None], particles=particles,
-                    particle_weights=weights, part_boxes=parts,
+                    particle_weights=weights, messages=messages, part_boxes=parts,
                     text=f"{engine.graph.name} frame {record.frame} {ess}")

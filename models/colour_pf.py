@@ -20,13 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-
-from pgm.appearance.likelihoods import ColourHistogramLikelihood
-from pgm.factors import AR2Transition, GaussianPrior
 from pgm.graph import FactorGraph
-from pgm.numerics import check_finite_param
-from pgm.variable import Variable
 
 __all__ = ["Params", "build_graph", "BOX_LABELS"]
 
@@ -69,25 +63,18 @@ class Params:
 
 
 def build_graph(params: Params, name: str = "object") -> FactorGraph:
-    """Build the one-node graph ``prior → object ← AR(2)``, ``object — colour — z``."""
-    box = np.asarray(params.init_box, dtype=float)
-    if box.shape != (4,):
-        raise ValueError(f"init_box must be (cx, cy, w, h), got {params.init_box!r}")
-    check_finite_param("init_box", box)
-    if box[2] <= 0 or box[3] <= 0:
-        raise ValueError(f"init_box must have positive width and height, got {params.init_box!r}")
-    pos = params.pos_noise if params.pos_noise is not None else 0.03 * np.sqrt(box[2] * box[3])
-    check_finite_param("pos_noise", pos, nonneg=True)
-    transition = AR2Transition(
-        name, noise_std=[pos, pos, 0.0, 0.0], damping=params.damping,
-        scale_noise=params.scale_noise,
-        reference_size=box[2:] if params.scale_noise > 0 else None)
-    return FactorGraph(
-        [Variable(name, 4, role="part", labels=BOX_LABELS)],
-        [GaussianPrior(name, mean=box, cov=0.0),
-         transition,
-         ColourHistogramLikelihood(name, lam=params.lam, layout=params.layout,
-                                   kernel=params.kernel)],
-        name="colour-pf",
-        meta={"output": name, "engine": {"num_particles": int(params.num_particles)}},
-    )
+    """Build the one-node graph ``prior → object ← AR(2)``, ``object — colour — z``.
+
+    This is the one-node case of :func:`pgm.models.part_graph.build_graph`, not a
+    separate code path.
+    """
+    from . import part_graph
+
+    if name != "object":
+        raise ValueError("the colour PF's variable is called 'object'")
+    return part_graph.build_graph(
+        part_graph.Params(init_box=params.init_box, n_parts=1,
+                          num_particles=params.num_particles, damping=params.damping,
+                          pos_noise=params.pos_noise, scale_noise=params.scale_noise,
+                          lam=params.lam, layout=params.layout, kernel=params.kernel),
+        name="colour-pf")

@@ -60,6 +60,14 @@ class Particles:
 
     # -- construction -------------------------------------------------------------------
     @classmethod
+    def _trusted(cls, x: np.ndarray, log_weights: np.ndarray,
+                 history: tuple[np.ndarray, ...] = ()) -> Particles:
+        """Build without validation, for arrays the toolkit already checked (hot path)."""
+        obj = object.__new__(cls)
+        obj.__dict__.update(x=x, log_weights=log_weights, history=tuple(history))
+        return obj
+
+    @classmethod
     def uniform(cls, x: np.ndarray, mass: float = 1.0, history_len: int = 0) -> Particles:
         """Equally weighted particles of total ``mass``; history filled with ``x``."""
         x = np.asarray(x, dtype=float)
@@ -114,22 +122,34 @@ class Particles:
     # -- transformations ----------------------------------------------------------------
     def reweight(self, delta_log_weights: np.ndarray) -> Particles:
         """Add ``delta_log_weights`` (shape ``(N,)``) to the log-weights."""
-        return type(self)(self.x, self.log_weights + delta_log_weights, self.history)
+        delta = np.asarray(delta_log_weights, dtype=float)
+        if delta.shape != self.log_weights.shape:
+            raise ValueError(f"reweight: shape {delta.shape} != {self.log_weights.shape}")
+        lw = self.log_weights + delta
+        if np.isnan(lw).any():
+            lw = np.where(np.isnan(lw), -np.inf, lw)
+        return self._trusted(self.x, lw, self.history)
 
     def normalized(self) -> Particles:
         """The same particles with total mass 1."""
-        return type(self)(self.x, log_normalize(self.log_weights), self.history)
+        return self._trusted(self.x, log_normalize(self.log_weights), self.history)
 
     def moved(self, x_new: np.ndarray, history_len: int | None = None) -> Particles:
         """Particles moved to ``x_new``; the current ``x`` is pushed onto the history."""
         n_hist = len(self.history) if history_len is None else history_len
         hist = ((self.x,) + self.history)[:n_hist]
-        return type(self)(x_new, self.log_weights, hist)
+        x_new = np.asarray(x_new, dtype=float)
+        if x_new.shape != self.x.shape:
+            raise ValueError(f"moved: shape {x_new.shape} != {self.x.shape}")
+        return self._trusted(x_new, self.log_weights, hist)
 
     def take(self, indices: np.ndarray, log_weights: np.ndarray) -> Particles:
         """Select particles (and their histories) by index with new log-weights."""
         idx = np.asarray(indices)
-        return type(self)(self.x[idx], log_weights, tuple(h[idx] for h in self.history))
+        lw = np.asarray(log_weights, dtype=float)
+        if lw.shape != idx.shape:
+            raise ValueError(f"take: {idx.shape[0]} indices but {lw.shape} log-weights")
+        return self._trusted(self.x[idx], lw, tuple(h[idx] for h in self.history))
 
     def resample(self, rng: np.random.Generator, scheme, num: int | None = None) -> Particles:
         """Resample ``num`` particles (default ``N``) keeping the total mass.

@@ -2,10 +2,11 @@
 
 ::
 
-    pgm track SOURCE --model colour-pf (--init X,Y,W,H | --gt FILE) --out DIR
-              [--particles N] [--seed S] [--no-video] [--show-particles]
+    pgm track SOURCE --model colour-pf|part-graph (--init X,Y,W,H | --gt FILE) --out DIR
+              [--parts 2|3] [--fusion mixture|product] [--particles N] [--seed S]
+              [--no-video] [--show-particles]
     pgm eval --gt FILE --pred DIR/tracks.txt [--json]
-    pgm graph MODEL --out FILE.{png,svg,pdf,dot}
+    pgm graph MODEL [--parts 2|3] --out FILE.{png,svg,pdf,dot}
     pgm demo --out DIR
 
 Bad input (a missing or corrupt video, a malformed box or ground-truth file, a bad
@@ -96,6 +97,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--out", required=True, help="output folder")
     t.add_argument("--particles", type=_positive_int("--particles"), default=None,
                    help="particles per variable (default: the model's)")
+    _model_options(t)
     t.add_argument("--seed", type=_nonneg_int, default=0)
     t.add_argument("--no-video", action="store_true", help="do not write annotated.mp4")
     t.add_argument("--show-particles", action="store_true",
@@ -111,6 +113,7 @@ def build_parser() -> argparse.ArgumentParser:
     g = sub.add_parser("graph", help="draw a model's factor graph")
     g.add_argument("model", help=f"model name ({', '.join(sorted(MODELS))}) or a model .json")
     g.add_argument("--out", required=True, help="FILE.png, .svg, .pdf or .dot")
+    _model_options(g)
 
     d = sub.add_parser("demo", help="render a synthetic scene, track it, write every output")
     d.add_argument("--out", required=True, help="output folder")
@@ -121,17 +124,42 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _model_options(p: argparse.ArgumentParser) -> None:
+    """Options that set a model config's ``Params`` fields (used where the model has them)."""
+    p.add_argument("--parts", type=_positive_int("--parts"), default=None,
+                   help="part-graph: number of bands (2 for a person, 3 for a face)")
+    p.add_argument("--split", choices=("rows", "cols"), default=None,
+                   help="part-graph: horizontal (rows, default) or vertical bands")
+    p.add_argument("--topology", choices=("chain", "full"), default=None,
+                   help="part-graph: couplings between neighbours (chain) or all pairs")
+    p.add_argument("--fusion", choices=("mixture", "product"), default=None,
+                   help="part-graph: particle-BP fusion rule (default mixture)")
+
+
 # -- commands ---------------------------------------------------------------------------
-def _load_model_graph(model: str, init_box_cxcywh: np.ndarray, num_particles: int | None):
+def _load_model_graph(model: str, init_box_cxcywh: np.ndarray, num_particles: int | None,
+                      args: argparse.Namespace | None = None):
+    import dataclasses
+
     from .graph import FactorGraph
     from .models import get_model
 
     if model.endswith(".json"):
         return FactorGraph.load(model)
     module = get_model(model)
+    fields = {f.name for f in dataclasses.fields(module.Params)}
     kwargs = {"init_box": tuple(float(v) for v in init_box_cxcywh)}
     if num_particles is not None:
         kwargs["num_particles"] = num_particles
+    options = {"parts": "n_parts", "split": "split", "topology": "topology",
+               "fusion": "fusion"}
+    for opt, field in options.items():
+        value = getattr(args, opt, None) if args is not None else None
+        if value is None:
+            continue
+        if field not in fields:
+            raise InputError(f"--{opt} does not apply to model {model!r}")
+        kwargs[field] = value
     return module.build_graph(module.Params(**kwargs))
 
 
@@ -181,7 +209,7 @@ def cmd_track(args) -> int:
     _check_box_in_image(box_xywh, source.size)
     init_c = np.array([box_xywh[0] + box_xywh[2] / 2, box_xywh[1] + box_xywh[3] / 2,
                        box_xywh[2], box_xywh[3]])
-    graph = _load_model_graph(args.model, init_c, args.particles)
+    graph = _load_model_graph(args.model, init_c, args.particles, args)
     result = track(source, graph, rng=as_generator(args.seed), out_dir=args.out, gt=gt,
                    num_particles=args.particles, write_video=not args.no_video,
                    show_particles=args.show_particles, progress=not args.quiet,
@@ -215,7 +243,7 @@ def cmd_graph(args) -> int:
     out = Path(args.out)
     if out.suffix.lower() not in (".png", ".svg", ".pdf", ".dot"):
         raise InputError(f"--out must end in .png, .svg, .pdf or .dot, got {out.name}")
-    graph = _load_model_graph(args.model, np.array([50.0, 50.0, 20.0, 30.0]), None)
+    graph = _load_model_graph(args.model, np.array([50.0, 50.0, 20.0, 30.0]), None, args)
     out.parent.mkdir(parents=True, exist_ok=True)
     graph.draw(out)
     print(f"wrote {out}")

@@ -110,6 +110,19 @@ class Factor(ABC):  # noqa: B024 - kind base classes declare the abstract method
             raise ValueError(f"factor {self.name!r}: {what} has dimension {expected} but variable "
                              f"{var!r} has dim {variables[var].dim}")
 
+    @property
+    def learns(self) -> bool:
+        """Whether :meth:`update` does anything (the engine skips the scores otherwise)."""
+        return type(self).update is not Factor.update
+
+    def update(self, estimates: dict[str, np.ndarray], scores: dict[str, float]) -> None:  # noqa: B027
+        """Learn after a frame (adaptive offsets, templates, ...); default: nothing.
+
+        ``estimates`` are the frame's per-variable estimates; ``scores`` the summed
+        log-likelihood of each variable's likelihood factors at its estimate. The
+        engine calls it only for factors whose :attr:`learns` is true.
+        """
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready declaration ``{"type", "name", "kind", "variables", "params"}``."""
         return {"type": type(self).__name__, "name": self.name, "kind": self.kind,
@@ -202,7 +215,13 @@ class LikelihoodFactor(Factor):
 
 
 class CouplingFactor(Factor):
-    """Links two variables of the same frame (parts of one object); used by particle BP."""
+    """Links two variables of the same frame (parts of one object); used by particle BP.
+
+    Subclasses implement :meth:`map` (deterministic image of particles at the other
+    end) and :meth:`log_prob` (the potential, broadcasting); :meth:`propagate` adds
+    the factor's noise to :meth:`map` (the default adds none). See
+    :mod:`pgm.couplings`.
+    """
 
     kind = "coupling"
     abstract = True
@@ -212,6 +231,27 @@ class CouplingFactor(Factor):
         if self.variables[0] == self.variables[1]:
             raise ValueError(f"factor {self.name!r}: a coupling links variable "
                              f"{self.variables[0]!r} to itself")
+
+    def other(self, variable: str) -> str:
+        """The variable at the other end."""
+        a, b = self.variables
+        if variable == a:
+            return b
+        if variable == b:
+            return a
+        raise ValueError(f"factor {self.name!r} does not link {variable!r}")
+
+    @abstractmethod
+    def map(self, x_src: np.ndarray, src: str) -> np.ndarray:
+        """Deterministic image ``(N, d_dst)`` of particles ``x_src`` of variable ``src``."""
+
+    @abstractmethod
+    def log_prob(self, x_a: np.ndarray, x_b: np.ndarray) -> np.ndarray:
+        """``log ψ(x_a, x_b)`` broadcasting over leading axes (``x_a`` is ``variables[0]``)."""
+
+    def propagate(self, rng: np.random.Generator, x_src: np.ndarray, src: str) -> np.ndarray:
+        """Message particles from ``src`` to the other end (default: :meth:`map`)."""
+        return self.map(x_src, src)
 
 
 class ConjugateFactor(Factor):
@@ -432,13 +472,17 @@ class AR2Transition(TransitionFactor):
 class LinearGaussianLikelihood(LikelihoodFactor):
     """``y_t = H x_t + N(0, R)`` with ``y_t`` the frame's ``measurements`` (one vector).
 
-    The frame context's ``measurements`` must be an array of shape ``(k,)`` (or
-    ``(1, k)``); a frame with ``measurements=None`` carries no evidence (the factor
-    returns zeros), which is how missing observations are expressed.
+    The frame context's ``measurements`` is an array of shape ``(k,)`` (or ``(1, k)``),
+    or a dict from which the entry ``key`` (default: the variable's name) is read, so
+    that several variables can each have their own observation. A frame with no
+    measurement for the factor carries no evidence (the factor returns zeros), which
+    is how missing observations are expressed.
     """
 
-    def __init__(self, variable: str, *, H, R, name: str | None = None):
+    def __init__(self, variable: str, *, H, R, key: str | None = None,
+                 name: str | None = None):
         super().__init__(variable, name=name)
+        self.key = key
         self.H = np.atleast_2d(np.asarray(H, dtype=float))
         check_finite_param(f"{self.name}.H", self.H)
         self.R = _as_cov(R, self.H.shape[0], f"{self.name}.R")
@@ -453,15 +497,21 @@ class LinearGaussianLikelihood(LikelihoodFactor):
                           - np.sum(np.log(np.diag(self._chol))))
 
     def params(self) -> dict[str, Any]:
-        return {"H": self.H, "R": self.R}
+        p: dict[str, Any] = {"H": self.H, "R": self.R}
+        if self.key is not None:
+            p["key"] = self.key
+        return p
 
     def check(self, variables: dict[str, Variable]) -> None:
         self._check_dim(variables, self.variables[0], self.H.shape[1], "H's column count")
 
     def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
-        if ctx.measurements is None:
+        z = ctx.measurements
+        if isinstance(z, dict):
+            z = z.get(self.key if self.key is not None else self.variables[0])
+        if z is None:
             return np.zeros(x.shape[0])
-        y = np.asarray(ctx.measurements, dtype=float).reshape(-1)
+        y = np.asarray(z, dtype=float).reshape(-1)
         r = y - x @ self.H.T  # (N, k)
         from scipy.linalg import solve_triangular
 

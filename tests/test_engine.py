@@ -77,9 +77,9 @@ def test_schedule_is_derived_from_the_graph(lg_problem):
     graph, _, _ = lg_problem
     eng = Engine(graph, np.random.default_rng(0), num_particles=10)
     assert [s for s, items in eng.schedule.first_frame if items] == \
-        ["prior", "weight", "resample", "estimate"]
+        ["prior", "weight", "estimate", "resample"]
     assert [s for s, items in eng.schedule.phases if items] == \
-        ["predict", "weight", "resample", "estimate"]
+        ["predict", "weight", "estimate", "resample"]
     assert "predict[transition:x]" in repr(eng.schedule)
 
 
@@ -87,11 +87,13 @@ def test_hooks_see_every_stage_in_order(lg_problem):
     graph, ys, _ = lg_problem
     eng = Engine(graph, np.random.default_rng(0), num_particles=50)
     seen = []
-    for stage in ("prior", "predict", "weight", "resample", "estimate"):
+    for stage in ("prior", "predict", "weight", "inframe", "fuse", "estimate", "resample"):
         eng.add_hook(stage, lambda e, s, f, r: seen.append((f.index, s)))
     list(eng.run(_frames(ys[:2])))
-    assert seen == [(1, "prior"), (1, "weight"), (1, "resample"), (1, "estimate"),
-                    (2, "predict"), (2, "weight"), (2, "resample"), (2, "estimate")]
+    # stages with nothing to do still call their hooks, in schedule order
+    assert seen == [(1, "prior"), (1, "weight"), (1, "inframe"), (1, "fuse"), (1, "estimate"),
+                    (1, "resample"), (2, "predict"), (2, "weight"), (2, "inframe"),
+                    (2, "fuse"), (2, "estimate"), (2, "resample")]
     with pytest.raises(ValueError, match="unknown stage"):
         eng.add_hook("bogus", lambda *a: None)
 
@@ -120,22 +122,32 @@ def test_dispatch_walks_the_mro_and_missing_rules_fail_early(lg_problem):
     assert type(rec.beliefs["x"]) is MyParticles
 
     class Stiff(CouplingFactor):
-        pass
+        def map(self, x_src, src):
+            return x_src
+
+        def log_prob(self, x_a, x_b):
+            return -0.5 * ((x_a - x_b) ** 2).sum(-1)
 
     g2 = FactorGraph([Variable("a", 1), Variable("b", 1)],
                      [GaussianPrior("a", mean=[0.0]), GaussianPrior("b", mean=[0.0]),
                       Stiff("a", "b")])
     rules = DEFAULT_RULES.copy()
+    rules.remove("coupling", Particles)
     with pytest.raises(ValueError, match="factor 'coupling:a-b': no inference rule for "
                                          r"\('coupling', Particles\)"):
         Engine(g2, np.random.default_rng(0), rules=rules)
     calls = []
-    rules.register("coupling", Particles)(lambda eng, f, frame: calls.append(f.name))
-    eng2 = Engine(g2, np.random.default_rng(0), rules=rules, inframe_iterations=2)
+    rules.register("coupling", Particles)(
+        lambda eng, f, frame, src, dst: calls.append((f.name, src, dst)))
+    eng2 = Engine(g2, np.random.default_rng(0), rules=rules, fusion="product",
+                  inframe_iterations=2)
     eng2.step(FrameContext(1))
-    assert calls == ["coupling:a-b", "coupling:a-b"]
+    # a two-node tree: one message each way
+    assert calls == [("coupling:a-b", "b", "a"), ("coupling:a-b", "a", "b")]
     # the default table is untouched
-    assert not DEFAULT_RULES.has("coupling", Particles)
+    from pgm.inference.pbp import coupling_message
+
+    assert DEFAULT_RULES.lookup("coupling", Particles) is coupling_message
 
 
 def test_second_order_transition_starts_with_zero_velocity():

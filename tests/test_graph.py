@@ -36,6 +36,12 @@ class Offset(CouplingFactor):
     def params(self):
         return {"offset": self.offset}
 
+    def map(self, x_src, src):
+        return x_src + (self.offset if src == self.variables[1] else -self.offset)
+
+    def log_prob(self, x_a, x_b):
+        return -0.5 * ((x_a - x_b - self.offset) ** 2).sum(-1)
+
 
 class NoiseLink(ConjugateFactor):
     """A minimal conjugate factor used to exercise validation."""
