@@ -78,7 +78,7 @@ def _subsample(engine: Engine, log_weights: np.ndarray) -> tuple[np.ndarray, np.
     n = log_weights.size
     m = engine.options.get("message_particles") or n
     if int(m) == n:
-        return np.arange(n), log_normalize(log_weights)
+        return np.arange(n), log_weights  # prior weights are the normalised posterior
     m = int(m)
     if m < 1:
         raise ValueError(f"message_particles must be positive, got {m}")
@@ -113,7 +113,7 @@ def coupling_message(engine: Engine, factor, frame, src: str, dst: str) -> dict 
     for (a, b), msg in engine.messages.items():
         if b == src and a != dst:
             cavity = cavity + msg.log_values
-    idx, log_pi = _subsample(engine, cavity)
+    idx, log_pi = _subsample(engine, log_normalize(cavity))
     x_src = b_src.x[idx]
     x_dst = engine.beliefs[dst].x
     n, m = x_dst.shape[0], x_src.shape[0]
@@ -138,13 +138,12 @@ def fuse(engine: Engine, variable: str, frame) -> dict:
         lw = prior_lw + log_lik
         for msg in incoming:
             lw = lw + msg.log_values
-        engine.beliefs[variable] = b._trusted(b.x, log_normalize(lw), b.history)
+        engine.beliefs[variable] = b._trusted(b.x, log_normalize(lw), b.history, log_mass=0.0)
         return {}
     lw = np.concatenate([prior_lw + log_lik] + [m.log_weights for m in incoming])
     lw = log_normalize(lw)
     x = np.concatenate([b.x] + [m.x for m in incoming])
     hist = tuple(np.concatenate([h] + [m.history[k] for m in incoming])
                  for k, h in enumerate(b.history))
-    engine.beliefs[variable] = b._trusted(x, lw, hist)
-    own_mass = float(np.exp(logsumexp(lw[:b.num])))
-    return {"own_mass": own_mass}
+    engine.beliefs[variable] = b._trusted(x, lw, hist, log_mass=0.0)
+    return {"own_mass": float(np.exp(lw[:b.num]).sum())}

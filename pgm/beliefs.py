@@ -61,10 +61,16 @@ class Particles:
     # -- construction -------------------------------------------------------------------
     @classmethod
     def _trusted(cls, x: np.ndarray, log_weights: np.ndarray,
-                 history: tuple[np.ndarray, ...] = ()) -> Particles:
-        """Build without validation, for arrays the toolkit already checked (hot path)."""
+                 history: tuple[np.ndarray, ...] = (), log_mass: float | None = None
+                 ) -> Particles:
+        """Build without validation, for arrays the toolkit already checked (hot path).
+
+        ``log_mass``, when the caller knows it, is stored so it is not recomputed.
+        """
         obj = object.__new__(cls)
         obj.__dict__.update(x=x, log_weights=log_weights, history=tuple(history))
+        if log_mass is not None:
+            obj.__dict__["log_mass"] = float(log_mass)
         return obj
 
     @classmethod
@@ -99,7 +105,11 @@ class Particles:
     @cached_property
     def weights(self) -> np.ndarray:
         """Normalised weights, shape ``(N,)`` (computed once; do not modify in place)."""
-        w = np.exp(log_normalize(self.log_weights))
+        lm = self.log_mass
+        if not -np.inf < lm < np.inf:
+            log_normalize(self.log_weights)  # raises DegenerateWeightsError with the reason
+        w = np.exp(self.log_weights - lm)
+        w /= w.sum()  # exact normalisation despite rounding in log_mass
         w.flags.writeable = False
         return w
 
@@ -132,7 +142,10 @@ class Particles:
 
     def normalized(self) -> Particles:
         """The same particles with total mass 1."""
-        return self._trusted(self.x, log_normalize(self.log_weights), self.history)
+        lm = self.log_mass
+        if not -np.inf < lm < np.inf:
+            log_normalize(self.log_weights)  # raises DegenerateWeightsError with the reason
+        return self._trusted(self.x, self.log_weights - lm, self.history, log_mass=0.0)
 
     def moved(self, x_new: np.ndarray, history_len: int | None = None) -> Particles:
         """Particles moved to ``x_new``; the current ``x`` is pushed onto the history."""
@@ -159,7 +172,10 @@ class Particles:
         """
         num = self.num if num is None else int(num)
         idx = scheme(rng, self.weights, num)
-        return self.take(idx, np.full(num, self.log_mass - np.log(num)))
+        lm = self.log_mass
+        out = self.take(idx, np.full(num, lm - np.log(num)))
+        out.__dict__["log_mass"] = lm
+        return out
 
 
 @dataclass(frozen=True)

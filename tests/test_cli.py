@@ -197,3 +197,21 @@ def test_console_script_end_to_end(tmp_path):
                          capture_output=True, text=True, timeout=300)
     assert res.returncode == 2 and "Traceback" not in res.stderr
     assert len(res.stderr.strip().splitlines()) == 1
+
+
+def test_part_graph_track_and_graph(scene_dir, tmp_path, capsys):
+    out = tmp_path / "pg"
+    code, stdout, err = run_cli(capsys, "track", scene_dir, "--model", "part-graph", "--parts", 2,
+                                "--out", out, "--show-particles", "--quiet")
+    assert code == 0, err
+    assert len((out / "tracks.txt").read_text().splitlines()) == 30
+    assert json.loads((out / "metrics.json").read_text())["success_auc"] > 0.5
+    model = json.loads((out / "model.json").read_text())
+    assert [v["name"] for v in model["variables"]] == ["top", "bottom"]
+    code, _, _ = run_cli(capsys, "graph", "part-graph", "--parts", 3, "--out", tmp_path / "g.dot")
+    assert code == 0
+    dot = (tmp_path / "g.dot").read_text()
+    assert '"coupling:top-middle"' in dot and '"coupling:middle-bottom"' in dot
+    code, _, err = run_cli(capsys, "track", scene_dir, "--model", "colour-pf", "--parts", 2,
+                           "--out", tmp_path / "x")
+    assert_one_line_error(code, err, "--parts does not apply")

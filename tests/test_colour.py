@@ -114,19 +114,21 @@ def test_box_histograms_equal_loop_reference(layout):
     assert np.all(in_frac[inside > 0] > 0)
 
 
+@pytest.mark.parametrize("layout", ["hsv", "perez"])
 @pytest.mark.parametrize("n_boxes", [3, 40, 150])
-def test_all_integral_paths_equal_reference(monkeypatch, n_boxes):
+def test_all_integral_paths_equal_reference(monkeypatch, n_boxes, layout):
     # dense: several bin blocks, block-by-block one-hot (large-union path);
-    # compressed: the grid of distinct corner coordinates (few boxes)
+    # compressed: the grid of distinct corner coordinates (few boxes), by
+    # cv2.calcHist (perez: 80 slots) or np.bincount (hsv: 256 slots > 255)
     rng = np.random.default_rng(22)
     img = rng.integers(0, 256, (80, 90, 3), dtype=np.uint8)
-    bins, n_bins = quantize_colour(img, "hsv")
+    bins, n_bins = quantize_colour(img, layout)
     boxes = _random_boxes(rng, n_boxes, 90, 80)
     counts, _ = _reference_box_histograms(bins, n_bins, boxes)
     ref = counts / np.maximum(counts.sum(axis=1), 1)[:, None]
-    for ratio, block, onehot in [(0.0, 1, 1 << 40), (0.0, 50_000, 1 << 40),
-                                 (0.0, 50_000, 1), (0.0, 1, 1), (1e9, 1 << 20, 1 << 40)]:
-        monkeypatch.setattr(colour, "_COMPRESS_RATIO", ratio)
+    for bias, block, onehot in [(0.0, 1, 1 << 40), (0.0, 50_000, 1 << 40),
+                                (0.0, 50_000, 1), (0.0, 1, 1), (1e9, 1 << 20, 1 << 40)]:
+        monkeypatch.setattr(colour, "_COMPRESS_BIAS", bias)
         monkeypatch.setattr(colour, "_BLOCK_BYTES", block)
         monkeypatch.setattr(colour, "_ONEHOT_BYTES", onehot)
         hist, _ = box_histograms(bins, n_bins, boxes)
@@ -268,15 +270,21 @@ def test_grid_kernels_approximate_and_normalise():
 
 # --- cache -----------------------------------------------------------------------------
 
-def test_quantisation_happens_once_per_frame(monkeypatch):
+def _count_quantisation(monkeypatch):
+    """Record ``(layout, (h, w))`` of every region quantisation."""
     calls = []
-    real = colour.quantize_colour
+    real = colour._quantize_bgr
 
-    def counting(*args, **kwargs):
-        calls.append(kwargs.get("layout", args[1] if len(args) > 1 else "perez"))
-        return real(*args, **kwargs)
+    def counting(img, canon):
+        calls.append((canon[0], img.shape[:2]))
+        return real(img, canon)
 
-    monkeypatch.setattr(colour, "quantize_colour", counting)
+    monkeypatch.setattr(colour, "_quantize_bgr", counting)
+    return calls
+
+
+def test_quantisation_happens_once_per_frame(monkeypatch):
+    calls = _count_quantisation(monkeypatch)
     img, box = _patch_scene(61)
     ctx = FrameContext(3, img)
     a = ColourHistogramScorer("perez")
@@ -292,10 +300,161 @@ def test_quantisation_happens_once_per_frame(monkeypatch):
     assert ("colour-bins", "perez", 16, 4, 16) in ctx._cache
     c.template(ctx, box)
     c.rho(ctx, boxes)
-    assert calls == ["perez", "hsv"]
+    assert [layout for layout, _ in calls] == ["perez", "hsv"]
     # a raw image is wrapped (and quantised) on every call
     a.rho(img, boxes)
     assert len(calls) == 3
+
+
+# --- lazy region quantisation ------------------------------------------------------------
+
+def test_only_the_boxes_union_is_quantised(monkeypatch):
+    calls = _count_quantisation(monkeypatch)
+    img, box = _patch_scene(62)                        # 160x120
+    ctx = FrameContext(1, img)
+    scorer = ColourHistogramScorer()
+    scorer.template(ctx, box)                          # 30x50 box at (70, 60)
+    m = colour._ROI_MARGIN
+    assert calls == [("perez", (50 + 2 * m, 30 + 2 * m))]
+    frame = ctx._cache[scorer.cache_key]
+    assert frame.rect == (55 - m, 85 + m, 35 - m, 85 + m)
+    assert frame.pixels == (30 + 2 * m) * (50 + 2 * m) < img.shape[0] * img.shape[1] // 4
+    # boxes inside the quantised rectangle (the margin) cost nothing
+    scorer.rho(ctx, np.array([box + [1, -1, 2, 2], box - [2, 0, 0, 0]]))
+    assert len(calls) == 1
+
+
+def test_lazy_bins_equal_full_frame_quantisation():
+    rng = np.random.default_rng(63)
+    img = rng.integers(0, 256, (90, 130, 3), dtype=np.uint8)
+    for layout in ("perez", "hsv", "rgb"):
+        full, _ = quantize_colour(img, layout)
+        scorer = ColourHistogramScorer(layout)
+        frame = scorer._frame(FrameContext(1, img))
+        for rect in [(10, 40, 20, 50), (30, 70, 5, 30), (0, 5, 80, 90), (120, 200, -9, 3)]:
+            bins = frame.ensure(*rect)
+            x0, x1, y0, y1 = rect
+            np.testing.assert_array_equal(bins[max(y0, 0):y1, max(x0, 0):x1],
+                                          full[max(y0, 0):y1, max(x0, 0):x1])
+            rx0, rx1, ry0, ry1 = frame.rect              # the whole rectangle is valid
+            np.testing.assert_array_equal(bins[ry0:ry1, rx0:rx1], full[ry0:ry1, rx0:rx1])
+        np.testing.assert_array_equal(scorer.bins(FrameContext(2, img)), full)
+    # greyscale (H, W) images are quantised region by region too
+    grey = rng.integers(0, 256, (40, 50), dtype=np.uint8)
+    frame = ColourHistogramScorer()._frame(FrameContext(1, grey))
+    np.testing.assert_array_equal(frame.ensure(5, 20, 10, 30)[10:30, 5:20],
+                                  quantize_colour(grey)[0][10:30, 5:20])
+
+
+@pytest.mark.parametrize("call_pixels", [0, 10 ** 9])
+def test_scorers_sharing_a_layout_quantise_overlaps_once(monkeypatch, call_pixels):
+    # three band scorers of one face (a part graph) on one frame: the first
+    # quantises its band's boxes, the others only the strips they add (or, when a
+    # call costs more than re-quantising the old rectangle, the new bounding box)
+    monkeypatch.setattr(colour, "_CALL_PIXELS", call_pixels)
+    rng = np.random.default_rng(64)
+    img = rng.integers(0, 256, (120, 160, 3), dtype=np.uint8)
+    full_bins = quantize_colour(img)[0]
+    calls = _count_quantisation(monkeypatch)
+    bands = [np.array([80.0, 30.0 + 20.0 * (j + 0.5), 40.0, 20.0]) for j in range(3)]
+    scorers = [ColourHistogramScorer() for _ in bands]
+    for s, band in zip(scorers, bands, strict=True):
+        s.template(img, band)
+    calls.clear()
+    ctx = FrameContext(2, img)
+    rhos = []
+    for s, band in zip(scorers, bands, strict=True):
+        boxes = band + np.column_stack([rng.normal(0, 1.5, (10, 2)), np.zeros((10, 2))])
+        rhos.append(s.rho(ctx, boxes))
+        counts, frac = _reference_box_histograms(full_bins, s.n_bins, boxes)
+        p = counts / np.maximum(counts.sum(axis=1), 1)[:, None]
+        np.testing.assert_allclose(rhos[-1], np.sqrt(p) @ np.sqrt(s.q) * frac, atol=1e-12)
+    frame = ctx._cache[scorers[0].cache_key]
+    x0, x1, y0, y1 = frame.rect
+    slack = colour._ROI_MARGIN + 8                     # margin + jitter
+    assert (x0 >= 60 - slack and x1 <= 100 + slack and y0 >= 30 - slack
+            and y1 <= 90 + slack)                      # the face (60..100, 30..90)
+    assert frame.pixels == sum(h * w for _, (h, w) in calls)
+    np.testing.assert_array_equal(frame.bins[y0:y1, x0:x1], full_bins[y0:y1, x0:x1])
+    if call_pixels == 0:
+        # every pixel quantised once: the calls tile the final rectangle
+        assert frame.pixels == (x1 - x0) * (y1 - y0) and 3 <= len(calls) <= 1 + 2 * 4
+    else:
+        assert len(calls) == 3
+    # a full-frame request quantises only what is left, and then nothing more
+    n_before, px_before = len(calls), frame.pixels
+    full = scorers[0].bins(ctx)
+    np.testing.assert_array_equal(full, full_bins)
+    assert len(calls) <= n_before + 4
+    frame_px = img.shape[0] * img.shape[1]
+    assert frame.pixels - px_before == (frame_px - (x1 - x0) * (y1 - y0) if call_pixels == 0
+                                        else frame_px)
+    n_before = len(calls)
+    scorers[1].rho(ctx, np.array([[10.0, 10.0, 30.0, 30.0], [150.0, 110.0, 30.0, 30.0]]))
+    scorers[1].histograms(ctx, np.array([[100.0, 50.0, 20.0, 20.0]]))
+    assert len(calls) == n_before
+
+
+def test_request_after_full_frame_bins_costs_nothing(monkeypatch):
+    calls = _count_quantisation(monkeypatch)
+    img, box = _patch_scene(65)
+    ctx = FrameContext(1, img)
+    for kernel in ("uniform", "epanechnikov"):
+        scorer = ColourHistogramScorer(kernel=kernel)
+        scorer.bins(ctx)
+        scorer.template(ctx, box)
+        scorer.rho(ctx, np.array([[5.0, 5.0, 40.0, 40.0], [150.0, 100.0, 60.0, 60.0]]))
+    assert calls == [("perez", img.shape[:2])]
+
+
+@pytest.mark.parametrize("kernel,bias", [("uniform", 0.0), ("uniform", 1e9),
+                                         ("epanechnikov", 1.0), ("grid-uniform", 1.0)])
+def test_lazy_scoring_of_boxes_partly_outside_matches_reference(monkeypatch, kernel, bias):
+    monkeypatch.setattr(colour, "_COMPRESS_BIAS", bias)   # dense / compressed counts
+    rng = np.random.default_rng(66)
+    img = rng.integers(0, 256, (70, 100, 3), dtype=np.uint8)
+    boxes = _random_boxes(rng, 60, 100, 70)
+    boxes[:4] = [[-5, 30, 20, 20], [98, 68, 10, 12], [50, -3, 30, 10], [-50, 30, 10, 10]]
+    lazy = ColourHistogramScorer(kernel=kernel)
+    full = ColourHistogramScorer(kernel=kernel)
+    q = full.template(img, (50, 35, 30, 30))
+    ctx_full = FrameContext(1, img)
+    full.bins(ctx_full)                                  # whole frame first
+    for n in (4, 10, 60):
+        ctx = FrameContext(1, img)
+        rho = lazy.rho(ctx, boxes[:n], q)
+        np.testing.assert_array_equal(rho, full.rho(ctx_full, boxes[:n], q))
+        hist, frac = lazy.histograms(FrameContext(1, img), boxes[:n])
+        ref_hist, ref_frac = full.histograms(ctx_full, boxes[:n])
+        np.testing.assert_array_equal(hist, ref_hist)
+        np.testing.assert_array_equal(frac, ref_frac)
+        if kernel == "uniform":
+            counts, ref = _reference_box_histograms(quantize_colour(img)[0], lazy.n_bins,
+                                                    boxes[:n])
+            np.testing.assert_array_equal(frac, ref)
+            inside = counts.sum(axis=1)
+            np.testing.assert_array_equal(np.rint(hist * inside[:, None]), counts)
+            p = counts / np.maximum(inside, 1)[:, None]
+            np.testing.assert_allclose(rho, np.sqrt(p) @ np.sqrt(q) * ref, atol=1e-12)
+            assert rho[3] == 0
+
+
+def test_template_cache_follows_the_values_of_q():
+    img, box = _patch_scene(67)
+    scorer = ColourHistogramScorer()
+    q = scorer.template(img, box)
+    ctx = FrameContext(1, img)
+    boxes = np.tile(box, (5, 1)) + [[3, 0, 0, 0]]
+    r1 = scorer.rho(ctx, boxes, q)
+    q2 = q.copy()
+    q2[np.argmax(q)] = 0.0                               # same array object mutated
+    r2 = scorer.rho(ctx, boxes, q2)
+    assert not np.allclose(r1, r2)
+    q[:] = q2
+    np.testing.assert_array_equal(scorer.rho(ctx, boxes, q), r2)
+    scorer.q = q2 * 3.0                                  # stored q used as it is
+    np.testing.assert_allclose(scorer.rho(ctx, boxes), r2 * np.sqrt(3.0 * q2.sum()),
+                               rtol=1e-12)
 
 
 # --- validation ------------------------------------------------------------------------

@@ -78,7 +78,9 @@ _V_MIN = 52
 _CN = 4                       # bins per cv2.integral group (4-channel fast path)
 _BLOCK_BYTES = 2 << 20        # int32 integral bytes per block (kept cache-resident)
 _ONEHOT_BYTES = 16 << 20      # above this the one-hot cube is built block by block
-_COMPRESS_RATIO = 0.25        # compressed grid when cells < this x union pixels
+_COMPRESS_BIAS = 1.0          # compressed grid when its modelled cost < this x dense's
+_ROI_MARGIN = 4               # pixels added around a region quantised for boxes
+_CALL_PIXELS = 5000           # fixed cost of one region quantisation, in pixels
 _MAX_BINS = 1 << 16
 
 
@@ -346,7 +348,7 @@ def _pixel_bounds(b: np.ndarray, height: int, width: int):
 def _union(xa, xb, ya, yb) -> tuple[int, int, int, int] | None:
     """Bounding rectangle ``(x0, x1, y0, y1)`` of the non-empty boxes, or None."""
     nonempty = (xb > xa) & (yb > ya)
-    if not nonempty.all():
+    if not (len(nonempty) and nonempty.all()):
         if not nonempty.any():
             return None
         xa, xb, ya, yb = xa[nonempty], xb[nonempty], ya[nonempty], yb[nonempty]
@@ -458,7 +460,7 @@ def _corner_counts(bins: np.ndarray, xa, xb, ya, yb, slot_of_bin: np.ndarray,
         pixels = h * w
         compressed = 3.5 * pixels + 0.6 * n_slots * nx * ny + 60e3
         dense = (2.0 + 0.55 * n_slots) * pixels + 1.6 * n_slots * n + 15e3
-        if compressed >= _COMPRESS_RATIO * 4.0 * dense:
+        if compressed >= _COMPRESS_BIAS * dense:
             return _dense_counts(crop, xa, xb, ya, yb, slot_of_bin, n_slots)
     if slot8 is None:
         slot8 = _slot_lut8(slot_of_bin, n_slots)
@@ -612,29 +614,140 @@ def box_histograms(bins: np.ndarray, n_bins: int,
     """
     bins, n_bins = _check_bins(bins, n_bins)
     b = _check_boxes(boxes_cxcywh)
-    xa, xb, ya, yb, inside, in_frac = _pixel_bounds(b, *bins.shape)
     if bins.size and int(bins.max()) >= n_bins:
         raise InputError(f"bins holds a bin index >= n_bins={n_bins}")
-    counts = _corner_counts(bins, xa, xb, ya, yb, np.arange(n_bins), n_bins)
+    return _histograms(bins, n_bins, b)
+
+
+def _histograms(bins: np.ndarray, n_bins: int, b: np.ndarray,
+                frame: _FrameBins | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`box_histograms` of validated boxes; with ``frame``, ``bins`` is
+    ``frame.bins`` and the boxes' union is quantised first (and only it is read)."""
+    xa, xb, ya, yb, inside, in_frac = _pixel_bounds(b, *bins.shape)
+    union = _union(xa, xb, ya, yb)
+    if frame is not None and union is not None:
+        frame.ensure(*union, margin=_ROI_MARGIN)
+    counts = _corner_counts(bins, xa, xb, ya, yb, np.arange(n_bins), n_bins, union=union)
     hist = counts.T.astype(np.float64)
     np.divide(hist, np.maximum(inside, 1)[:, None], out=hist)
     return hist, in_frac
 
 
-def _template_rho(bins: np.ndarray, n_bins: int, b: np.ndarray,
-                  q: np.ndarray) -> np.ndarray:
+class _Template:
+    """What :meth:`ColourHistogramScorer.rho` needs of a template ``q``, built once
+    per distinct ``q``: its support (bins with ``q > 0``), the bin -> slot tables and
+    ``sqrt(q)``."""
+
+    __slots__ = ("q", "k", "slot_of_bin", "slot8", "sqrt_support", "sqrt_q")
+
+    def __init__(self, q: np.ndarray, n_bins: int):
+        self.q = q
+        support = np.flatnonzero(q > 0)
+        self.k = k = len(support)
+        self.slot_of_bin = np.full(n_bins, k, dtype=np.intp)
+        self.slot_of_bin[support] = np.arange(k)
+        self.slot8 = _slot_lut8(self.slot_of_bin, k)
+        self.sqrt_support = np.sqrt(q[support])
+        self.sqrt_q = np.sqrt(q)
+
+
+def _rho_of_template(bins: np.ndarray, b: np.ndarray, t: _Template,
+                     frame: _FrameBins | None = None) -> np.ndarray:
     """``bhattacharyya(hist, q) * in_frac`` of validated boxes, counting only the
-    bins where ``q > 0`` (exact: the others add nothing to ``sum sqrt(p q)``)."""
+    bins where ``q > 0`` (exact: the others add nothing to ``sum sqrt(p q)``); with
+    ``frame``, only the boxes' union is quantised (``bins`` is ``frame.bins``)."""
     xa, xb, ya, yb, inside, in_frac = _pixel_bounds(b, *bins.shape)
-    support = np.flatnonzero(q > 0)
-    k = len(support)
-    slot_of_bin = np.full(n_bins, k, dtype=np.intp)
-    slot_of_bin[support] = np.arange(k)
-    counts = _corner_counts(bins, xa, xb, ya, yb, slot_of_bin, k)
-    root = np.sqrt(counts, out=_SCRATCH.get("root", counts.shape, np.float64))
-    num = np.sqrt(q[support]) @ root
+    union = _union(xa, xb, ya, yb)
+    if frame is not None and union is not None:
+        frame.ensure(*union, margin=_ROI_MARGIN)
+    counts = _corner_counts(bins, xa, xb, ya, yb, t.slot_of_bin, t.k, union=union,
+                            slot8=t.slot8)
+    if counts.dtype == np.float64:                  # a fresh array: in place
+        root = np.sqrt(counts, out=counts)
+    else:
+        root = np.sqrt(counts, out=_SCRATCH.get("root", counts.shape, np.float64))
+    num = t.sqrt_support @ root
     rho = num / np.sqrt(np.maximum(inside, 1))
     return rho * in_frac
+
+
+def _template_rho(bins: np.ndarray, n_bins: int, b: np.ndarray,
+                  q: np.ndarray) -> np.ndarray:
+    """:func:`_rho_of_template` of a full bin image and a template array."""
+    return _rho_of_template(bins, b, _Template(q, n_bins))
+
+
+# --------------------------------------------------------------------------------------
+# lazy per-frame quantisation
+
+
+class _FrameBins:
+    """One frame's bin image for one layout, quantised lazily, region by region.
+
+    This is what :class:`ColourHistogramScorer` caches in the
+    :class:`~pgm.frame.FrameContext` under ``("colour-bins", layout, a, b, c)``.
+    ``bins`` is a full-size ``(H, W)`` buffer of which only the rectangle ``rect`` =
+    ``(x0, x1, y0, y1)`` holds bins (the rest is uninitialised memory).
+    :meth:`ensure` grows ``rect`` to cover a requested rectangle: a request inside it
+    costs nothing; otherwise the bounding rectangle of both becomes the new ``rect``
+    and only the strips it adds are quantised (up to four ``_quantize_bgr`` calls; one
+    call over the whole new rectangle when the old one is so small that re-quantising
+    it is cheaper than the extra calls). Quantisation is per pixel, so any region's
+    bins equal those of :func:`quantize_colour` of the whole frame, bit for bit.
+    ``pixels`` and ``regions`` count the pixels and calls quantised so far.
+    """
+
+    __slots__ = ("image", "canon", "bins", "rect", "pixels", "regions")
+
+    def __init__(self, image: Any, canon: tuple[str, int, int, int]):
+        self.image = _check_image(image)
+        self.canon = canon
+        dtype = np.uint8 if _bin_count(canon) <= 256 else np.uint16
+        self.bins = np.empty(self.image.shape[:2], dtype=dtype)
+        self.rect = (0, 0, 0, 0)
+        self.pixels = 0
+        self.regions = 0
+
+    def ensure(self, x0: int, x1: int, y0: int, y1: int, margin: int = 0) -> np.ndarray:
+        """``bins`` with at least ``[y0:y1, x0:x1]`` (clipped to the image) quantised;
+        when it must grow, the request is widened by ``margin`` pixels first (so that
+        slightly larger requests later cost nothing)."""
+        height, width = self.bins.shape
+        x0, x1 = max(x0, 0), min(x1, width)
+        y0, y1 = max(y0, 0), min(y1, height)
+        rx0, rx1, ry0, ry1 = self.rect
+        if x0 >= x1 or y0 >= y1 or (rx0 <= x0 and x1 <= rx1 and ry0 <= y0 and y1 <= ry1):
+            return self.bins
+        x0, x1 = max(x0 - margin, 0), min(x1 + margin, width)
+        y0, y1 = max(y0 - margin, 0), min(y1 + margin, height)
+        if rx0 >= rx1:                                   # nothing quantised yet
+            self._fill(x0, x1, y0, y1)
+            self.rect = (x0, x1, y0, y1)
+            return self.bins
+        new = (min(rx0, x0), max(rx1, x1), min(ry0, y0), max(ry1, y1))
+        nx0, nx1, ny0, ny1 = new
+        strips = [s for s in ((nx0, nx1, ny0, ry0), (nx0, nx1, ry1, ny1),
+                              (nx0, rx0, ry0, ry1), (rx1, nx1, ry0, ry1))
+                  if s[0] < s[1] and s[2] < s[3]]
+        if (rx1 - rx0) * (ry1 - ry0) <= _CALL_PIXELS * (len(strips) - 1):
+            strips = [new]
+        for s in strips:
+            self._fill(*s)
+        self.rect = new
+        return self.bins
+
+    def full(self) -> np.ndarray:
+        """``bins`` with the whole frame quantised."""
+        height, width = self.bins.shape
+        return self.ensure(0, width, 0, height)
+
+    def _fill(self, x0: int, x1: int, y0: int, y1: int) -> None:
+        roi = self.image[y0:y1, x0:x1]
+        if roi.ndim == 2:
+            roi = cv2.cvtColor(roi, cv2.COLOR_GRAY2BGR)
+        self.bins[y0:y1, x0:x1] = _quantize_bgr(roi, self.canon)
+        self.pixels += (x1 - x0) * (y1 - y0)
+        self.regions += 1
 
 
 # --------------------------------------------------------------------------------------
@@ -655,7 +768,8 @@ def _grid_points(kernel: str, grid: int):
 
 
 def _grid_histograms(bins: np.ndarray, n_bins: int, b: np.ndarray, kernel: str,
-                     grid: int) -> tuple[np.ndarray, np.ndarray]:
+                     grid: int, frame: _FrameBins | None = None
+                     ) -> tuple[np.ndarray, np.ndarray]:
     """Kernel-weighted histograms from a fixed ``grid x grid`` sample of every box.
 
     Sample ``(k, l)`` sits at ``(cx + w u_l, cy + h u_k)`` with
@@ -663,7 +777,8 @@ def _grid_histograms(bins: np.ndarray, n_bins: int, b: np.ndarray, kernel: str,
     weight ``1 - r^2`` with ``r^2 = (2 u_l)^2 + (2 u_k)^2`` (samples with r >= 1 are
     dropped). Samples outside the image are absent; ``in_frac`` is the in-image
     share of the kernel mass. One ``np.take`` and one ``np.bincount`` over all
-    N x samples; no loop over boxes.
+    N x samples; no loop over boxes. With ``frame`` (``bins`` is then ``frame.bins``)
+    only the rectangle of the pixels sampled is quantised.
     """
     height, width = bins.shape
     n = len(b)
@@ -673,7 +788,11 @@ def _grid_histograms(bins: np.ndarray, n_bins: int, b: np.ndarray, kernel: str,
     in_c = (cols >= 0) & (cols < width)
     in_r = (rows >= 0) & (rows < height)
     ci = _clip(cols, 0, width - 1).astype(np.intp)
-    ri = _clip(rows, 0, height - 1).astype(np.intp) * width
+    ri = _clip(rows, 0, height - 1).astype(np.intp)
+    if frame is not None and n:
+        frame.ensure(int(ci.min()), int(ci.max()) + 1, int(ri.min()), int(ri.max()) + 1,
+                     margin=_ROI_MARGIN)
+    ri *= width
     m = len(kk)
     ws = _SCRATCH                                           # see _Scratch: no faults
     pix = ws.get("grid-pix", (n, m), np.intp)
@@ -765,6 +884,7 @@ class ColourHistogramScorer:
         self.kernel = kernel
         self.grid = _check_count("grid", grid, 4096)
         self.q: np.ndarray | None = None if q is None else self._check_q(q)
+        self._templates: dict[tuple, _Template] = {}
 
     # parameters ----------------------------------------------------------------------
     @property
@@ -777,7 +897,9 @@ class ColourHistogramScorer:
 
     @property
     def cache_key(self) -> tuple:
-        """``FrameContext`` cache key of the quantised frame."""
+        """``FrameContext`` cache key of the frame's lazily quantised bins (a
+        ``_FrameBins``: full-size buffer plus the rectangle quantised so far, shared
+        by every scorer of the same layout)."""
         return ("colour-bins",) + self._canon
 
     def __repr__(self) -> str:
@@ -792,19 +914,17 @@ class ColourHistogramScorer:
             return image_or_ctx
         return FrameContext(0, image_or_ctx)
 
-    def bins(self, image_or_ctx: Any) -> np.ndarray:
-        """The frame's bin image, quantised once per frame (cached in the context)."""
+    def _frame(self, image_or_ctx: Any) -> _FrameBins:
+        """The frame's lazily quantised bins (cached in the context)."""
         ctx = self._ctx(image_or_ctx)
         if ctx.image is None:
             raise InputError(f"frame {ctx.index} has no image")
-        lay, a, b, c = self._canon
+        return ctx.cached(self.cache_key, lambda: _FrameBins(ctx.image, self._canon))
 
-        def compute() -> np.ndarray:
-            if lay == "rgb":
-                return quantize_colour(ctx.image, "rgb", n_rgb=a)[0]
-            return quantize_colour(ctx.image, lay, a, b, c)[0]
-
-        return ctx.cached(self.cache_key, compute)
+    def bins(self, image_or_ctx: Any) -> np.ndarray:
+        """The frame's whole bin image, quantised once per frame (cached in the
+        context; regions already quantised for boxes are not quantised again)."""
+        return self._frame(image_or_ctx).full()
 
     def _check_q(self, q: Any) -> np.ndarray:
         q = np.asarray(q, dtype=float)
@@ -814,15 +934,34 @@ class ColourHistogramScorer:
             raise InputError("template must be finite, non-negative and not all zero")
         return q / q.sum()
 
+    def _template_of(self, q: Any) -> _Template:
+        """Prepared template of ``q`` (validated and normalised) or, for None, of the
+        stored ``self.q`` (used as it is); cached by value, so a caller passing the same
+        array every frame pays neither the checks nor the preparation again."""
+        if q is None:
+            if self.q is None:
+                raise InputError("no template: call template() first or pass q")
+            arr, raw = np.asarray(self.q), True
+        else:
+            arr, raw = np.asarray(q, dtype=float), False
+        key = (raw, arr.dtype.str, arr.shape, arr.tobytes())
+        t = self._templates.get(key)
+        if t is None:
+            t = _Template(np.array(arr) if raw else self._check_q(arr), self.n_bins)
+            if len(self._templates) >= 8:
+                self._templates.clear()
+            self._templates[key] = t
+        return t
+
     # scoring -------------------------------------------------------------------------
     def histograms(self, image_or_ctx: Any,
                    boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(hist (N, B), in_frac (N,))`` of the boxes under this scorer's kernel."""
-        bins = self.bins(image_or_ctx)
+        frame = self._frame(image_or_ctx)
+        b = _check_boxes(boxes)
         if self.kernel == "uniform":
-            return box_histograms(bins, self.n_bins, boxes)
-        return _grid_histograms(bins, self.n_bins, _check_boxes(boxes), self.kernel,
-                                self.grid)
+            return _histograms(frame.bins, self.n_bins, b, frame)
+        return _grid_histograms(frame.bins, self.n_bins, b, self.kernel, self.grid, frame)
 
     def template(self, image_or_ctx: Any, box: np.ndarray) -> np.ndarray:
         """Histogram ``(B,)`` of one box ``(cx, cy, w, h)``; also stored as ``self.q``."""
@@ -841,20 +980,17 @@ class ColourHistogramScorer:
             q: np.ndarray | None = None) -> np.ndarray:
         """Bhattacharyya coefficient x in-image fraction, ``(N,)``, of each box.
 
-        ``q`` defaults to the stored template (:meth:`template`).
+        ``q`` defaults to the stored template (:meth:`template`). Only the boxes'
+        union rectangle of the frame is quantised (once per frame and layout).
         """
-        if q is None:
-            if self.q is None:
-                raise InputError("no template: call template() first or pass q")
-            q = self.q
-        else:
-            q = self._check_q(q)
+        t = self._template_of(q)
         b = _check_boxes(boxes)
-        bins = self.bins(image_or_ctx)
+        frame = self._frame(image_or_ctx)
         if self.kernel == "uniform":
-            return _template_rho(bins, self.n_bins, b, q)
-        hist, in_frac = _grid_histograms(bins, self.n_bins, b, self.kernel, self.grid)
-        return (np.sqrt(hist) @ np.sqrt(q)) * in_frac
+            return _rho_of_template(frame.bins, b, t, frame)
+        hist, in_frac = _grid_histograms(frame.bins, self.n_bins, b, self.kernel,
+                                         self.grid, frame)
+        return (np.sqrt(hist) @ t.sqrt_q) * in_frac
 
     def log_likelihood(self, image_or_ctx: Any, boxes: np.ndarray, lam: float = 20.0,
                        q: np.ndarray | None = None) -> np.ndarray:
