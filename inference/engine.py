@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from pgm.beliefs import Intensity, Particles
+from pgm.expfam import InverseGamma
 from pgm.factors import Factor
 from pgm.frame import FrameContext
 from pgm.graph import FactorGraph
@@ -65,9 +66,12 @@ OPERATIONS = ("prior", "transition", "likelihood", "coupling", "conjugate", "fus
               "estimate")
 FUSIONS = ("mixture", "product")
 
-#: belief type the engine creates for each variable role (``noise`` joins with VB)
+#: belief type the engine creates for each variable role (override per variable with
+#: ``options={"belief_types": {name: type}}``, e.g. :class:`~pgm.expfam.Gaussian` for an
+#: exact Kalman / VB adaptive Kalman filter)
 BELIEF_FOR_ROLE: dict[str, type] = {"part": Particles, "state": Particles,
-                                    "latent": Particles, "set": Intensity}
+                                    "latent": Particles, "set": Intensity,
+                                    "noise": InverseGamma}
 
 Rule = Callable[..., Any]
 
@@ -189,11 +193,18 @@ def derive_schedule(graph: FactorGraph, inframe_iterations: int = 1,
     if fusion not in FUSIONS:
         raise ValueError(f"unknown fusion {fusion!r} (choose from {FUSIONS})")
     names = lambda kind: [f.name for f in graph.factors_by_kind(kind)]  # noqa: E731
+    # likelihoods parameterised by a noise variable are updated inside the VB fixed point
+    under_vb: set[str] = set()
+    for c in graph.factors_by_kind("conjugate"):
+        lik = getattr(c, "likelihood", None)
+        under_vb |= ({lik} if lik else {f.name for f in graph.factors_of(c.variables[1],
+                                                                         "likelihood")})
     messages = message_order(graph, fusion, inframe_iterations)
     conjugates = names("conjugate") * (inframe_iterations if names("conjugate") else 0)
     receivers = [v for v in graph.variables if any(dst == v for _, _, dst in messages)]
     particle_vars = [v.name for v in graph.variables.values() if v.role != "noise"]
-    tail = [("weight", names("likelihood")), ("inframe", messages + conjugates),
+    weighted = [n for n in names("likelihood") if n not in under_vb]
+    tail = [("weight", weighted), ("inframe", messages + conjugates),
             ("fuse", receivers), ("estimate", list(graph.variables)),
             ("resample", particle_vars)]
     return Schedule(first_frame=[("prior", names("prior"))] + tail,
@@ -301,6 +312,8 @@ class Engine:
         self.evidence: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         #: this frame's messages ``(src, dst) -> message`` (in-frame stage)
         self.messages: dict[tuple[str, str], Any] = {}
+        #: per-variable state that rules keep across frames (PHD tracks, extraction, ...)
+        self.aux: dict[str, dict[str, Any]] = {}
         self._learners = [f for f in self.graph.factors.values() if f.learns]
         self.frame: FrameContext | None = None
         self.t = 0
@@ -399,8 +412,9 @@ class Engine:
         for name in items:
             self._apply_factor(name, frame, record)
         for f in self.graph.factors_by_kind("likelihood"):
-            var = f.variables[0]
-            f.initialize(frame, self.graph.factors_of(var, "prior")[0].mean())
+            priors = self.graph.factors_of(f.variables[0], "prior")
+            if priors:
+                f.initialize(frame, priors[0].mean())
 
     def _stage_predict(self, items, frame, record) -> None:
         for name in items:
@@ -435,6 +449,8 @@ class Engine:
                     weighted.append(v)
         for v in weighted:
             b, b0 = self.beliefs[v], before[v]
+            if isinstance(b, Intensity):
+                continue  # a set's update is not a reweighting: no evidence/ESS here
             with np.errstate(invalid="ignore"):
                 log_lik = np.where(np.isfinite(b0.log_weights), b.log_weights - b0.log_weights,
                                    -np.inf)

@@ -4,12 +4,12 @@ Each model module has a frozen ``Params`` dataclass and ``build_graph(params)``.
 :data:`MODELS` maps the CLI's model names to them.
 """
 
-from . import colour_pf, linear_gaussian, part_graph
+from . import colour_pf, linear_gaussian, part_graph, phd, vb_phd
 
-__all__ = ["colour_pf", "linear_gaussian", "part_graph", "MODELS", "get_model"]
+__all__ = ["colour_pf", "linear_gaussian", "part_graph", "phd", "vb_phd", "MODELS", "get_model"]
 
 #: CLI model name → module with ``Params`` and ``build_graph``
-MODELS = {"colour-pf": colour_pf, "part-graph": part_graph}
+MODELS = {"colour-pf": colour_pf, "part-graph": part_graph, "phd": phd, "vb-phd": vb_phd}
 
 
 def get_model(name: str):

@@ -94,7 +94,9 @@ class Particles:
 
     @cached_property
     def log_mass(self) -> float:
-        """``logsumexp(log_weights)``."""
+        """``logsumexp(log_weights)`` (``-inf`` with no particles)."""
+        if self.log_weights.size == 0:
+            return -np.inf
         return float(logsumexp(self.log_weights))
 
     @property
@@ -180,4 +182,23 @@ class Particles:
 
 @dataclass(frozen=True)
 class Intensity(Particles):
-    """A PHD intensity: particles whose total weight is the expected number of targets."""
+    """A PHD intensity: particles whose total weight is the expected number of targets.
+
+    ``x, log_weights`` are the *persistent* particles; ``newborn`` holds the particles
+    born from this frame's measurements (SPEC §3a): they are not re-weighted, not
+    resampled and not extracted this frame, and join the persistent set at the next
+    prediction. ``expected_count`` includes them.
+    """
+
+    newborn: Particles | None = None
+
+    @property
+    def expected_count(self) -> float:
+        """Persistent plus newborn mass."""
+        extra = self.newborn.mass if self.newborn is not None and self.newborn.num else 0.0
+        return (self.mass if self.num else 0.0) + extra
+
+    @classmethod
+    def empty(cls, dim: int) -> Intensity:
+        """No particles, mass 0."""
+        return cls(np.zeros((0, dim)), np.zeros(0))

@@ -257,12 +257,22 @@ class CouplingFactor(Factor):
 class ConjugateFactor(Factor):
     """Links a ``noise`` variable to the likelihood it parameterises (mean-field VB).
 
-    Scope: ``(noise_variable, target_variable)``.
+    Scope: ``(noise_variable, target_variable)``. The likelihood factor it
+    parameterises (``likelihood``: its name; default every likelihood factor of the
+    target) is then updated inside the VB fixed point, not in the weight stage.
     """
 
     kind = "conjugate"
     abstract = True
     arity = 2
+
+    def __init__(self, noise: str, target: str, *, likelihood: str | None = None,
+                 name: str | None = None):
+        super().__init__(noise, target, name=name)
+        self.likelihood = likelihood
+
+    def params(self) -> dict[str, Any]:
+        return {} if self.likelihood is None else {"likelihood": self.likelihood}
 
     def check(self, variables: dict[str, Variable]) -> None:
         noise, target = self.variables
@@ -349,12 +359,20 @@ class GaussianPrior(PriorFactor):
 
 
 class LinearGaussianTransition(TransitionFactor):
-    """First-order linear-Gaussian dynamics ``x_t = F x_{t-1} + N(0, Q)``."""
+    """First-order linear-Gaussian dynamics ``x_t = F x_{t-1} + N(0, Q)``.
+
+    ``p_survive`` is the survival probability used when the variable is a set (a PHD
+    intensity's weights are multiplied by it at each prediction).
+    """
 
     order = 1
 
-    def __init__(self, variable: str, *, F, Q, name: str | None = None):
+    def __init__(self, variable: str, *, F, Q, p_survive: float = 1.0,
+                 name: str | None = None):
         super().__init__(variable, name=name)
+        self.p_survive = float(check_finite_param(f"{variable}.p_survive", p_survive))
+        if not 0.0 < self.p_survive <= 1.0:
+            raise ValueError(f"factor {self.name!r}: p_survive must be in (0, 1], got {p_survive}")
         self.F = np.atleast_2d(np.asarray(F, dtype=float))
         check_finite_param(f"{self.name}.F", self.F)
         self.Q = _as_cov(Q, self.F.shape[0], f"{self.name}.Q")
@@ -364,7 +382,10 @@ class LinearGaussianTransition(TransitionFactor):
         self._sqrt = _sqrt_psd(self.Q, f"factor {self.name!r}: Q")
 
     def params(self) -> dict[str, Any]:
-        return {"F": self.F, "Q": self.Q}
+        p: dict[str, Any] = {"F": self.F, "Q": self.Q}
+        if self.p_survive != 1.0:
+            p["p_survive"] = self.p_survive
+        return p
 
     def check(self, variables: dict[str, Variable]) -> None:
         self._check_dim(variables, self.variables[0], self.F.shape[0], "F")

@@ -27,17 +27,22 @@ class FrameContext:
         Frame number, 1-based, in the source's order.
     image : ndarray, shape (H, W, 3), uint8, BGR, or None
         The frame (greyscale sources are delivered as three equal channels).
-    measurements : ndarray, shape (M, k), optional
-        Point or box measurements for set-valued variables.
+    measurements : ndarray, shape (M, k), or dict, optional
+        Point measurements (for set-valued variables), or per-variable measurements.
+    detections : object, optional
+        Detector output for the frame (``pgm.detections.Detections``: boxes, scores,
+        foot points); measurement factors read their points from it when
+        ``measurements`` is not given, and track layers take box sizes from it.
     """
 
-    __slots__ = ("index", "image", "measurements", "_cache")
+    __slots__ = ("index", "image", "measurements", "detections", "_cache")
 
     def __init__(self, index: int, image: np.ndarray | None = None,
-                 measurements: np.ndarray | None = None):
+                 measurements: np.ndarray | None = None, detections=None):
         self.index = int(index)
         self.image = image
         self.measurements = measurements
+        self.detections = detections
         self._cache: dict[Hashable, Any] = {}
 
     @property

@@ -54,6 +54,22 @@ def test_quantize_matches_numpy_formula(layout, a, b, c):
     np.testing.assert_array_equal(bins, _numpy_quantize(img, layout, a, b, c))
 
 
+@pytest.mark.parametrize("layout,a,b,c", [
+    ("perez", 16, 4, 16), ("perez", 10, 3, 7), ("hsv", 16, 4, 4), ("hsv", 10, 5, 5)])
+def test_quantize_greyscale_shortcut_matches_cvtcolor(layout, a, b, c):
+    # equal channels skip cvtColor (H = S = 0, V = level): every grey level, and
+    # frames that are grey except for one pixel (first row grey, then not)
+    levels = np.arange(256, dtype=np.uint8).reshape(16, 16)
+    grey = cv2.cvtColor(levels, cv2.COLOR_GRAY2BGR)
+    np.testing.assert_array_equal(quantize_colour(grey, layout, a, b, c)[0],
+                                  _numpy_quantize(grey, layout, a, b, c))
+    for y, x, ch in [(5, 7, 0), (15, 15, 2), (0, 3, 1)]:
+        img = grey.copy()
+        img[y, x, ch] ^= 0x55
+        np.testing.assert_array_equal(quantize_colour(img, layout, a, b, c)[0],
+                                      _numpy_quantize(img, layout, a, b, c))
+
+
 @pytest.mark.parametrize("n", [4, 5, 8])
 def test_quantize_rgb(n):
     img = np.random.default_rng(12).integers(0, 256, (40, 50, 3), dtype=np.uint8)

@@ -46,6 +46,9 @@ class Offset(CouplingFactor):
 class NoiseLink(ConjugateFactor):
     """A minimal conjugate factor used to exercise validation."""
 
+    def __init__(self, noise, target, *, name=None):
+        super().__init__(noise, target, name=name)
+
 
 def test_variable_validation():
     with pytest.raises(ValueError, match="dim must be a positive int"):

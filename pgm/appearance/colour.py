@@ -250,6 +250,23 @@ def quantize_colour(image_bgr: np.ndarray, layout: str = "perez", n_h: int = 16,
     return _quantize_bgr(_as_bgr(image_bgr), canon), _bin_count(canon)
 
 
+def _grey_channel(img: np.ndarray) -> np.ndarray | None:
+    """The image's one channel when its three channels are equal (a greyscale frame
+    delivered as BGR), else None.
+
+    Such a pixel has ``H = S = 0`` and ``V`` = its level in OpenCV's 8-bit HSV, so
+    its bin needs no ``cvtColor`` (half of a region's quantisation cost). The first
+    row is checked first, so colour frames pay about 3 µs.
+    """
+    row = img[0]
+    if not np.array_equal(row[:, :2], row[:, 1:]):
+        return None
+    b, g, r = cv2.split(np.ascontiguousarray(img))
+    if cv2.countNonZero(cv2.bitwise_or(cv2.absdiff(b, g), cv2.absdiff(g, r))):
+        return None
+    return b
+
+
 def _quantize_bgr(img: np.ndarray, canon: tuple[str, int, int, int]) -> np.ndarray:
     """Bins of a validated (h, w, 3) uint8 BGR image, which may be a strided view
     (a region of a frame: ``cv2.cvtColor`` reads views in place)."""
@@ -267,6 +284,11 @@ def _quantize_bgr(img: np.ndarray, canon: tuple[str, int, int, int]) -> np.ndarr
         out += cb16[ch[0]]
         return out
 
+    if n_bins <= (255 if lay == "perez" else 256):
+        grey = _grey_channel(img)
+        if grey is not None:                       # OpenCV: H = S = 0, V = the grey level
+            value = _bin8(grey, c, 256)
+            return cv2.add(value, a * b) if lay == "perez" else value
     hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV)     # H in [0, 180), S, V in [0, 256)
     H, S, V = cv2.split(hsv)
     if lay == "perez":
@@ -322,37 +344,60 @@ def _clip(x: np.ndarray, lo, hi) -> np.ndarray:
     return np.minimum(np.maximum(x, lo), hi)
 
 
+def _bounds(b: np.ndarray, height: int, width: int):
+    """Integer pixel bounds of validated boxes, clipped to the image, and more.
+
+    Returns ``ints`` ``(2, 2, N)`` intp, ``[[x0, y0], [x1, y1]]`` clipped to ``[0, W]``
+    / ``[0, H]`` (a box covers ``bins[y0:y1, x0:x1]``), the in-image pixel count
+    ``inside`` and ``in_frac``. About 17 numpy calls for x and y together (numpy's
+    per-call overhead dominates at tracker sizes, N of 10-100).
+    """
+    t = b.T
+    half = t[2:] / 2.0
+    lohi = np.empty((2, 2, len(b)))
+    np.subtract(t[:2], half, out=lohi[0])
+    np.add(t[:2], half, out=lohi[1])
+    lohi += 0.5
+    np.floor(lohi, out=lohi)                               # [[x0, y0], [x1, y1]]
+    np.maximum(lohi[1], lohi[0] + 1.0, out=lohi[1])        # at least one pixel
+    ints = np.minimum(np.maximum(lohi, 0.0), np.array([[width], [height]])).astype(np.intp)
+    ext = ints[1] - ints[0]
+    inside = ext[0] * ext[1]
+    span = lohi[1] - lohi[0]
+    total = np.maximum(span[0] * span[1], 1.0)
+    return ints, inside, inside / total                    # 0 <= inside <= total
+
+
 def _pixel_bounds(b: np.ndarray, height: int, width: int):
     """Integer pixel bounds, clipped to the image, and the in-image fraction.
 
     Returns ``xa, xb, ya, yb`` (intp, clipped to ``[0, W]`` / ``[0, H]``, so that a
     box covers ``bins[ya:yb, xa:xb]``), the in-image pixel count and ``in_frac``.
-    x and y are computed together on ``(2, N)`` arrays (half the numpy calls).
     """
-    t = b.T
-    half = t[2:] / 2.0
-    lo = np.floor(t[:2] - half + 0.5)                      # x0, y0
-    hi = np.floor(t[:2] + half + 0.5)
-    np.maximum(hi, lo + 1.0, out=hi)                       # x1, y1
-    lim = np.array([[width], [height]])
-    a = np.minimum(np.maximum(lo, 0), lim).astype(np.intp)
-    z = np.minimum(np.maximum(hi, 0), lim).astype(np.intp)
-    ext = z - a
-    inside = ext[0] * ext[1]
-    span = hi - lo
-    total = np.maximum(span[0] * span[1], 1.0)
-    in_frac = _clip(inside / total, 0.0, 1.0)
-    return a[0], z[0], a[1], z[1], inside, in_frac
+    ints, inside, in_frac = _bounds(b, height, width)
+    return ints[0, 0], ints[1, 0], ints[0, 1], ints[1, 1], inside, in_frac
+
+
+def _union_of(ints: np.ndarray, inside: np.ndarray):
+    """``(x0, x1, y0, y1)`` bounding rectangle of the non-empty boxes (None if there
+    are none) and whether every box is non-empty."""
+    nonempty = inside > 0
+    if len(nonempty) and nonempty.all():
+        lo = ints[0].min(axis=1)
+        hi = ints[1].max(axis=1)
+        return (int(lo[0]), int(hi[0]), int(lo[1]), int(hi[1])), True
+    if not nonempty.any():
+        return None, False
+    ne = ints[:, :, nonempty]
+    lo = ne[0].min(axis=1)
+    hi = ne[1].max(axis=1)
+    return (int(lo[0]), int(hi[0]), int(lo[1]), int(hi[1])), False
 
 
 def _union(xa, xb, ya, yb) -> tuple[int, int, int, int] | None:
     """Bounding rectangle ``(x0, x1, y0, y1)`` of the non-empty boxes, or None."""
-    nonempty = (xb > xa) & (yb > ya)
-    if not (len(nonempty) and nonempty.all()):
-        if not nonempty.any():
-            return None
-        xa, xb, ya, yb = xa[nonempty], xb[nonempty], ya[nonempty], yb[nonempty]
-    return int(xa.min()), int(xb.max()), int(ya.min()), int(yb.max())
+    ints = np.array([[xa, ya], [xb, yb]], dtype=np.intp)
+    return _union_of(ints, (xb - xa).clip(0) * (yb - ya).clip(0))[0]
 
 
 class _Scratch(threading.local):
@@ -405,129 +450,134 @@ def _slot_lut8(slot_of_bin: np.ndarray, n_slots: int) -> np.ndarray | None:
 
 
 def _corner_counts(bins: np.ndarray, xa, xb, ya, yb, slot_of_bin: np.ndarray,
-                   n_slots: int, method: str = "auto", *,
-                   union: tuple[int, int, int, int] | None = None,
-                   slot8: np.ndarray | None = None) -> np.ndarray:
+                   n_slots: int, method: str = "auto") -> np.ndarray:
+    """Pixel counts ``(n_slots, N)`` of every box ``bins[ya:yb, xa:xb]`` (bounds
+    clipped to the image), per selected bin: see :func:`_counts`."""
+    ints = np.array([[xa, ya], [xb, yb]], dtype=np.intp)
+    inside = (xb - xa).clip(0) * (yb - ya).clip(0)
+    union, all_nonempty = _union_of(ints, inside)
+    return _counts(bins, ints, union, all_nonempty, slot_of_bin, n_slots, method)
+
+
+def _counts(bins: np.ndarray, ints: np.ndarray, union, all_nonempty: bool,
+            slot_of_bin: np.ndarray, n_slots: int, method: str = "auto",
+            slot8: np.ndarray | None = None) -> np.ndarray:
     """Pixel counts ``(n_slots, N)`` of every box, per selected bin: int32
     (``"dense"``) or integer-valued float64 (``"compressed"``), exact either way.
 
-    ``slot_of_bin[u]`` is the row of bin ``u`` in the result, or ``n_slots`` for a
-    bin that is not counted (``slot8``: the same as a uint8 table, see
-    :func:`_slot_lut8`; built when not given). Integral histogram over the union
-    rectangle of the non-empty boxes (``union``, computed when not given; only that
-    rectangle of ``bins`` is read): ``"dense"`` at pixel resolution (see the module
-    docstring), ``"compressed"`` on the grid of the boxes' distinct corner
-    coordinates (cheaper when there are few boxes: fewer cells than pixels),
-    ``"auto"`` picks by a cost model. The result may be a view of a per-thread scratch
-    buffer: valid until the next call in the same thread.
+    ``ints`` are the boxes' bounds (:func:`_bounds`), ``union`` and
+    ``all_nonempty`` from :func:`_union_of`; only the union rectangle of ``bins`` is
+    read. ``slot_of_bin[u]`` is the row of bin ``u`` in the result, or ``n_slots``
+    for a bin that is not counted (``slot8``: the same as a uint8 table, see
+    :func:`_slot_lut8`; built when not given). Integral histogram over the union:
+    ``"dense"`` at pixel resolution (see the module docstring), ``"compressed"`` on
+    the grid of the boxes' distinct corner coordinates (cheaper when there are few
+    boxes: fewer cells than pixels), ``"auto"`` picks by a cost model. The result may
+    be a view of a per-thread scratch buffer: valid until the next call in the same
+    thread.
     """
-    n = len(xa)
-    if union is None:
-        union = _union(xa, xb, ya, yb)
+    n = ints.shape[2]
     if n_slots == 0 or union is None:
         return np.zeros((n_slots, n), dtype=np.int32)
     ux0, ux1, uy0, uy1 = union
-    # Empty boxes are clipped into the union too; clipping keeps them empty and
-    # leaves every non-empty box unchanged.
-    xa = _clip(xa, ux0, ux1) - ux0
-    xb = _clip(xb, ux0, ux1) - ux0
-    ya = _clip(ya, uy0, uy1) - uy0
-    yb = _clip(yb, uy0, uy1) - uy0
+    h, w = uy1 - uy0, ux1 - ux0
     crop = bins[uy0:uy1, ux0:ux1]
-    h, w = crop.shape
-    if method == "dense" or (method == "auto" and 2 * n >= min(h, w)):
-        return _dense_counts(crop, xa, xb, ya, yb, slot_of_bin, n_slots)
-    # distinct corner coordinates: marks on [0, w] and [0, h]; cx[x] - 1 is the cell
-    # (column) of pixel x and the grid index of a corner coordinate x
-    ws = _SCRATCH
-    mx = ws.get("mark-x", (w + 1,), np.uint8)
-    my = ws.get("mark-y", (h + 1,), np.uint8)
-    mx.fill(0)
-    my.fill(0)
-    xs = np.concatenate([xa, xb])
-    ys = np.concatenate([ya, yb])
-    mx[xs] = 1
-    my[ys] = 1
-    cx = np.cumsum(mx, dtype=np.intp)
-    cy = np.cumsum(my, dtype=np.intp)
-    cx -= 1
-    cy -= 1
-    nx, ny = int(cx[w]), int(cy[h])
+    # Bounds relative to the union (rows x, then y shifted by w + 1 to make marks
+    # below). Empty boxes are clipped into the union too; clipping keeps them empty
+    # and leaves every non-empty box unchanged.
+    marks = ints - np.array([[ux0], [uy0 - w - 1]])
+    if not all_nonempty:
+        np.maximum(marks, np.array([[0], [w + 1]]), out=marks)
+        np.minimum(marks, np.array([[w], [w + 1 + h]]), out=marks)
+    if method == "dense":
+        return _dense_union(crop, marks, w, slot_of_bin, n_slots)
+    # Distinct corner coordinates: marks on [0, w] then on [0, h] (offset w + 1) and
+    # their running count ``run``: ``run[x] - 1`` is the cell column of pixel column
+    # x and the grid index of a corner coordinate x; rows likewise, less the x marks
+    # (``n_x``).
+    run = np.zeros(w + h + 2, dtype=np.intp)
+    run[marks] = 1
+    np.add.accumulate(run, out=run)
+    n_x = int(run[w])
+    nx, ny = n_x - 1, int(run[w + 1 + h]) - n_x - 1
     if method == "auto":
-        # measured (one thread): compressed ~ 3.5 ns per union pixel + ~0.6 ns per
-        # (slot, cell) + 60 µs; dense ~ (2 + 0.55 n_slots) ns per pixel + 0.4 ns per
-        # (slot, corner) + 15 µs
+        # cost model, ns, fitted to 280 timings (one thread; unions of 1k-65k pixels,
+        # 3-300 boxes, 4-86 slots): compressed 60 µs + 0.76 per union pixel + 1.56
+        # per (slot, cell) + 7.5 per (slot, box); dense 71 µs + (3 + 0.29 n_slots)
+        # per pixel + 2.7 per (slot, box)
         pixels = h * w
-        compressed = 3.5 * pixels + 0.6 * n_slots * nx * ny + 60e3
-        dense = (2.0 + 0.55 * n_slots) * pixels + 1.6 * n_slots * n + 15e3
+        compressed = 60e3 + 0.76 * pixels + n_slots * (1.56 * nx * ny + 7.5 * n)
+        dense = 71e3 + (3.0 + 0.29 * n_slots) * pixels + 2.7 * n_slots * n
         if compressed >= _COMPRESS_BIAS * dense:
-            return _dense_counts(crop, xa, xb, ya, yb, slot_of_bin, n_slots)
+            return _dense_union(crop, marks, w, slot_of_bin, n_slots)
+    grid = np.take(run, marks)          # [[ix0 + 1, iy0 + n_x + 1], [ix1 + 1, iy1 + ...]]
+    col_cell = run[:w] - 1
+    row_cell = run[w + 1:w + 1 + h] - (n_x + 1)
     if slot8 is None:
         slot8 = _slot_lut8(slot_of_bin, n_slots)
     if slot8 is None or nx > 256 or ny > 256:
-        return _compressed_counts_bincount(crop, xs, ys, cx, cy, nx, ny, slot_of_bin,
-                                           n_slots)
-    return _compressed_counts(crop, xs, ys, cx, cy, nx, ny, slot8, n_slots)
-
-
-def _corner_gather(integ: np.ndarray, xs, ys, cx, cy, nx: int, ny: int,
-                   n_slots: int) -> np.ndarray:
-    """Box counts ``(n_slots, N)`` from the integral ``(n_slots * ny + 1, nx + 1)``
-    of the cell counts of the slots stacked vertically (a rectangle sum inside one
-    slot's rows never reads another slot's rows, so stacking is exact)."""
-    n = len(xs) // 2
+        integ = _compressed_integral_bincount(crop, col_cell, row_cell, nx, ny,
+                                              slot_of_bin, n_slots)
+    else:
+        integ = _compressed_integral(crop, col_cell, row_cell, nx, ny, slot8, n_slots)
+    # corner (y_i, x_j) of slot s: integ[s * ny + iy_i, ix_j], flat index
+    # s * ny * w1 + iy_i * w1 + ix_j; the extra n_x + 1 and 1 of ``grid`` are taken
+    # off in the slot offsets
     w1 = nx + 1
-    gx = np.take(cx, xs).reshape(2, 1, n)                  # x0, x1 grid indices
-    gy = np.take(cy, ys).reshape(1, 2, n) * w1             # y0, y1 grid rows
-    corner = (gy + gx).reshape(1, 4, n)                    # (y0,x0) (y1,x0) (y0,x1) (y1,x1)
-    idx = corner + (np.arange(0, n_slots * ny * w1, ny * w1))[:, None, None]
-    t = np.take(integ.reshape(-1), idx)
-    c = t[:, 3] - t[:, 1]
-    c -= t[:, 2]
-    c += t[:, 0]
-    return c
+    corner = (grid[:, 1] * w1)[:, None, :] + grid[None, :, 0]       # (y_i, x_j, N)
+    step = ny * w1
+    first = -(n_x + 1) * w1 - 1
+    off = np.arange(first, first + n_slots * step, step)
+    t = np.take(integ.reshape(-1), corner.reshape(1, 4, n) + off[:, None, None])
+    return _CORNER_SIGNS @ t          # I(y1,x1) - I(y1,x0) - I(y0,x1) + I(y0,x0), exact
 
 
-def _compressed_counts(crop: np.ndarray, xs, ys, cx, cy, nx: int, ny: int,
-                       slot8: np.ndarray, n_slots: int) -> np.ndarray:
-    """Integral histogram on the grid of distinct corner coordinates, by ``cv2``.
+def _dense_union(crop: np.ndarray, marks: np.ndarray, w: int, slot_of_bin: np.ndarray,
+                 n_slots: int) -> np.ndarray:
+    """:func:`_dense_counts` of bounds given as ``marks`` (see :func:`_counts`)."""
+    ya, yb = marks[:, 1] - (w + 1)
+    return _dense_counts(crop, marks[0, 0], marks[1, 0], ya, yb, slot_of_bin, n_slots)
 
-    Cells lie between consecutive distinct ``x`` (and ``y``) corner coordinates
-    (``xs``, ``ys``: the boxes' ``x0`` then ``x1`` coordinates; ``cx``, ``cy``: cell
-    of every pixel column / row, at most 256 cells a side). Three uint8 images (slot
-    of the pixel's bin by ``cv2.LUT``, 255 for bins not counted; cell row; cell
-    column) go through one 3-D ``cv2.calcHist`` (slot, cell row, cell column), whose
-    float32 counts are exact integers; one ``cv2.integral`` in float64 over the slot
-    planes stacked vertically integrates them, and one gather reads the 4 corners of
-    every box and slot. About 25 numpy/cv2 calls whatever the number of boxes.
+
+_CORNER_SIGNS = np.array([1.0, -1.0, -1.0, 1.0])   # corners (y0,x0) (y0,x1) (y1,x0) (y1,x1)
+
+
+def _compressed_integral(crop: np.ndarray, col_cell, row_cell, nx: int, ny: int,
+                         slot8: np.ndarray, n_slots: int) -> np.ndarray:
+    """Integral ``(n_slots * ny + 1, nx + 1)`` float64 of the cell counts of every slot
+    on the grid of distinct corner coordinates, the slot planes stacked vertically
+    (a rectangle sum inside one slot's rows never reads another slot's rows).
+
+    Three uint8 images (slot of the pixel's bin by ``cv2.LUT``, 255 for bins not
+    counted; cell row; cell column, at most 256 cells a side) go through one 3-D
+    ``cv2.calcHist`` (slot, cell row, cell column), whose float32 counts are exact
+    integers, then one ``cv2.integral`` in float64.
     """
     h, w = crop.shape
-    ws = _SCRATCH
-    rowc = ws.get("cell-row", (h, w), np.uint8)
-    colc = ws.get("cell-col", (h, w), np.uint8)
-    rowc[...] = cy[:h, None].astype(np.uint8)              # values < 256
-    colc[...] = cx[:w].astype(np.uint8)
+    rows = np.empty((h, w), dtype=np.uint8)
+    cols = np.empty((h, w), dtype=np.uint8)
+    rows[...] = row_cell.astype(np.uint8)[:, None]
+    cols[...] = col_cell.astype(np.uint8)
     slot = (cv2.LUT(crop, slot8[:256]) if crop.dtype == np.uint8
             else np.take(slot8, crop))
-    hist = cv2.calcHist([slot, rowc, colc], [0, 1, 2], None, [n_slots, ny, nx],
+    hist = cv2.calcHist([slot, rows, cols], [0, 1, 2], None, [n_slots, ny, nx],
                         [0, n_slots, 0, ny, 0, nx])
-    integ = cv2.integral(hist.reshape(n_slots * ny, nx), sdepth=cv2.CV_64F)
-    return _corner_gather(integ, xs, ys, cx, cy, nx, ny, n_slots)
+    return cv2.integral(hist.reshape(n_slots * ny, nx), sdepth=cv2.CV_64F)
 
 
-def _compressed_counts_bincount(crop: np.ndarray, xs, ys, cx, cy, nx: int, ny: int,
-                                slot_of_bin: np.ndarray, n_slots: int) -> np.ndarray:
-    """:func:`_compressed_counts` for more than 255 slots or 256 cells a side: one
-    ``np.bincount`` per (slot, cell) key instead of ``cv2.calcHist``."""
+def _compressed_integral_bincount(crop: np.ndarray, col_cell, row_cell, nx: int,
+                                  ny: int, slot_of_bin: np.ndarray,
+                                  n_slots: int) -> np.ndarray:
+    """:func:`_compressed_integral` for more than 255 slots or 256 cells a side: one
+    ``np.bincount`` of (slot, cell) keys instead of ``cv2.calcHist``."""
     h, w = crop.shape
     plane = ny * nx
     key = np.take(slot_of_bin * plane, crop)            # dropped bins: plane n_slots
-    key += (cy[:h] * nx)[:, None]
-    key += cx[:w]
+    key += (row_cell * nx)[:, None]
+    key += col_cell
     cnt = np.bincount(key.reshape(-1), minlength=(n_slots + 1) * plane)
     cnt = cnt[:n_slots * plane].astype(np.float64)
-    integ = cv2.integral(cnt.reshape(n_slots * ny, nx), sdepth=cv2.CV_64F)
-    return _corner_gather(integ, xs, ys, cx, cy, nx, ny, n_slots)
+    return cv2.integral(cnt.reshape(n_slots * ny, nx), sdepth=cv2.CV_64F)
 
 
 def _dense_counts(crop: np.ndarray, xa, xb, ya, yb, slot_of_bin: np.ndarray,
@@ -623,11 +673,11 @@ def _histograms(bins: np.ndarray, n_bins: int, b: np.ndarray,
                 frame: _FrameBins | None = None) -> tuple[np.ndarray, np.ndarray]:
     """:func:`box_histograms` of validated boxes; with ``frame``, ``bins`` is
     ``frame.bins`` and the boxes' union is quantised first (and only it is read)."""
-    xa, xb, ya, yb, inside, in_frac = _pixel_bounds(b, *bins.shape)
-    union = _union(xa, xb, ya, yb)
+    ints, inside, in_frac = _bounds(b, *bins.shape)
+    union, all_nonempty = _union_of(ints, inside)
     if frame is not None and union is not None:
         frame.ensure(*union, margin=_ROI_MARGIN)
-    counts = _corner_counts(bins, xa, xb, ya, yb, np.arange(n_bins), n_bins, union=union)
+    counts = _counts(bins, ints, union, all_nonempty, np.arange(n_bins), n_bins)
     hist = counts.T.astype(np.float64)
     np.divide(hist, np.maximum(inside, 1)[:, None], out=hist)
     return hist, in_frac
@@ -656,12 +706,11 @@ def _rho_of_template(bins: np.ndarray, b: np.ndarray, t: _Template,
     """``bhattacharyya(hist, q) * in_frac`` of validated boxes, counting only the
     bins where ``q > 0`` (exact: the others add nothing to ``sum sqrt(p q)``); with
     ``frame``, only the boxes' union is quantised (``bins`` is ``frame.bins``)."""
-    xa, xb, ya, yb, inside, in_frac = _pixel_bounds(b, *bins.shape)
-    union = _union(xa, xb, ya, yb)
+    ints, inside, in_frac = _bounds(b, *bins.shape)
+    union, all_nonempty = _union_of(ints, inside)
     if frame is not None and union is not None:
         frame.ensure(*union, margin=_ROI_MARGIN)
-    counts = _corner_counts(bins, xa, xb, ya, yb, t.slot_of_bin, t.k, union=union,
-                            slot8=t.slot8)
+    counts = _counts(bins, ints, union, all_nonempty, t.slot_of_bin, t.k, slot8=t.slot8)
     if counts.dtype == np.float64:                  # a fresh array: in place
         root = np.sqrt(counts, out=counts)
     else:
@@ -691,20 +740,34 @@ class _FrameBins:
     :meth:`ensure` grows ``rect`` to cover a requested rectangle: a request inside it
     costs nothing; otherwise the bounding rectangle of both becomes the new ``rect``
     and only the strips it adds are quantised (up to four ``_quantize_bgr`` calls; one
-    call over the whole new rectangle when the old one is so small that re-quantising
-    it is cheaper than the extra calls). Quantisation is per pixel, so any region's
-    bins equal those of :func:`quantize_colour` of the whole frame, bit for bit.
-    ``pixels`` and ``regions`` count the pixels and calls quantised so far.
+    call over the whole new rectangle when re-quantising the old one is cheaper than
+    the extra calls, a call costing about ``_CALL_PIXELS`` pixels). Quantisation is
+    per pixel, so any region's bins equal those of :func:`quantize_colour` of the
+    whole frame, bit for bit.
+
+    ``requested`` (a list ``[x0, x1, y0, y1]``) is the bounding rectangle of every
+    request on this frame, margins included. A scorer hands the previous frame's list
+    to the next frame's object as ``hint``: the first request of the frame then
+    quantises, in one call, the bounding rectangle of the request and the hint (when
+    that is not much larger than both), so that factors which score different parts
+    of one object (the bands of a face) cost one quantisation call per frame, not one
+    per factor plus strips. ``pixels`` and ``regions`` count the pixels and calls
+    quantised so far.
     """
 
-    __slots__ = ("image", "canon", "bins", "rect", "pixels", "regions")
+    __slots__ = ("image", "canon", "bins", "rect", "requested", "hint", "pixels",
+                 "regions")
 
-    def __init__(self, image: Any, canon: tuple[str, int, int, int]):
+    def __init__(self, image: Any, canon: tuple[str, int, int, int],
+                 hint: list[int] | None = None):
         self.image = _check_image(image)
         self.canon = canon
         dtype = np.uint8 if _bin_count(canon) <= 256 else np.uint16
-        self.bins = np.empty(self.image.shape[:2], dtype=dtype)
+        height, width = self.image.shape[:2]
+        self.bins = np.empty((height, width), dtype=dtype)
         self.rect = (0, 0, 0, 0)
+        self.requested = [width, 0, height, 0]
+        self.hint = hint
         self.pixels = 0
         self.regions = 0
 
@@ -715,12 +778,19 @@ class _FrameBins:
         height, width = self.bins.shape
         x0, x1 = max(x0, 0), min(x1, width)
         y0, y1 = max(y0, 0), min(y1, height)
-        rx0, rx1, ry0, ry1 = self.rect
-        if x0 >= x1 or y0 >= y1 or (rx0 <= x0 and x1 <= rx1 and ry0 <= y0 and y1 <= ry1):
+        if x0 >= x1 or y0 >= y1:
             return self.bins
-        x0, x1 = max(x0 - margin, 0), min(x1 + margin, width)
-        y0, y1 = max(y0 - margin, 0), min(y1 + margin, height)
+        x0m, x1m = max(x0 - margin, 0), min(x1 + margin, width)
+        y0m, y1m = max(y0 - margin, 0), min(y1 + margin, height)
+        req = self.requested
+        req[:] = min(req[0], x0m), max(req[1], x1m), min(req[2], y0m), max(req[3], y1m)
+        rx0, rx1, ry0, ry1 = self.rect
+        if rx0 <= x0 and x1 <= rx1 and ry0 <= y0 and y1 <= ry1:
+            return self.bins
+        x0, x1, y0, y1 = x0m, x1m, y0m, y1m
         if rx0 >= rx1:                                   # nothing quantised yet
+            if self.hint is not None:
+                x0, x1, y0, y1 = self._with_hint(x0, x1, y0, y1)
             self._fill(x0, x1, y0, y1)
             self.rect = (x0, x1, y0, y1)
             return self.bins
@@ -735,6 +805,21 @@ class _FrameBins:
             self._fill(*s)
         self.rect = new
         return self.bins
+
+    def _with_hint(self, x0: int, x1: int, y0: int, y1: int) -> tuple[int, int, int, int]:
+        """The request grown to the hint's rectangle (clipped to the image) when their
+        bounding rectangle is at most 1.5 times their two areas together."""
+        height, width = self.bins.shape
+        hx0, hx1, hy0, hy1 = self.hint
+        self.hint = None
+        hx0, hx1, hy0, hy1 = max(hx0, 0), min(hx1, width), max(hy0, 0), min(hy1, height)
+        if hx0 >= hx1 or hy0 >= hy1:
+            return x0, x1, y0, y1
+        bx0, bx1, by0, by1 = min(x0, hx0), max(x1, hx1), min(y0, hy0), max(y1, hy1)
+        if (bx1 - bx0) * (by1 - by0) > 1.5 * ((x1 - x0) * (y1 - y0)
+                                              + (hx1 - hx0) * (hy1 - hy0)):
+            return x0, x1, y0, y1
+        return bx0, bx1, by0, by1
 
     def full(self) -> np.ndarray:
         """``bins`` with the whole frame quantised."""
@@ -885,6 +970,7 @@ class ColourHistogramScorer:
         self.grid = _check_count("grid", grid, 4096)
         self.q: np.ndarray | None = None if q is None else self._check_q(q)
         self._templates: dict[tuple, _Template] = {}
+        self._requested: list[int] | None = None   # see _FrameBins (hint)
 
     # parameters ----------------------------------------------------------------------
     @property
@@ -919,7 +1005,10 @@ class ColourHistogramScorer:
         ctx = self._ctx(image_or_ctx)
         if ctx.image is None:
             raise InputError(f"frame {ctx.index} has no image")
-        return ctx.cached(self.cache_key, lambda: _FrameBins(ctx.image, self._canon))
+        frame = ctx.cached(self.cache_key,
+                           lambda: _FrameBins(ctx.image, self._canon, self._requested))
+        self._requested = frame.requested        # this frame's requests: next one's hint
+        return frame
 
     def bins(self, image_or_ctx: Any) -> np.ndarray:
         """The frame's whole bin image, quantised once per frame (cached in the

@@ -1,0 +1,137 @@
+"""The track layer on top of PHD state extraction (SPEC §3a).
+
+Raw per-frame extraction cannot report targets missed in a frame and has no
+identities, so a track layer is required: extracted estimates are assigned to tracks
+by the Hungarian algorithm within a gate (Mahalanobis-like distance in measurement
+units of σ), a track is *confirmed* after ``confirm_hits`` hits, may *coast* (predicted
+by the dynamics) for ``max_coast`` frames without a hit, and carries an *existence
+score* — a log-odds of hit/miss evidence mapped to [0, 1] — that drops when its
+target is lost. Identities are given at confirmation, so tentative tracks burn none.
+Box sizes (for output) are an exponential average of the sizes of the detections
+that produced the track's estimates.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+__all__ = ["Track", "TrackManager"]
+
+
+@dataclass
+class Track:
+    """One track: state, hit/miss history, existence log-odds, identity once confirmed."""
+
+    state: np.ndarray
+    hits: int = 1
+    misses: int = 0
+    age: int = 1
+    log_odds: float = 0.0
+    track_id: int | None = None
+    size: np.ndarray | None = None
+    history: list = field(default_factory=list)
+
+    @property
+    def existence(self) -> float:
+        """Existence score in [0, 1]."""
+        return float(1.0 / (1.0 + np.exp(-self.log_odds)))
+
+
+class TrackManager:
+    """Assigns extracted estimates to tracks and manages their life cycle.
+
+    Parameters
+    ----------
+    F : ndarray (d, d)
+        Dynamics used to predict coasting tracks and gate the assignment.
+    H : ndarray (k, d)
+        Measurement matrix (the gate compares ``H x`` in measurement space).
+    sigma : ndarray (k,)
+        Measurement noise std used to scale the gate.
+    gate : float
+        Assignment gate in units of σ (default 5).
+    confirm_hits : int
+        Hits before a track is confirmed and reported (default 3).
+    max_coast : int
+        Frames a confirmed track is reported without a hit (default 2).
+    hit_log_odds, miss_log_odds : float
+        Existence evidence per hit (added) and per miss (subtracted).
+    size_smoothing : float
+        Weight of the newest detection size in the size average.
+    """
+
+    def __init__(self, F: np.ndarray, H: np.ndarray, sigma: np.ndarray, *, gate: float = 5.0,
+                 confirm_hits: int = 3, max_coast: int = 2, hit_log_odds: float = 1.0,
+                 miss_log_odds: float = 1.5, size_smoothing: float = 0.3):
+        self.F = np.asarray(F, dtype=float)
+        self.H = np.asarray(H, dtype=float)
+        self.sigma = np.asarray(sigma, dtype=float)
+        self.gate = float(gate)
+        self.confirm_hits = int(confirm_hits)
+        self.max_coast = int(max_coast)
+        self.hit_log_odds = float(hit_log_odds)
+        self.miss_log_odds = float(miss_log_odds)
+        self.size_smoothing = float(size_smoothing)
+        self.tracks: list[Track] = []
+        self._next_id = 1
+
+    def update(self, states: np.ndarray, sizes: np.ndarray | None = None,
+               sigma: np.ndarray | None = None) -> list[Track]:
+        """Feed this frame's extracted states ``(K, d)``; return the tracks to report.
+
+        ``sizes`` ``(K, 2)`` (or NaN rows) are the sizes of the detections behind the
+        estimates; ``sigma`` overrides the gate's noise std (e.g. the VB estimate).
+        """
+        states = np.asarray(states, dtype=float).reshape(-1, self.F.shape[0])
+        sig = self.sigma if sigma is None else np.asarray(sigma, dtype=float)
+        for t in self.tracks:
+            t.state = self.F @ t.state
+            t.age += 1
+        matched_t, matched_e = np.zeros(0, int), np.zeros(0, int)
+        if self.tracks and len(states):
+            pred = np.array([self.H @ t.state for t in self.tracks])
+            meas = states @ self.H.T
+            d = np.sqrt((((pred[:, None, :] - meas[None, :, :]) / sig) ** 2).sum(-1))
+            cost = np.where(d <= self.gate, d, 1e6)
+            rows, cols = linear_sum_assignment(cost)
+            ok = cost[rows, cols] < 1e6
+            matched_t, matched_e = rows[ok], cols[ok]
+        hit = set(matched_t.tolist())
+        for ti, ei in zip(matched_t, matched_e, strict=True):
+            t = self.tracks[ti]
+            t.state = states[ei].copy()
+            t.hits += 1
+            t.misses = 0
+            t.log_odds = min(t.log_odds + self.hit_log_odds, 10.0)
+            self._update_size(t, None if sizes is None else sizes[ei])
+        for ti, t in enumerate(self.tracks):
+            if ti not in hit:
+                t.misses += 1
+                t.log_odds = max(t.log_odds - self.miss_log_odds, -10.0)
+        used = set(matched_e.tolist())
+        for ei in range(len(states)):
+            if ei not in used:
+                t = Track(states[ei].copy())
+                self._update_size(t, None if sizes is None else sizes[ei])
+                self.tracks.append(t)
+        # drop lost tracks: tentative ones at the first miss, confirmed ones after coasting
+        self.tracks = [t for t in self.tracks
+                       if (t.misses == 0 or (t.track_id is not None
+                                             and t.misses <= self.max_coast))]
+        for t in self.tracks:
+            if t.track_id is None and t.hits >= self.confirm_hits:
+                t.track_id = self._next_id
+                self._next_id += 1
+        return [t for t in self.tracks if t.track_id is not None]
+
+    def _update_size(self, t: Track, size) -> None:
+        if size is None:
+            return
+        size = np.asarray(size, dtype=float)
+        if not np.all(np.isfinite(size)):
+            return
+        t.size = size.copy() if t.size is None else (
+            (1 - self.size_smoothing) * t.size + self.size_smoothing * size)

@@ -1,0 +1,549 @@
+"""Per-frame detections: the measurements a multi-target filter consumes, streamed.
+
+A :class:`DetectionSource` is called once per frame, in frame order, with
+``(frame_number, image)`` as yielded by :meth:`pgm.io.video.FrameSource.frames` and
+returns a :class:`Detections`: top-left ``(x, y, w, h)`` boxes in the toolkit's 0-based
+pixel coordinates and one score per box. Two sources are provided:
+
+:class:`PublicDetections`
+    The MOTChallenge public detections of a sequence (``det/det.txt``), looked up per
+    frame in O(1); the image is ignored. Scores are in the file's own units.
+:class:`MOG2Detector`
+    Background subtraction (OpenCV MOG2) for a static camera: foreground mask, shadows
+    removed, morphological clean-up, one box per connected component of plausible size
+    and shape. Stateful: it must see the frames in order.
+
+:func:`make_detector` builds either from a short spec string (``"public"``,
+``"public:40"``, ``"mog2"``).
+
+Score ranges of the shared sequences' ``det/det.txt``
+-----------------------------------------------------
+The MOT15 public detections (ACF) carry a raw detector confidence, **not** a probability
+in ``[0, 1]``:
+
+=====================  ======  ==================  ===========================
+sequence               rows    min .. max          5 / 50 / 95 % quantiles
+=====================  ======  ==================  ===========================
+PETS09-S2L1-video      5578    -0.48 .. 138.9      10.1 / 67.0 / 104.4
+PETS09-S2L1 (240 fr.)  1730    -0.48 .. 138.9      10.0 / 62.4 / 101.5
+TUD-Campus             322     0.09 .. 117.9       7.1 / 37.2 / 78.7
+TUD-Stadtmitte         1129    -0.15 .. 122.4      9.7 / 55.1 / 102.3
+=====================  ======  ==================  ===========================
+
+so a ``min_score`` is given in those units (e.g. ``"public:30"``); see
+``benchmarks/detections.py`` for precision/recall on PETS09-S2L1 at several thresholds.
+
+Known limitation of blob detection
+----------------------------------
+People walking close together form one connected foreground blob and are reported as
+one (wide) box; a person split by an occluder (PETS's lamp post) or by a background-
+coloured garment may give two. ``benchmarks/detections.py`` measures how often this
+happens on PETS09-S2L1 (the ``merged`` column).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from .boxes import iou_xywh
+from .errors import InputError
+from .io.annotations import MotTable, load_mot
+
+__all__ = [
+    "Detections",
+    "DetectionSource",
+    "PublicDetections",
+    "MOG2Detector",
+    "make_detector",
+    "DETECTOR_SPECS",
+    "MatchCounts",
+    "match_detections",
+]
+
+DETECTOR_SPECS: tuple[str, ...] = ("public", "public:<min_score>", "mog2")
+"""The spec strings :func:`make_detector` accepts."""
+
+
+# --------------------------------------------------------------------------- container
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    """``a`` made read-only; a writeable array is copied first (the caller keeps its own)."""
+    if a.flags.writeable:
+        a = a.copy()
+        a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Detections:
+    """The detections of one frame.
+
+    Attributes
+    ----------
+    boxes : ndarray of float, shape (M, 4)
+        Top-left ``(x, y, w, h)`` in 0-based pixel coordinates, ``w, h > 0``
+        (read-only). ``M`` may be 0: the shape is then ``(0, 4)``.
+    scores : ndarray of float, shape (M,)
+        One score per box, in the source's own units (see the module docstring).
+    """
+
+    boxes: np.ndarray
+    scores: np.ndarray
+
+    def __post_init__(self) -> None:
+        boxes = np.asarray(self.boxes, dtype=float).reshape(-1, 4)
+        scores = np.asarray(self.scores, dtype=float).reshape(-1)
+        if scores.shape[0] != boxes.shape[0]:
+            raise ValueError(f"{boxes.shape[0]} boxes but {scores.shape[0]} scores")
+        object.__setattr__(self, "boxes", _readonly(boxes))
+        object.__setattr__(self, "scores", _readonly(scores))
+
+    @classmethod
+    def empty(cls) -> Detections:
+        """No detection: ``boxes`` of shape ``(0, 4)``, ``scores`` of shape ``(0,)``."""
+        return cls(np.zeros((0, 4)), np.zeros(0))
+
+    def __len__(self) -> int:
+        return int(self.boxes.shape[0])
+
+    @property
+    def foot_points(self) -> np.ndarray:
+        """Bottom-centre points ``(x + w/2, y + h)``, shape ``(M, 2)``: where a
+        pedestrian touches the ground, the usual point measurement."""
+        b = self.boxes
+        return np.stack([b[:, 0] + b[:, 2] / 2.0, b[:, 1] + b[:, 3]], axis=1)
+
+    @property
+    def centres(self) -> np.ndarray:
+        """Box centres ``(x + w/2, y + h/2)``, shape ``(M, 2)``."""
+        b = self.boxes
+        return b[:, :2] + b[:, 2:4] / 2.0
+
+    def select(self, keep: Any) -> Detections:
+        """The detections picked by a boolean mask or an index array."""
+        return Detections(self.boxes[keep], self.scores[keep])
+
+    def __repr__(self) -> str:
+        return f"Detections(M={len(self)})"
+
+
+# --------------------------------------------------------------------------- sources
+
+
+class DetectionSource:
+    """Something that turns one frame into :class:`Detections`.
+
+    Call it once per frame, in frame order: ``dets = source(frame_number, image)``.
+    ``frame_number`` is 1-based (as yielded by :meth:`pgm.io.video.FrameSource.frames`);
+    file-based sources ignore ``image`` (``None`` is accepted), image-based ones need it.
+
+    Attributes
+    ----------
+    name : str
+        Short description, e.g. ``'public'``, ``'public:30'``, ``'mog2'``.
+    """
+
+    name: str = "detections"
+
+    def __call__(self, frame_number: int, image: np.ndarray | None) -> Detections:
+        raise NotImplementedError
+
+    def reset(self) -> None:
+        """Forget any state carried between frames (a no-op for stateless sources)."""
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(name={self.name!r})"
+
+
+def _check_score(min_score: Any, where: str) -> float | None:
+    if min_score is None:
+        return None
+    try:
+        value = float(min_score)
+    except (TypeError, ValueError):
+        raise InputError(f"min_score must be a number (got {min_score!r}) for {where}") from None
+    if not math.isfinite(value):
+        raise InputError(f"min_score must be finite (got {min_score!r}) for {where}")
+    return value
+
+
+class PublicDetections(DetectionSource):
+    """MOTChallenge public detections (``det/det.txt``), looked up per frame.
+
+    Parameters
+    ----------
+    path_or_table : str, Path or MotTable
+        A ``det.txt`` file (read with ``load_mot(kind='det')``) or an already loaded
+        table.
+    min_score : float, optional
+        Keep only rows with score ``>= min_score``, **in the file's own units** (MOT15
+        scores run from about 0 to 140, not 0 to 1; see the module docstring).
+
+    Raises
+    ------
+    InputError
+        A missing or malformed file (the message names the file and line), or a
+        ``min_score`` that is not a finite number.
+
+    Notes
+    -----
+    The image is ignored; frames without a row give an empty :class:`Detections`.
+    Each call is O(1) (a slice of the frame-sorted table). Frames may be requested in
+    any order.
+    """
+
+    def __init__(self, path_or_table: str | Path | MotTable, min_score: float | None = None
+                 ) -> None:
+        if isinstance(path_or_table, MotTable):
+            self.path: Path | None = None
+            where = "the detection table"
+            min_score = _check_score(min_score, where)
+            table = path_or_table
+            if min_score is not None:
+                keep = table.conf >= min_score
+                table = MotTable(frames=table.frames[keep], ids=table.ids[keep],
+                                 boxes=table.boxes[keep], conf=table.conf[keep])
+        else:
+            self.path = Path(path_or_table)
+            min_score = _check_score(min_score, str(self.path))
+            table = load_mot(self.path, kind="det", min_score=min_score)
+        self.table: MotTable = table
+        self.min_score: float | None = min_score
+        self.name = "public" if min_score is None else f"public:{min_score:g}"
+
+    def __call__(self, frame_number: int, image: np.ndarray | None = None) -> Detections:
+        _, boxes, conf = self.table.at(int(frame_number))
+        return Detections(boxes, conf)
+
+    @property
+    def score_range(self) -> tuple[float, float] | None:
+        """``(min, max)`` score of the kept rows, or None when there is none."""
+        if len(self.table) == 0:
+            return None
+        return float(self.table.conf.min()), float(self.table.conf.max())
+
+
+def _odd_kernel(size: Any, what: str) -> np.ndarray | None:
+    """A rectangular structuring element from ``k`` or ``(kw, kh)``; 0 means none."""
+    if size is None:
+        return None
+    if isinstance(size, (int, np.integer)):
+        kw = kh = int(size)
+    else:
+        try:
+            kw, kh = (int(v) for v in size)
+        except (TypeError, ValueError):
+            raise InputError(f"{what} must be an int or a (width, height) pair"
+                             f" (got {size!r})") from None
+    if kw < 0 or kh < 0:
+        raise InputError(f"{what} must be >= 0 (got {size!r})")
+    if kw <= 1 and kh <= 1:
+        return None
+    return cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (max(kw, 1), max(kh, 1)))
+
+
+class MOG2Detector(DetectionSource):
+    """Moving-blob detections from OpenCV's MOG2 background subtractor.
+
+    Per frame: ``createBackgroundSubtractorMOG2(history, var_threshold,
+    detect_shadows).apply(image, learningRate=learning_rate)``; the mask is thresholded
+    at 255 (foreground; shadow pixels are 127 and dropped); an optional Gaussian blur of
+    the image before subtraction (``blur``) damps compression noise; an opening
+    (``open_size``) removes speckle, a closing (``close_size``, taller than wide) joins a
+    person's head, torso and legs; ``cv2.connectedComponentsWithStats`` (8-connected)
+    gives one box per blob. A blob is kept when its pixel area is ``>= min_area``, its
+    box height ``>= min_height`` and its height/width ratio within
+    ``[min_aspect, max_aspect]``.
+
+    Parameters
+    ----------
+    history, var_threshold, detect_shadows
+        MOG2's own parameters (OpenCV defaults: 500, 16, True).
+    min_area : float
+        Minimum foreground pixels in a blob (PETS09-S2L1 people: about 800-2000).
+    min_height : float
+        Minimum box height in pixels.
+    min_aspect, max_aspect : float
+        Accepted range of box height / width (a walking person: about 1.5-4).
+    open_size, close_size : int or (width, height)
+        Elliptic structuring elements of the opening and the closing; 0 or 1 skips.
+    blur : int
+        Odd Gaussian kernel size applied to the image first; 0 skips.
+    learning_rate : float
+        Passed to ``apply``; -1 lets MOG2 choose ``1 / min(frames seen, history)``.
+    warmup : int
+        The first ``warmup`` frames only train the model and return no detection.
+
+    Notes
+    -----
+    *Score*: the blob's **fill ratio**, foreground pixels / box area, in ``(0, 1]``. A
+    single upright person fills about 0.5-0.8 of the box; a merged group or a ragged
+    noise blob fills less. It is a shape cue, not a calibrated probability.
+
+    *State*: the background model is updated on every call, so call the detector once
+    per frame in increasing frame order (gaps are allowed: the model just sees fewer
+    frames). A frame number that does not increase, or an image of another size, raises
+    :class:`InputError`; :meth:`reset` starts afresh. Given the same frames in the same
+    order the output is deterministic.
+
+    The defaults were chosen on the first 200 frames of PETS09-S2L1 (``vtest.avi``,
+    768x576, people about 30x80 px); see ``benchmarks/detections.py``.
+    """
+
+    def __init__(self, history: int = 500, var_threshold: float = 16.0,
+                 detect_shadows: bool = True, *, min_area: float = 400.0,
+                 min_height: float = 40.0, min_aspect: float = 1.0, max_aspect: float = 5.0,
+                 open_size: Any = 3, close_size: Any = (3, 9), blur: int = 0,
+                 background_ratio: float = 0.7, learning_rate: float = -1.0,
+                 warmup: int = 0) -> None:
+        def number(value: Any, what: str, lo: float, *, strict: bool = False) -> float:
+            try:
+                v = float(value)
+            except (TypeError, ValueError):
+                raise InputError(f"MOG2Detector: {what} must be a number (got {value!r})"
+                                 ) from None
+            if not math.isfinite(v) or v < lo or (strict and v == lo):
+                op = ">" if strict else ">="
+                raise InputError(f"MOG2Detector: {what} must be finite and {op} {lo:g}"
+                                 f" (got {value!r})")
+            return v
+
+        self.history = int(number(history, "history", 1))
+        self.var_threshold = number(var_threshold, "var_threshold", 0, strict=True)
+        self.detect_shadows = bool(detect_shadows)
+        self.min_area = number(min_area, "min_area", 0)
+        self.min_height = number(min_height, "min_height", 0)
+        self.min_aspect = number(min_aspect, "min_aspect", 0)
+        self.max_aspect = number(max_aspect, "max_aspect", 0, strict=True)
+        if self.max_aspect < self.min_aspect:
+            raise InputError(f"MOG2Detector: max_aspect ({max_aspect!r}) is below min_aspect"
+                             f" ({min_aspect!r})")
+        self.open_size, self.close_size = open_size, close_size
+        self._open = _odd_kernel(open_size, "MOG2Detector: open_size")
+        self._close = _odd_kernel(close_size, "MOG2Detector: close_size")
+        self.blur = int(number(blur, "blur", 0))
+        if self.blur > 1 and self.blur % 2 == 0:
+            raise InputError(f"MOG2Detector: blur must be 0 or an odd size (got {blur!r})")
+        lr = number(learning_rate, "learning_rate", -math.inf)
+        if not (lr < 0 or lr <= 1):
+            raise InputError(f"MOG2Detector: learning_rate must be negative (automatic) or"
+                             f" in [0, 1] (got {learning_rate!r})")
+        self.learning_rate = lr
+        self.warmup = int(number(warmup, "warmup", 0))
+        self.background_ratio = number(background_ratio, "background_ratio", 0, strict=True)
+        if self.background_ratio > 1:
+            raise InputError(f"MOG2Detector: background_ratio must be in (0, 1] (got"
+                             f" {background_ratio!r})")
+        self.name = "mog2"
+        self.reset()
+
+    def reset(self) -> None:
+        """Drop the background model; the next call starts a new one."""
+        self._mog = cv2.createBackgroundSubtractorMOG2(self.history, self.var_threshold,
+                                                       self.detect_shadows)
+        self._mog.setBackgroundRatio(self.background_ratio)
+        self._last_frame: int | None = None
+        self._shape: tuple[int, ...] | None = None
+        self._seen = 0
+        self.mask: np.ndarray | None = None
+        """The cleaned foreground mask (uint8 0/255) of the last frame, for display."""
+
+    def __call__(self, frame_number: int, image: np.ndarray | None) -> Detections:
+        frame_number = int(frame_number)
+        if image is None:
+            raise InputError("MOG2Detector needs the image of every frame (got None)")
+        image = np.asarray(image)
+        if image.ndim not in (2, 3) or image.dtype != np.uint8:
+            raise InputError(f"MOG2Detector: expected a uint8 image (H, W[, 3]), got"
+                             f" {image.dtype} {image.shape}")
+        if self._last_frame is not None and frame_number <= self._last_frame:
+            raise InputError(f"MOG2Detector is stateful: frame {frame_number} after frame"
+                             f" {self._last_frame}; call frames in increasing order or"
+                             " reset() first")
+        if self._shape is not None and image.shape != self._shape:
+            raise InputError(f"MOG2Detector: frame {frame_number} has shape {image.shape},"
+                             f" earlier frames {self._shape}; reset() for a new video")
+        self._last_frame, self._shape = frame_number, image.shape
+        self._seen += 1
+        src = cv2.GaussianBlur(image, (self.blur, self.blur), 0) if self.blur > 1 else image
+        raw = self._mog.apply(src, learningRate=self.learning_rate)
+        if self._seen <= self.warmup:
+            self.mask = None
+            return Detections.empty()
+        mask = cv2.threshold(raw, 254, 255, cv2.THRESH_BINARY)[1]  # 255 fg, 127 shadow
+        if self._open is not None:
+            mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, self._open)
+        if self._close is not None:
+            mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, self._close)
+        self.mask = mask
+        return self._blobs(mask)
+
+    def _blobs(self, mask: np.ndarray) -> Detections:
+        n, _, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        st = stats[1:n].astype(float)  # label 0 is the background
+        x, y, w, h, area = st[:, 0], st[:, 1], st[:, 2], st[:, 3], st[:, 4]
+        aspect = h / w
+        keep = ((area >= self.min_area) & (h >= self.min_height)
+                & (aspect >= self.min_aspect) & (aspect <= self.max_aspect))
+        boxes = np.stack([x, y, w, h], axis=1)[keep]
+        scores = (area / (w * h))[keep]
+        return Detections(boxes, scores)
+
+
+# --------------------------------------------------------------------------- factory
+
+
+def make_detector(spec: str, source: Any = None) -> DetectionSource:
+    """Build a :class:`DetectionSource` from a spec string.
+
+    Parameters
+    ----------
+    spec : str
+        ``'public'`` — the source's ``det/det.txt`` (:class:`PublicDetections`);
+        ``'public:<min_score>'`` — the same, keeping scores ``>= min_score`` (file
+        units, e.g. ``'public:30'`` for MOT15); ``'mog2'`` — :class:`MOG2Detector` with
+        its defaults.
+    source : FrameSource, optional
+        The sequence; needed for ``'public'`` (its ``det_path``).
+
+    Raises
+    ------
+    InputError
+        An unknown spec (the message lists the choices), a bad ``min_score``, a source
+        without public detections, or a missing/malformed ``det.txt``.
+    """
+    text = str(spec).strip()
+    kind, sep, arg = text.partition(":")
+    kind = kind.strip().lower()
+    choices = ", ".join(repr(s) for s in DETECTOR_SPECS)
+    if kind == "public":
+        min_score = None
+        if sep:
+            try:
+                min_score = float(arg)
+            except ValueError:
+                min_score = math.nan
+            if not math.isfinite(min_score):
+                raise InputError(f"bad detector spec {spec!r}: min_score {arg.strip()!r} is"
+                                 f" not a finite number (choices: {choices})")
+        det_path = getattr(source, "det_path", None)
+        if det_path is None:
+            name = getattr(source, "name", None) or getattr(source, "path", None) or source
+            raise InputError(f"detector {text!r}: source {name} has no public detections"
+                             " (det/det.txt); use 'mog2'")
+        return PublicDetections(det_path, min_score=min_score)
+    if kind == "mog2" and not sep:
+        return MOG2Detector()
+    raise InputError(f"unknown detector {spec!r} (choices: {choices})")
+
+
+# --------------------------------------------------------------------------- evaluation
+
+
+@dataclass(frozen=True)
+class MatchCounts:
+    """Detection-vs-ground-truth counts of one or more frames.
+
+    ``tp`` matched detections, ``fp`` unmatched detections (those passing the match
+    test against an ignored ground-truth box excluded), ``fn`` unmatched ground-truth
+    boxes; ``merged`` detections that each cover (hold at least half the box of) two or
+    more ground-truth people and overlap (IoU) the union box of those people more than
+    any one of them — one box for a group — and ``people_in_merged`` the people so
+    covered; ``n_det`` and
+    ``n_gt`` all detections and all (not ignored) ground-truth boxes.
+    """
+
+    tp: int = 0
+    fp: int = 0
+    fn: int = 0
+    merged: int = 0
+    people_in_merged: int = 0
+    n_det: int = 0
+    n_gt: int = 0
+
+    def __add__(self, other: MatchCounts) -> MatchCounts:
+        return MatchCounts(*(getattr(self, f) + getattr(other, f)
+                             for f in ("tp", "fp", "fn", "merged", "people_in_merged",
+                                       "n_det", "n_gt")))
+
+    @property
+    def precision(self) -> float:
+        return self.tp / (self.tp + self.fp) if self.tp + self.fp else math.nan
+
+    @property
+    def recall(self) -> float:
+        return self.tp / (self.tp + self.fn) if self.tp + self.fn else math.nan
+
+
+def _foot(b: np.ndarray) -> np.ndarray:
+    return np.stack([b[:, 0] + b[:, 2] / 2.0, b[:, 1] + b[:, 3]], axis=1)
+
+
+def match_detections(dets: Detections, gt_boxes: np.ndarray, ignore_boxes: np.ndarray | None
+                     = None, *, criterion: str = "iou", iou_min: float = 0.3,
+                     foot_px: float = 20.0) -> MatchCounts:
+    """One-to-one matching of one frame's detections to its ground truth.
+
+    ``criterion='iou'`` pairs a detection and a ground-truth box when their IoU is
+    ``>= iou_min``; ``'foot'`` when their foot points are within ``foot_px`` pixels.
+    The assignment maximises the number of pairs (then the total IoU / minimises the
+    total distance) with :func:`scipy.optimize.linear_sum_assignment`. Unmatched
+    detections that pass the same test against an ignored (MOT flag 0) box are not
+    counted as false positives.
+    """
+    gt = np.asarray(gt_boxes, dtype=float).reshape(-1, 4)
+    ign = (np.zeros((0, 4)) if ignore_boxes is None
+           else np.asarray(ignore_boxes, dtype=float).reshape(-1, 4))
+    d = dets.boxes
+    if criterion == "iou":
+        def affinity(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            s = iou_xywh(a[:, None, :], b[None, :, :])
+            return s >= iou_min, s
+    elif criterion == "foot":
+        def affinity(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            dist = np.linalg.norm(_foot(a)[:, None, :] - _foot(b)[None, :, :], axis=-1)
+            return dist <= foot_px, -dist / (foot_px + 1.0)
+    else:
+        raise InputError(f"criterion must be 'iou' or 'foot' (got {criterion!r})")
+    tp = 0
+    matched = np.zeros(len(d), dtype=bool)
+    if len(d) and len(gt):
+        ok, s = affinity(d, gt)
+        # a valid pair is worth 1 + a tie-breaker in [0, 1); invalid pairs are worth 0
+        gain = np.where(ok, 2.0 + s, 0.0)
+        r, c = linear_sum_assignment(gain, maximize=True)
+        good = ok[r, c]
+        tp = int(good.sum())
+        matched[r[good]] = True
+    unmatched = ~matched
+    if np.any(unmatched) and len(ign):
+        ok_ign, _ = affinity(d[unmatched], ign)
+        unmatched[np.flatnonzero(unmatched)[ok_ign.any(axis=1)]] = False
+    merged = people_in_merged = 0
+    if len(d) and len(gt):
+        # a detection "covers" a person when it holds at least half of the person's box
+        a, b = d[:, None, :], gt[None, :, :]
+        iw = np.clip(np.minimum(a[..., 0] + a[..., 2], b[..., 0] + b[..., 2])
+                     - np.maximum(a[..., 0], b[..., 0]), 0, None)
+        ih = np.clip(np.minimum(a[..., 1] + a[..., 3], b[..., 1] + b[..., 3])
+                     - np.maximum(a[..., 1], b[..., 1]), 0, None)
+        covers = iw * ih >= 0.5 * b[..., 2] * b[..., 3]
+        group = covers.sum(axis=1) >= 2
+        for i in np.flatnonzero(group):  # fits the group's union box better than anyone?
+            people = gt[covers[i]]
+            lo = people[:, :2].min(axis=0)
+            hi = (people[:, :2] + people[:, 2:]).max(axis=0)
+            union = np.concatenate([lo, hi - lo])
+            group[i] = iou_xywh(d[i], union) > iou_xywh(d[i], people).max()
+        merged = int(np.count_nonzero(group))
+        people_in_merged = int(np.count_nonzero(covers[group].any(axis=0)))
+    return MatchCounts(tp=tp, fp=int(unmatched.sum()), fn=len(gt) - tp, merged=merged,
+                       people_in_merged=people_in_merged, n_det=len(d), n_gt=len(gt))

@@ -1,0 +1,157 @@
+r"""Exponential-family beliefs for mean-field variational Bayes.
+
+* :class:`InverseGamma` — a product of independent inverse-Gamma factors
+  ``IG(σ²_i | α_i, β_i)``, the belief of a diagonal measurement-noise variable
+  (role ``noise``). Natural parameters ``(−α − 1, −β)`` for the sufficient statistics
+  ``(log σ², 1/σ²)``; the expectations a VB update needs are
+  ``E[1/σ²] = α/β`` and ``E[log σ²] = log β − ψ(α)``.
+* :class:`Gaussian` — ``N(mean, cov)``, the belief of a linear-Gaussian state (the
+  Kalman / VB adaptive Kalman filter), with information-form natural parameters
+  ``(J, h) = (Σ⁻¹, Σ⁻¹ μ)``.
+
+Beliefs are immutable values; updates return new objects.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import digamma, gammaln
+
+from .numerics import check_finite_param
+
+__all__ = ["InverseGamma", "Gaussian"]
+
+
+@dataclass(frozen=True)
+class InverseGamma:
+    """Independent ``IG(σ²_i | α_i, β_i)``, ``i = 1..d``.
+
+    Parameters
+    ----------
+    alpha, beta : ndarray, shape (d,)
+        Shape and scale, both positive.
+    """
+
+    alpha: np.ndarray
+    beta: np.ndarray
+
+    def __post_init__(self) -> None:
+        a = np.atleast_1d(np.asarray(self.alpha, dtype=float))
+        b = np.atleast_1d(np.asarray(self.beta, dtype=float))
+        if a.shape != b.shape or a.ndim != 1:
+            raise ValueError(f"alpha {a.shape} and beta {b.shape} must be equal 1-D shapes")
+        check_finite_param("alpha", a, positive=True)
+        check_finite_param("beta", b, positive=True)
+        object.__setattr__(self, "alpha", a)
+        object.__setattr__(self, "beta", b)
+
+    @classmethod
+    def from_sigma(cls, sigma, alpha: float = 10.0) -> InverseGamma:
+        """A belief with ``β/α = σ²`` (the plug-in variance) and shape ``alpha``."""
+        s = np.atleast_1d(np.asarray(sigma, dtype=float))
+        check_finite_param("sigma", s, positive=True)
+        a = np.full(s.shape, float(alpha))
+        return cls(a, a * s**2)
+
+    @property
+    def dim(self) -> int:
+        return self.alpha.size
+
+    def natural_params(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(−α − 1, −β)`` for the statistics ``(log σ², 1/σ²)``."""
+        return -self.alpha - 1.0, -self.beta
+
+    def expected_precision(self) -> np.ndarray:
+        """``E[1/σ²] = α/β``."""
+        return self.alpha / self.beta
+
+    def expected_log_variance(self) -> np.ndarray:
+        """``E[log σ²] = log β − ψ(α)``."""
+        return np.log(self.beta) - digamma(self.alpha)
+
+    def r_hat(self) -> np.ndarray:
+        """``β/α = 1/E[1/σ²]``: the variance the VB state update plugs in."""
+        return self.beta / self.alpha
+
+    def mean(self) -> np.ndarray:
+        """``E[σ²] = β/(α − 1)`` (NaN where ``α ≤ 1``)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(self.alpha > 1, self.beta / (self.alpha - 1), np.nan)
+
+    def forget(self, rho: float, alpha_min: float = 0.0) -> InverseGamma:
+        """Forgetting prediction ``α̂ = ρα, β̂ = ρβ`` (SPEC §3b, eq. 18), floored.
+
+        When ``α̂ < alpha_min`` both ``α̂`` and ``β̂`` are multiplied by
+        ``alpha_min / α̂`` (flooring ``α`` alone would let ``R̂ → 0``).
+        """
+        a, b = rho * self.alpha, rho * self.beta
+        scale = np.maximum(1.0, alpha_min / a)
+        return InverseGamma(a * scale, b * scale)
+
+    def kl(self, other: InverseGamma) -> float:
+        """``KL(self ‖ other)`` summed over components (the Gamma KL of the precisions)."""
+        a, b, a0, b0 = self.alpha, self.beta, other.alpha, other.beta
+        return float(np.sum((a - a0) * digamma(a) - gammaln(a) + gammaln(a0)
+                            + a0 * (np.log(b) - np.log(b0)) + a * (b0 - b) / b))
+
+
+@dataclass(frozen=True)
+class Gaussian:
+    """``N(mean, cov)``; ``information()`` gives the natural parameters ``(J, h)``."""
+
+    mean: np.ndarray
+    cov: np.ndarray
+
+    def __post_init__(self) -> None:
+        m = np.atleast_1d(np.asarray(self.mean, dtype=float))
+        c = np.atleast_2d(np.asarray(self.cov, dtype=float))
+        if c.shape != (m.size, m.size):
+            raise ValueError(f"cov shape {c.shape} does not match mean of length {m.size}")
+        check_finite_param("mean", m)
+        check_finite_param("cov", c)
+        object.__setattr__(self, "mean", m)
+        object.__setattr__(self, "cov", c)
+
+    @property
+    def dim(self) -> int:
+        return self.mean.size
+
+    def information(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(J, h) = (Σ⁻¹, Σ⁻¹ μ)``."""
+        J = np.linalg.inv(self.cov)
+        return J, J @ self.mean
+
+    @classmethod
+    def from_information(cls, J: np.ndarray, h: np.ndarray) -> Gaussian:
+        """Inverse of :meth:`information`."""
+        cov = np.linalg.inv(J)
+        return cls(cov @ h, cov)
+
+    def __mul__(self, other: Gaussian) -> Gaussian:
+        """Product of densities (normalised): natural parameters add."""
+        J1, h1 = self.information()
+        J2, h2 = other.information()
+        return Gaussian.from_information(J1 + J2, h1 + h2)
+
+    def sample(self, rng: np.random.Generator, num: int) -> np.ndarray:
+        """``num`` draws, shape ``(num, d)``."""
+        return rng.multivariate_normal(self.mean, self.cov, size=num)
+
+    def log_prob(self, x: np.ndarray) -> np.ndarray:
+        """Log-density at ``x`` ``(N, d)``."""
+        x = np.atleast_2d(x)
+        L = np.linalg.cholesky(self.cov)
+        u = np.linalg.solve(L, (x - self.mean).T)
+        return (-0.5 * np.sum(u * u, axis=0) - np.sum(np.log(np.diag(L)))
+                - 0.5 * self.dim * np.log(2 * np.pi))
+
+    def kl(self, other: Gaussian) -> float:
+        """``KL(self ‖ other)``."""
+        d = self.dim
+        J0 = np.linalg.inv(other.cov)
+        diff = other.mean - self.mean
+        _, ld1 = np.linalg.slogdet(self.cov)
+        _, ld0 = np.linalg.slogdet(other.cov)
+        return float(0.5 * (np.trace(J0 @ self.cov) + diff @ J0 @ diff - d + ld0 - ld1))

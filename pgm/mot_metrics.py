@@ -1,0 +1,632 @@
+"""Multi-target tracking metrics (SPEC §3d, §5).
+
+Set distances, written here (SPEC §5 gives them exactly):
+
+* :func:`ospa` / :func:`ospa_components` — OSPA of Schuhmacher, Vo & Vo (2008), with its
+  localisation and cardinality parts;
+* :func:`ospa2` — the track-level OSPA⁽²⁾ of Beard, Vo & Vo (2017) over a sliding window;
+* :func:`cardinality_error` — estimated minus true count per frame.
+
+CLEAR MOT (MOTA, MOTP, FP, FN, ID switches, fragmentations, MT/ML), Identity (IDF1, IDP,
+IDR) and HOTA (HOTA, DetA, AssA, LocA) are **not re-implemented**: they come from the
+``motrics`` library (MIT; a Rust core whose only Python dependency is numpy; abi3 wheels
+for CPython >= 3.10), whose stated aim and CI check is parity with TrackEval, the
+reference implementation of HOTA and the scorer behind the bench peers' figures.
+Why this library:
+
+* ``trackeval`` 1.3.0 on PyPI (the TrackEval code) requires ``opencv-python`` — which
+  installs over our ``opencv-python-headless`` (both own the ``cv2`` package) — plus
+  ``pycocotools``, ``pillow``, ``tabulate`` and ``matplotlib>=3.10.5``; ``sn-trackeval``
+  has the same requirements; ``trackers`` (whose TrackEval-parity scorer produced the
+  bench figures) pulls ``opencv-python``, ``supervision``, ``rich`` and ``requests``.
+  None of them can be a dependency here.
+* ``motmetrics`` 1.4.0 (already a dependency) has mature CLEAR and Identity metrics but no
+  HOTA in its released version, reports MOTP as a distance ``1 - IoU`` and counts
+  "mostly tracked" at >= 80 % where TrackEval uses > 80 %, and its IoU helper calls
+  ``np.asfarray``, removed in numpy 2.
+* Checked here: on TUD-Campus and TUD-Stadtmitte with py-motmetrics' own test hypotheses,
+  every number ``motrics`` gives (HOTA, DetA, AssA, LocA, MOTA, MOTP, IDSW, Frag, MT, ML,
+  IDF1) equals TrackEval 1.3.0's metric classes, and MOTA, IDF1, IDP, IDR, FP, FN, IDSW,
+  Frag, MT and ML equal py-motmetrics' (``tests/test_mot_metrics.py``).
+
+Conventions follow TrackEval: MOTP is the mean IoU of matched pairs (higher is better);
+"mostly tracked" means matched in more than 80 % of the object's frames, "mostly lost"
+less than 20 %; a fragmentation is a ground-truth track resuming after an unmatched (or
+absent) frame; HOTA is averaged over the 19 thresholds ``alpha = 0.05, ..., 0.95``. A
+sequence in which either side has no box scores MOTA 0 (TrackEval's early exit).
+
+Protocol of ``bench/README.md`` (:func:`evaluate_mot`): IoU threshold 0.5 for CLEAR and
+Identity; ground-truth rows with flag 0 (:attr:`MotTable.ignore`) are ignore regions,
+handled as TrackEval's MOT-Challenge preprocessing handles distractors
+(:func:`apply_ignore_regions`): in each frame, predictions are matched to **all**
+ground-truth boxes (Hungarian, maximising IoU among pairs with IoU >= the threshold); a
+prediction matched to a flag-0 box is dropped, then the flag-0 rows are dropped. The
+ignore handling is written here because TrackEval only does it inside its file-based
+dataset class (and for MOT15 it skips that step), which this toolkit does not use. The
+same preprocessed sets feed every metric, OSPA included. OSPA is on box foot points
+(bottom-centre), in pixels.
+"""
+
+from __future__ import annotations
+
+import configparser
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+from scipy.spatial.distance import cdist
+
+from .boxes import iou_xywh
+from .errors import InputError
+from .io.annotations import MotTable, load_mot, load_tracks
+
+__all__ = [
+    "OspaComponents",
+    "Ospa2Result",
+    "CardinalityError",
+    "ospa",
+    "ospa_components",
+    "ospa2",
+    "cardinality_error",
+    "foot_points",
+    "apply_ignore_regions",
+    "evaluate_mot",
+    "evaluate_mot_files",
+    "format_mot_table",
+]
+
+_EPS = float(np.finfo(float).eps)  # TrackEval's tolerance on the matching threshold
+
+
+# --------------------------------------------------------------------------- OSPA
+
+
+class OspaComponents(NamedTuple):
+    """OSPA and its two parts: ``distance**p == localisation**p + cardinality**p``."""
+
+    distance: float
+    localisation: float
+    cardinality: float
+
+
+def _check_cp(c: float, p: float) -> tuple[float, float]:
+    c, p = float(c), float(p)
+    if not (math.isfinite(c) and c > 0):
+        raise InputError(f"OSPA cut-off c must be a finite number > 0 (got {c!r})")
+    if not (math.isfinite(p) and p >= 1):
+        raise InputError(f"OSPA order p must be a finite number >= 1 (got {p!r})")
+    return c, p
+
+
+def _point_set(points: Any, what: str) -> np.ndarray:
+    """``(m, k)`` float array; any empty input is an empty set."""
+    a = np.asarray(points, dtype=float)
+    if a.size == 0:
+        return a.reshape(0, a.shape[-1] if a.ndim == 2 else 0)
+    if a.ndim != 2:
+        raise InputError(f"{what} must be an array of points of shape (m, k)"
+                         f" (got shape {a.shape})")
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"{what} has a non-finite coordinate")
+    return a
+
+
+def _ospa_from_costs(costs: np.ndarray, c: float, p: float) -> OspaComponents:
+    """OSPA from the matrix of cut-off base distances ``min(c, d)`` (already <= c)."""
+    m, n = costs.shape
+    if m > n:
+        costs, m, n = costs.T, n, m
+    if n == 0:
+        return OspaComponents(0.0, 0.0, 0.0)
+    if m == 0:
+        return OspaComponents(c, 0.0, c)
+    cp = costs**p
+    rows, cols = linear_sum_assignment(cp)
+    loc = float(cp[rows, cols].sum()) / n
+    card = c**p * (n - m) / n
+    return OspaComponents((loc + card) ** (1.0 / p), loc ** (1.0 / p), card ** (1.0 / p))
+
+
+def ospa_components(X: Any, Y: Any, c: float, p: float) -> OspaComponents:
+    """OSPA distance between point sets with its localisation and cardinality parts.
+
+    For ``m <= n`` points (swap otherwise),
+    ``d = [ (1/n) ( min_pi sum_i min(c, |x_i - y_pi(i)|)^p + c^p (n - m) ) ]^(1/p)``,
+    the optimal assignment by :func:`scipy.optimize.linear_sum_assignment`. The
+    localisation part is the first sum, the cardinality part ``c^p (n - m)``, each divided
+    by ``n`` and raised to ``1/p``. Both sets empty give 0; exactly one empty gives ``c``
+    (all cardinality).
+
+    Parameters
+    ----------
+    X, Y : array, shape (m, k) and (n, k)
+        The two point sets (any empty array is the empty set).
+    c : float
+        Cut-off, > 0 (same units as the points).
+    p : float
+        Order, >= 1.
+
+    Raises
+    ------
+    InputError
+        Bad ``c`` or ``p``, a set that is not 2-D, non-finite coordinates, or points of
+        different dimension.
+    """
+    c, p = _check_cp(c, p)
+    X = _point_set(X, "X")
+    Y = _point_set(Y, "Y")
+    if X.shape[0] and Y.shape[0] and X.shape[1] != Y.shape[1]:
+        raise InputError(f"OSPA point sets differ in dimension ({X.shape[1]} vs {Y.shape[1]})")
+    if X.shape[0] and Y.shape[0]:
+        costs = np.minimum(cdist(X, Y), c)
+    else:
+        costs = np.zeros((X.shape[0], Y.shape[0]))
+    return _ospa_from_costs(costs, c, p)
+
+
+def ospa(X: Any, Y: Any, c: float, p: float) -> float:
+    """OSPA distance (Schuhmacher, Vo & Vo 2008); see :func:`ospa_components`."""
+    return ospa_components(X, Y, c, p).distance
+
+
+# --------------------------------------------------------------------------- OSPA(2)
+
+
+class Ospa2Result(NamedTuple):
+    """Per-frame OSPA⁽²⁾ and its mean over those frames."""
+
+    frames: np.ndarray
+    values: np.ndarray
+    mean: float
+
+
+Tracks = Mapping[Any, tuple[Any, Any]]
+
+
+def _dense_tracks(tracks: Tracks, lo: int, length: int, dim: int | None
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """``(points (n, T, k) with 0 where absent, present (n, T))`` over frames lo..lo+T-1."""
+    n = len(tracks)
+    k = dim or 0
+    pts = np.zeros((n, length, k))
+    present = np.zeros((n, length), dtype=bool)
+    for i, (frames, points) in enumerate(tracks.values()):
+        idx = frames - lo
+        pts[i, idx] = points
+        present[i, idx] = True
+    return pts, present
+
+
+def _check_tracks(tracks: Tracks, what: str) -> tuple[dict[Any, tuple[np.ndarray, np.ndarray]],
+                                                     int | None]:
+    if not isinstance(tracks, Mapping):
+        raise InputError(f"{what} must be a dict id -> (frames, points)")
+    out: dict[Any, tuple[np.ndarray, np.ndarray]] = {}
+    dim: int | None = None
+    for key, value in tracks.items():
+        try:
+            frames_raw, points_raw = value
+        except (TypeError, ValueError):
+            raise InputError(f"{what}[{key!r}] must be a pair (frames, points)") from None
+        frames_f = np.asarray(frames_raw, dtype=float).reshape(-1)
+        if not np.all(np.isfinite(frames_f) & (frames_f == np.round(frames_f))):
+            raise InputError(f"{what}[{key!r}]: frames must be integers")
+        frames = frames_f.astype(np.int64)
+        points = _point_set(points_raw, f"{what}[{key!r}] points")
+        if points.shape[0] != frames.shape[0]:
+            raise InputError(f"{what}[{key!r}]: {frames.shape[0]} frames but"
+                             f" {points.shape[0]} points")
+        if np.unique(frames).size != frames.size:
+            raise InputError(f"{what}[{key!r}]: a frame appears twice")
+        if frames.size == 0:
+            continue
+        if dim is None:
+            dim = points.shape[1]
+        elif points.shape[1] != dim:
+            raise InputError(f"{what}: points of dimension {points.shape[1]} and {dim}")
+        out[key] = (frames, points)
+    return out, dim
+
+
+def ospa2(gt_tracks: Tracks, est_tracks: Tracks, c: float, p: float, window: int = 10, *,
+          frames: Iterable[int] | None = None) -> Ospa2Result:
+    """Track-level OSPA⁽²⁾ (Beard, Vo & Vo 2017) over a sliding window of ``window`` frames.
+
+    At each evaluation frame ``k`` the window is the frames ``k - window + 1, ..., k``
+    (default 10 frames; at the start of a sequence, only the frames that exist — the
+    window is truncated, never padded). Only tracks with at least one point in the window
+    take part. The base distance between a true track ``x`` and an estimated track ``y``
+    is ``(1/|D_x ∪ D_y|) Σ_{t ∈ D_x ∪ D_y} d_c(t)`` with ``D`` the window frames where a
+    track exists, ``d_c(t) = min(c, |x(t) - y(t)|)`` when both exist and ``c`` when
+    exactly one does (SPEC §5: order 1 inside the window); OSPA with cut-off ``c`` and
+    order ``p`` is then taken between the two sets of tracks with this base distance.
+
+    Parameters
+    ----------
+    gt_tracks, est_tracks : dict
+        ``id -> (frames (K,), points (K, k))``; frames are integers, each at most once
+        per track. Tracks with no frame are ignored.
+    c, p : float
+        Cut-off (> 0) and order (>= 1).
+    window : int
+        Window length in frames (>= 1).
+    frames : iterable of int, optional
+        Frames at which to evaluate (default: every frame from the first to the last
+        frame of any track).
+
+    Returns
+    -------
+    Ospa2Result
+        ``frames``, the per-frame ``values`` and their ``mean`` (0 for no frame).
+
+    Raises
+    ------
+    InputError
+        Bad ``c``, ``p`` or ``window``, malformed tracks, points of different dimension.
+    """
+    c, p = _check_cp(c, p)
+    if int(window) != window or window < 1:
+        raise InputError(f"OSPA(2) window must be an integer >= 1 (got {window!r})")
+    window = int(window)
+    gt, dim_g = _check_tracks(gt_tracks, "gt_tracks")
+    est, dim_e = _check_tracks(est_tracks, "est_tracks")
+    if dim_g is not None and dim_e is not None and dim_g != dim_e:
+        raise InputError(f"OSPA(2) tracks differ in dimension ({dim_g} vs {dim_e})")
+    dim = dim_g if dim_g is not None else dim_e
+    all_track_frames = [f for f, _ in gt.values()] + [f for f, _ in est.values()]
+    if frames is None:
+        if not all_track_frames:
+            empty = np.zeros(0, dtype=np.int64)
+            return Ospa2Result(empty, np.zeros(0), 0.0)
+        lo = min(int(f.min()) for f in all_track_frames)
+        hi = max(int(f.max()) for f in all_track_frames)
+        eval_frames = np.arange(lo, hi + 1, dtype=np.int64)
+    else:
+        eval_frames = np.asarray(list(frames), dtype=np.int64).reshape(-1)
+        if eval_frames.size == 0:
+            return Ospa2Result(eval_frames, np.zeros(0), 0.0)
+    lo = min([int(eval_frames.min())] + [int(f.min()) for f in all_track_frames])
+    hi = max([int(eval_frames.max())] + [int(f.max()) for f in all_track_frames])
+    length = hi - lo + 1
+    g_pts, g_on = _dense_tracks(gt, lo, length, dim)
+    e_pts, e_on = _dense_tracks(est, lo, length, dim)
+    values = np.empty(eval_frames.shape[0])
+    for j, k in enumerate(eval_frames):
+        stop = int(k) - lo + 1
+        sl = slice(max(0, stop - window), stop)
+        gi = np.flatnonzero(g_on[:, sl].any(axis=1))
+        ei = np.flatnonzero(e_on[:, sl].any(axis=1))
+        if gi.size == 0 or ei.size == 0:
+            values[j] = 0.0 if gi.size == ei.size else c
+            continue
+        gon, eon = g_on[gi, sl], e_on[ei, sl]                      # (ng, W), (ne, W)
+        both = gon[:, None, :] & eon[None, :, :]                   # (ng, ne, W)
+        either = gon[:, None, :] | eon[None, :, :]
+        dist = np.linalg.norm(g_pts[gi, sl][:, None] - e_pts[ei, sl][None], axis=-1)
+        d_c = np.where(both, np.minimum(dist, c), np.where(either, c, 0.0))
+        base = d_c.sum(axis=-1) / either.sum(axis=-1)
+        values[j] = _ospa_from_costs(np.minimum(base, c), c, p).distance
+    return Ospa2Result(eval_frames, values, float(values.mean()))
+
+
+# --------------------------------------------------------------------------- cardinality
+
+
+class CardinalityError(NamedTuple):
+    """Per-frame ``estimated - true`` count and the mean of its absolute value."""
+
+    per_frame: np.ndarray
+    mean_abs: float
+
+
+def cardinality_error(true_counts: Any, est_counts: Any) -> CardinalityError:
+    """Cardinality error per frame (``est - true``, signed) and its mean absolute value.
+
+    Raises
+    ------
+    InputError
+        Counts of different lengths, no frame, or a negative or non-integer count.
+    """
+    t = np.asarray(true_counts, dtype=float).reshape(-1)
+    e = np.asarray(est_counts, dtype=float).reshape(-1)
+    if t.shape != e.shape:
+        raise InputError(f"cardinality_error: {t.size} true counts but {e.size} estimates")
+    if t.size == 0:
+        raise InputError("cardinality_error: no frame to score")
+    both = np.concatenate([t, e])
+    if not np.all(np.isfinite(both) & (both >= 0) & (both == np.round(both))):
+        raise InputError("cardinality_error: counts must be integers >= 0")
+    diff = (e - t).astype(np.int64)
+    return CardinalityError(diff, float(np.mean(np.abs(diff))))
+
+
+# --------------------------------------------------------------------------- boxes
+
+
+def foot_points(boxes_xywh: Any) -> np.ndarray:
+    """Bottom-centre ``(x + w/2, y + h)`` of top-left boxes, shape ``(..., 2)``."""
+    b = np.asarray(boxes_xywh, dtype=float)
+    return np.stack([b[..., 0] + b[..., 2] / 2.0, b[..., 1] + b[..., 3]], axis=-1)
+
+
+def _subset(table: MotTable, keep: np.ndarray) -> MotTable:
+    return MotTable(frames=table.frames[keep], ids=table.ids[keep], boxes=table.boxes[keep],
+                    conf=table.conf[keep], ignore=table.ignore[keep])
+
+
+def apply_ignore_regions(gt: MotTable, pred: MotTable, iou: float = 0.5
+                         ) -> tuple[MotTable, MotTable, int]:
+    """MOTChallenge preprocessing with flag-0 ground-truth rows as ignore regions.
+
+    In each frame that has flag-0 rows and predictions, predictions are matched to every
+    ground-truth box of the frame (flag 0 or not) by the Hungarian algorithm on IoU, pairs
+    with ``IoU < iou`` excluded (TrackEval: scores below ``iou - eps`` set to 0 before
+    the assignment, zero-score pairs discarded after it). A prediction matched to a flag-0
+    box is dropped: it is neither a false nor a true positive. The flag-0 rows are then
+    dropped: never a miss.
+
+    Returns
+    -------
+    (gt, pred, dropped)
+        The scored ground truth (no flag-0 rows), the kept predictions and the number of
+        predictions dropped.
+    """
+    keep_pred = np.ones(len(pred), dtype=bool)
+    if np.any(gt.ignore) and len(pred):
+        for f in np.unique(gt.frames[gt.ignore]):
+            gs, ps = gt.rows(int(f)), pred.rows(int(f))
+            if ps.stop == ps.start:
+                continue
+            scores = iou_xywh(gt.boxes[gs][:, None, :], pred.boxes[ps][None, :, :])
+            scores[scores < iou - _EPS] = 0.0
+            rows, cols = linear_sum_assignment(-scores)
+            ok = scores[rows, cols] > _EPS
+            rows, cols = rows[ok], cols[ok]
+            on_ignore = gt.ignore[gs][rows]
+            keep_pred[ps.start + cols[on_ignore]] = False
+    gt_out = gt if not np.any(gt.ignore) else _subset(gt, ~gt.ignore)
+    pred_out = pred if keep_pred.all() else _subset(pred, keep_pred)
+    return gt_out, pred_out, int((~keep_pred).sum())
+
+
+# --------------------------------------------------------------------------- evaluation
+
+
+def _check_unique_ids(table: MotTable, what: str) -> None:
+    if len(table) == 0:
+        return
+    pairs = np.stack([table.frames, table.ids], axis=1)
+    uniq, counts = np.unique(pairs, axis=0, return_counts=True)
+    if np.any(counts > 1):
+        f, i = uniq[np.flatnonzero(counts > 1)[0]]
+        raise InputError(f"{what}: identity {int(i)} has two boxes in frame {int(f)}")
+
+
+def _per_frame(table: MotTable, frames: np.ndarray) -> tuple[list[list[int]], list[np.ndarray]]:
+    """Frame-aligned ids and contiguous ``xyxy`` boxes, as ``motrics`` takes them."""
+    xyxy = np.ascontiguousarray(np.concatenate(
+        [table.boxes[:, :2], table.boxes[:, :2] + table.boxes[:, 2:4]], axis=1))
+    ids_out, boxes_out = [], []
+    for f in frames:
+        s = table.rows(int(f))
+        ids_out.append(table.ids[s].tolist())
+        boxes_out.append(np.ascontiguousarray(xyxy[s]))
+    return ids_out, boxes_out
+
+
+def _tracks_of(table: MotTable, points: np.ndarray) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    if len(table) == 0:
+        return {}
+    order = np.lexsort((table.frames, table.ids))
+    ids = table.ids[order]
+    uniq, starts = np.unique(ids, return_index=True)
+    bounds = list(starts[1:]) + [ids.size]
+    return {int(u): (table.frames[order[a:b]], points[order[a:b]])
+            for u, a, b in zip(uniq, starts, bounds, strict=True)}
+
+
+def _key(c: float, p: float) -> str:
+    return f"ospa_{float(c):g}_{float(p):g}".replace(".", "p")
+
+
+def _library_metrics(gt_ids: list[list[int]], gt_boxes: list[np.ndarray],
+                     pred_ids: list[list[int]], pred_boxes: list[np.ndarray],
+                     iou: float) -> dict[str, Any]:
+    """CLEAR, Identity and HOTA from ``motrics`` (TrackEval parity)."""
+    import motrics  # imported here: the set distances above do not need it
+
+    res = motrics.evaluate(motrics.Frames(ids=gt_ids, boxes=gt_boxes),
+                           motrics.Frames(ids=pred_ids, boxes=pred_boxes),
+                           iou_threshold=float(iou), box_format="xyxy")
+    clear, ident, hota = res.clear, res.identity, res.hota
+    return {
+        "mota": float(clear.mota),
+        "motp": float(clear.motp),
+        "idf1": float(ident.idf1),
+        "idp": float(ident.idp),
+        "idr": float(ident.idr),
+        "hota": float(hota.hota),
+        "deta": float(hota.deta),
+        "assa": float(hota.assa),
+        "loca": float(hota.loca),
+        "id_switches": int(clear.num_switches),
+        "fragmentations": int(clear.frag),
+        "fp": int(clear.num_false_positives),
+        "fn": int(clear.num_misses),
+        "tp": int(clear.num_matches),
+        "mostly_tracked": int(clear.mt),
+        "partially_tracked": int(clear.pt),
+        "mostly_lost": int(clear.ml),
+    }
+
+
+def evaluate_mot(gt: MotTable, pred: MotTable, *, iou: float = 0.5,
+                 ospa_params: Sequence[tuple[float, float]] = ((50, 1), (100, 2)),
+                 ospa2_window: int = 10, ospa2_params: tuple[float, float] = (50, 1),
+                 num_frames: int | None = None) -> dict[str, Any]:
+    """Score a multi-target tracking result against MOTChallenge-style ground truth.
+
+    Follows ``bench/README.md`` (see the module docstring): flag-0 ground-truth rows are
+    ignore regions (:func:`apply_ignore_regions`), and the preprocessed sets feed every
+    metric below. Frames ``1 .. num_frames`` are scored.
+
+    Parameters
+    ----------
+    gt : MotTable
+        Ground truth (``load_mot(..., kind='gt')``), flag-0 rows marked in ``ignore``.
+    pred : MotTable
+        Tracker output (``load_tracks``); one box per identity and frame.
+    iou : float
+        IoU threshold of CLEAR, Identity and the ignore-region matching (HOTA sweeps its
+        own thresholds 0.05 .. 0.95).
+    ospa_params : sequence of (c, p)
+        OSPA settings; each gives ``ospa_{c}_{p}`` (and its ``_loc`` / ``_card`` parts),
+        the mean over all frames of the OSPA between the foot points (bottom-centre, px)
+        of the scored ground truth and the kept predictions, frames where both are empty
+        counted as 0.
+    ospa2_window : int
+        OSPA⁽²⁾ window in frames (default 10), see :func:`ospa2`.
+    ospa2_params : (c, p)
+        OSPA⁽²⁾ cut-off and order on foot points (default ``(50, 1)``).
+    num_frames : int, optional
+        Sequence length (``seqLength`` of ``seqinfo.ini``); default: the last frame of
+        either table.
+
+    Returns
+    -------
+    dict
+        JSON-ready values: floats ``mota, motp, idf1, idp, idr, hota, deta, assa, loca,
+        ospa_50_1, ospa_100_2`` (one per ``ospa_params``), ``ospa2``,
+        ``mean_abs_cardinality_error``; integer counts ``id_switches, fragmentations,
+        fp, fn, tp, num_gt, num_pred, mostly_tracked, partially_tracked, mostly_lost,
+        num_gt_ignored`` (flag-0 rows), ``num_pred_ignored`` (predictions dropped on
+        them), ``num_frames``; and ``ospa2_window``.
+
+    Raises
+    ------
+    InputError
+        A bad threshold or frame count, a frame beyond ``num_frames``, two boxes of one
+        identity in a frame, or nothing to score.
+    """
+    iou = float(iou)
+    if not (0.0 < iou <= 1.0):
+        raise InputError(f"IoU threshold must be in (0, 1] (got {iou!r})")
+    last = max(int(gt.frames.max(initial=0)), int(pred.frames.max(initial=0)))
+    if num_frames is None:
+        if last == 0:
+            raise InputError("nothing to score: ground truth and prediction are both empty")
+        n_frames = last
+    else:
+        if int(num_frames) != num_frames or num_frames < 1:
+            raise InputError(f"num_frames must be an integer >= 1 (got {num_frames!r})")
+        n_frames = int(num_frames)
+        if last > n_frames:
+            raise InputError(f"a box in frame {last}, beyond the sequence's {n_frames} frames")
+    frames = np.arange(1, n_frames + 1, dtype=np.int64)
+
+    gt_s, pred_s, dropped = apply_ignore_regions(gt, pred, iou)
+    _check_unique_ids(gt_s, "ground truth")
+    _check_unique_ids(pred_s, "prediction")
+
+    gt_ids, gt_boxes = _per_frame(gt_s, frames)
+    pr_ids, pr_boxes = _per_frame(pred_s, frames)
+    out: dict[str, Any] = _library_metrics(gt_ids, gt_boxes, pr_ids, pr_boxes, iou)
+
+    g_feet, p_feet = foot_points(gt_s.boxes), foot_points(pred_s.boxes)
+    for c, p in ospa_params:
+        comps = np.array([ospa_components(g_feet[gt_s.rows(int(f))],
+                                          p_feet[pred_s.rows(int(f))], c, p)
+                          for f in frames])
+        key = _key(c, p)
+        out[key] = float(comps[:, 0].mean())
+        out[key + "_loc"] = float(comps[:, 1].mean())
+        out[key + "_card"] = float(comps[:, 2].mean())
+    c2, p2 = ospa2_params
+    out["ospa2"] = ospa2(_tracks_of(gt_s, g_feet), _tracks_of(pred_s, p_feet), c2, p2,
+                         ospa2_window, frames=frames).mean
+    out["ospa2_window"] = int(ospa2_window)
+    n_gt = np.bincount(gt_s.frames, minlength=n_frames + 1)[1:]
+    n_pr = np.bincount(pred_s.frames, minlength=n_frames + 1)[1:]
+    out["mean_abs_cardinality_error"] = cardinality_error(n_gt, n_pr).mean_abs
+    out["num_gt"] = len(gt_s)
+    out["num_pred"] = len(pred_s)
+    out["num_gt_ignored"] = int(np.count_nonzero(gt.ignore))
+    out["num_pred_ignored"] = dropped
+    out["num_frames"] = n_frames
+    return out
+
+
+def _seq_length(gt_path: Path) -> int | None:
+    """``seqLength`` of the ``seqinfo.ini`` of a ``<seq>/gt/gt.txt`` file, if any."""
+    ini = gt_path.resolve().parent.parent / "seqinfo.ini"
+    if not ini.is_file():
+        return None
+    parser = configparser.ConfigParser()
+    try:
+        parser.read(ini, encoding="utf-8")
+        return int(parser["Sequence"]["seqLength"])
+    except (configparser.Error, KeyError, ValueError):
+        raise InputError(f"{ini}: no integer [Sequence] seqLength") from None
+
+
+def evaluate_mot_files(gt_path: str | Path, pred_path: str | Path, *,
+                       num_frames: int | None = None, **kwargs: Any) -> dict[str, Any]:
+    """:func:`evaluate_mot` on a MOTChallenge ``gt.txt`` and a tracker result file.
+
+    ``num_frames`` defaults to ``seqLength`` of ``seqinfo.ini`` beside the ``gt/`` folder
+    when there is one, else to the last frame in either file. Other keyword arguments go
+    to :func:`evaluate_mot`.
+    """
+    gt_path = Path(gt_path)
+    gt = load_mot(gt_path, kind="gt")
+    pred = load_tracks(pred_path)
+    if num_frames is None:
+        num_frames = _seq_length(gt_path)
+    return evaluate_mot(gt, pred, num_frames=num_frames, **kwargs)
+
+
+# --------------------------------------------------------------------------- table
+
+_COLUMNS = (("MOTA", "mota", "{:.3f}"), ("IDF1", "idf1", "{:.3f}"), ("HOTA", "hota", "{:.3f}"),
+            ("ID switches", "id_switches", "{:d}"), ("OSPA(50,1)", "ospa_50_1", "{:.1f}"),
+            ("OSPA(100,2)", "ospa_100_2", "{:.1f}"))
+
+
+def _cell(value: Any, fmt: str) -> str:
+    if value is None:
+        return "–"
+    try:
+        if fmt == "{:d}":
+            return fmt.format(int(value))
+        v = float(value)
+        return "–" if not math.isfinite(v) else fmt.format(v)
+    except (TypeError, ValueError):
+        return str(value)
+
+
+def format_mot_table(results: Mapping[Any, Mapping[str, Any]]) -> str:
+    """Markdown table of :func:`evaluate_mot` results, columns as in ``bench/README.md``.
+
+    Keys label the rows: a string gives one ``run`` column; ``(sequence, tracker)`` tuples
+    give two columns, the sequence written only where it changes (as in the README).
+    Columns: MOTA, IDF1, HOTA (3 decimals), ID switches, OSPA(50,1), OSPA(100,2) (1
+    decimal, px); a missing value prints as ``–``.
+    """
+    pairs = bool(results) and all(isinstance(k, tuple) and len(k) == 2 for k in results)
+    head = ["sequence", "tracker"] if pairs else ["run"]
+    head += [name for name, _, _ in _COLUMNS]
+    lines = ["| " + " | ".join(head) + " |", "| " + " | ".join("---" for _ in head) + " |"]
+    previous = None
+    for key, res in results.items():
+        if pairs:
+            seq, tracker = (str(k) for k in key)
+            label = ["" if seq == previous else seq, tracker]
+            previous = seq
+        else:
+            label = [str(key)]
+        cells = [_cell(res.get(field), fmt) for _, field, fmt in _COLUMNS]
+        lines.append("| " + " | ".join(label + cells) + " |")
+    return "\n".join(lines)
