@@ -29,7 +29,7 @@ from pgm.multitarget import IntensityPrior, PHDLikelihood, constant_velocity
 from pgm.numerics import check_finite_param
 from pgm.variable import Variable
 
-__all__ = ["Params", "build_graph", "STATE_LABELS", "H_POSITION"]
+__all__ = ["Params", "build_graph", "video_params", "STATE_LABELS", "H_POSITION"]
 
 STATE_LABELS = ("px", "vx", "py", "vy")
 H_POSITION = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]])
@@ -78,6 +78,20 @@ class Params:
     min_particles: int = 200
     confirm_hits: int = 3
     max_coast: int = 2
+
+
+def video_params(cls, width: int, height: int, fps: float, **overrides):
+    """``Params`` for pedestrians' foot points in a ``width × height`` video at ``fps``.
+
+    Speeds are set in pixels per *second* and converted to per-frame units: newborn
+    velocity σ = 30 px/s, process noise q = 300 px²/s³ (``q_frame = q / fps³``);
+    everything else keeps the class defaults unless overridden.
+    """
+    fps = float(fps) if fps and fps > 0 else 25.0
+    kw = dict(area=float(width) * float(height), birth_velocity_std=30.0 / fps,
+              q=300.0 / fps**3)
+    kw.update(overrides)
+    return cls(**kw)
 
 
 def build_graph(params: Params, name: str = "phd") -> FactorGraph:

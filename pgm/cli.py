@@ -5,6 +5,8 @@
     pgm track SOURCE --model colour-pf|part-graph (--init X,Y,W,H | --gt FILE) --out DIR
               [--parts 2|3] [--fusion mixture|product] [--particles N] [--seed S]
               [--no-video] [--show-particles]
+    pgm track SOURCE --model phd|vb-phd [--detections FILE | --detector public|mog2]
+              --out DIR [--gt FILE]
     pgm eval --gt FILE --pred DIR/tracks.txt [--json]
     pgm graph MODEL [--parts 2|3] --out FILE.{png,svg,pdf,dot}
     pgm demo --out DIR
@@ -103,6 +105,11 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--show-particles", action="store_true",
                    help="draw particles in the annotated video")
     t.add_argument("--max-frames", type=_positive_int("--max-frames"), default=None)
+    t.add_argument("--detections", help="phd/vb-phd: a MOTChallenge det.txt to use as "
+                                        "measurements")
+    t.add_argument("--detector", default=None,
+                   help="phd/vb-phd: 'public' (the sequence's det/det.txt, default), "
+                        "'public:MIN_SCORE' or 'mog2' (background subtraction)")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
 
     e = sub.add_parser("eval", help="score a tracks.txt against ground truth")
@@ -185,6 +192,60 @@ def _print_metrics(metrics: dict, stream=None) -> None:
         print(f"{k:<{width}}  {v}", file=stream)
 
 
+MULTI_TARGET_MODELS = ("phd", "vb-phd")
+
+
+def cmd_track_multi(args, source) -> int:
+    from ._rng import as_generator
+    from .detections import PublicDetections, make_detector
+    from .inference.runner import track_multi
+    from .io.annotations import load_mot
+    from .models import get_model
+    from .models.phd import video_params
+
+    if args.init is not None:
+        raise InputError(f"--init does not apply to the multi-target model {args.model!r}")
+    if args.detections is not None and args.detector is not None:
+        raise InputError("give either --detections FILE or --detector SPEC, not both")
+    if args.detections is not None:
+        detector = PublicDetections(args.detections)
+    else:
+        detector = make_detector(args.detector or "public", source)
+    gt_path = args.gt or source.gt_path
+    gt = load_mot(gt_path, kind="gt") if gt_path is not None else None
+    module = get_model(args.model)
+    width, height = source.size
+    kwargs = {}
+    if args.particles is not None:
+        kwargs["particles_per_target"] = args.particles
+    graph = module.build_graph(video_params(module.Params, width, height, source.fps,
+                                            **kwargs))
+    result = track_multi(source, graph, detector, rng=as_generator(args.seed), out_dir=args.out,
+                         gt=gt, write_video=not args.no_video, show_particles=args.show_particles,
+                         progress=not args.quiet, max_frames=args.max_frames)
+    print(f"tracked {result.n_frames} frames at {result.fps:.1f} frames/s (inference only; "
+          f"detector {result.n_frames / max(result.detector_seconds, 1e-9):.0f} frames/s) -> "
+          f"{Path(args.out) / 'tracks.txt'}")
+    if result.metrics is not None:
+        _print_mot_metrics(result.metrics)
+    return 0
+
+
+def _print_mot_metrics(m: dict, stream=None) -> None:
+    stream = sys.stdout if stream is None else stream
+    keys = [("MOTA", "mota"), ("IDF1", "idf1"), ("HOTA", "hota"), ("MOTP (IoU)", "motp"),
+            ("ID switches", "id_switches"), ("FP", "fp"), ("FN", "fn"),
+            ("OSPA(50,1) px", "ospa_50_1"), ("OSPA(100,2) px", "ospa_100_2"),
+            ("OSPA2(50,1) px", "ospa2"), ("|cardinality error|", "mean_abs_cardinality_error"),
+            ("frames per second", "fps")]
+    width = max(len(k) for k, _ in keys)
+    for label, key in keys:
+        if key in m:
+            v = m[key]
+            print(f"{label:<{width}}  {v:.3f}" if isinstance(v, float) else
+                  f"{label:<{width}}  {v}", file=stream)
+
+
 def cmd_track(args) -> int:
     from ._rng import as_generator
     from .inference.runner import init_box_from_gt, track
@@ -192,6 +253,11 @@ def cmd_track(args) -> int:
     from .io.video import open_source
 
     source = open_source(args.source)
+    if args.model in MULTI_TARGET_MODELS:
+        return cmd_track_multi(args, source)
+    if args.detections is not None or args.detector is not None:
+        raise InputError(f"--detections/--detector apply to {', '.join(MULTI_TARGET_MODELS)}, "
+                         f"not to {args.model!r}")
     gt = None
     gt_path = args.gt
     if gt_path is None and args.init is None and source.gt_path is not None:
@@ -222,11 +288,22 @@ def cmd_track(args) -> int:
 
 
 def cmd_eval(args) -> int:
-    from .io.annotations import load_single_gt, load_tracks
+    from .io.annotations import detect_gt_format, load_mot, load_single_gt, load_tracks
     from .metrics import single_object_metrics
 
-    gt = load_single_gt(args.gt)
     pred = load_tracks(args.pred)
+    if detect_gt_format(args.gt) == "mot":
+        gt_table = load_mot(args.gt, kind="gt")
+        if np.unique(gt_table.ids).size > 1 or np.unique(pred.ids).size > 1:
+            from .mot_metrics import evaluate_mot_files
+
+            metrics = evaluate_mot_files(args.gt, args.pred)
+            if args.json:
+                print(json.dumps(metrics, indent=1))
+            else:
+                _print_mot_metrics(metrics)
+            return 0
+    gt = load_single_gt(args.gt)
     ids = np.unique(pred.ids)
     if ids.size > 1:
         raise InputError(f"{args.pred} has {ids.size} identities; single-object evaluation "

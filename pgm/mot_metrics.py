@@ -41,9 +41,10 @@ handled as TrackEval's MOT-Challenge preprocessing handles distractors
 (:func:`apply_ignore_regions`): in each frame, predictions are matched to **all**
 ground-truth boxes (Hungarian, maximising IoU among pairs with IoU >= the threshold); a
 prediction matched to a flag-0 box is dropped, then the flag-0 rows are dropped. The
-ignore handling is written here because TrackEval only does it inside its file-based
-dataset class (and for MOT15 it skips that step), which this toolkit does not use. The
-same preprocessed sets feed every metric, OSPA included. OSPA is on box foot points
+ignore handling is written here because TrackEval does it only inside its file-based
+dataset class, keyed on distractor classes (for MOT15 files it drops the flag-0 rows but
+keeps the predictions on them, which then count as false positives). The same
+preprocessed sets feed every metric, OSPA included. OSPA is on box foot points
 (bottom-centre), in pixels.
 """
 
