@@ -215,3 +215,54 @@ def test_part_graph_track_and_graph(scene_dir, tmp_path, capsys):
     code, _, err = run_cli(capsys, "track", scene_dir, "--model", "colour-pf", "--parts", 2,
                            "--out", tmp_path / "x")
     assert_one_line_error(code, err, "--parts does not apply")
+
+
+@pytest.fixture(scope="module")
+def mot_dir(tmp_path_factory):
+    """A synthetic MOTChallenge sequence (40 frames) with detections."""
+    from pgm.synthetic import multi_target_scene
+
+    d = tmp_path_factory.mktemp("mot")
+    multi_target_scene(seed=0, n_frames=40).write_mot(d, rng=0, sigma=1.0, clutter_rate=0.5)
+    return d
+
+
+@pytest.mark.parametrize("model", ["phd", "vb-phd"])
+def test_multi_target_track_and_eval(mot_dir, tmp_path, capsys, model):
+    out = tmp_path / model
+    code, stdout, err = run_cli(capsys, "track", mot_dir, "--model", model, "--out", out,
+                                "--quiet", "--show-particles")
+    assert code == 0, err
+    assert "MOTA" in stdout and "OSPA(50,1)" in stdout
+    rows = [r.split(",") for r in (out / "tracks.txt").read_text().splitlines()]
+    assert len({r[1] for r in rows}) >= 3  # several identities
+    m = json.loads((out / "metrics.json").read_text())
+    # measured (seed 0): phd MOTA 0.50, IDF1 0.71; vb-phd MOTA -0.19, IDF1 0.32 — its σ̂
+    # grows to 12 px on this stiff-motion scene (see the issue-4 note); here the CLI
+    # path is under test, the filters' accuracy is in test_phd_vb.py
+    floor = {"phd": 0.3, "vb-phd": -0.5}[model]
+    assert m["mota"] > floor and 0.0 < m["idf1"] <= 1.0, m
+    assert (out / "annotated.mp4").stat().st_size > 1000
+    code, stdout, _ = run_cli(capsys, "eval", "--gt", mot_dir / "gt" / "gt.txt", "--pred",
+                              out / "tracks.txt", "--json")
+    assert code == 0
+    assert json.loads(stdout)["mota"] == pytest.approx(m["mota"])
+
+
+def test_multi_target_bad_input(mot_dir, scene_dir, tmp_path, capsys):
+    code, _, err = run_cli(capsys, "track", mot_dir, "--model", "phd", "--detector", "yolo",
+                           "--out", tmp_path)
+    assert_one_line_error(code, err, "unknown detector 'yolo'")
+    code, _, err = run_cli(capsys, "track", scene_dir, "--model", "phd", "--out", tmp_path)
+    assert_one_line_error(code, err, "no public detections")
+    code, _, err = run_cli(capsys, "track", mot_dir, "--model", "phd", "--init", "1,1,5,5",
+                           "--out", tmp_path)
+    assert_one_line_error(code, err, "--init does not apply")
+    bad = tmp_path / "det.txt"
+    bad.write_text("1,-1,10,10,5,5,0.9\n2,-1,oops\n")
+    code, _, err = run_cli(capsys, "track", mot_dir, "--model", "phd", "--detections", bad,
+                           "--out", tmp_path / "o")
+    assert_one_line_error(code, err, "det.txt")
+    code, _, err = run_cli(capsys, "track", scene_dir, "--model", "colour-pf", "--detector",
+                           "mog2", "--out", tmp_path / "o2")
+    assert_one_line_error(code, err, "--detections/--detector apply to")
