@@ -235,7 +235,7 @@ def test_vb_phd_noise_follows_a_drifting_sigma_and_beats_fixed_sigma():
     for seed in (4, 5, 6):
         rng = np.random.default_rng(seed)
         T = 150
-        sig = lambda t: 2.0 + 8.0 * t / T  # noqa: E731
+        sig = lambda t, T=T: 2.0 + 8.0 * t / T  # noqa: E731
         xs, _ = simulate_cv(rng, T, sig, x0=(100.0, 1.0, 100.0, 0.5))
         ys = np.array([H @ x + sig(t) * rng.standard_normal(2) for t, x in enumerate(xs)])
         common = dict(area=400.0**2, sigma=2.0, q=0.5, clutter_rate=0.5, p_detect=0.99,

@@ -93,7 +93,7 @@ for name, graph in graphs.items():
 true_count = [len(gt.at(f)[0]) for f in range(1, len(counts) + 1)]
 fig, ax = plt.subplots(1, 2, figsize=(10, 3.5))
 ax[0].plot(true_count, "k-", label="true count")
-for name, (counts, births, _, _) in results.items():
+for name, (counts, _births, _, _) in results.items():
     ax[0].plot(counts, label=f"{name}: E[N]")
 ax[0].plot(results["phd"][1], ":", label="newborn mass (phd)")
 ax[0].set_xlabel("frame")
