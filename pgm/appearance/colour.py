@@ -19,8 +19,9 @@ computation, with no Python loop over boxes:
    and the first request of a frame also covers the previous frame's requests (so
    the three band factors of one face cost one quantisation call per frame).
    :meth:`ColourHistogramScorer.bins` still returns the whole frame (quantising what
-   is left). Measured on FaceOcc1 (352x288) / PETS (768x576): the full frame costs
-   0.3 / 1.3 ms, the union of 30 boxes around a face / a person 0.05-0.1 / 0.2 ms.
+   is left). Measured on FaceOcc1 (352x288, greyscale) / PETS (768x576): the full
+   frame costs 0.3 / 1.3 ms, the union of 30 boxes around the face / a person about
+   0.08 / 0.1-0.2 ms.
 2. **Integral histograms over the union rectangle only** (:func:`box_histograms`):
    the boxes are rounded to integer pixel bounds and clipped to the image; the
    union bounding rectangle of the clipped boxes is cropped, turned into a uint8
