@@ -88,6 +88,7 @@ class RuleTable:
 
     def __init__(self, rules: dict[tuple[str, type], Rule] | None = None):
         self._rules: dict[tuple[str, type], Rule] = dict(rules or {})
+        self._resolved: dict[tuple[str, type], Rule] = {}
 
     def register(self, operation: str, belief_type: type) -> Callable[[Rule], Rule]:
         """Decorator registering ``rule`` for ``(operation, belief_type)``."""
@@ -96,15 +97,20 @@ class RuleTable:
 
         def deco(rule: Rule) -> Rule:
             self._rules[(operation, belief_type)] = rule
+            self._resolved.clear()
             return rule
 
         return deco
 
     def lookup(self, operation: str, belief_type: type) -> Rule:
         """The rule for ``operation`` on the nearest registered base of ``belief_type``."""
+        hit = self._resolved.get((operation, belief_type))
+        if hit is not None:
+            return hit
         for t in belief_type.__mro__:
             rule = self._rules.get((operation, t))
             if rule is not None:
+                self._resolved[(operation, belief_type)] = rule
                 return rule
         raise ValueError(f"no inference rule for ({operation!r}, {belief_type.__name__}): "
                          f"register one with RuleTable.register")
@@ -116,6 +122,7 @@ class RuleTable:
     def remove(self, operation: str, belief_type: type) -> None:
         """Drop the rule registered exactly for ``(operation, belief_type)``."""
         self._rules.pop((operation, belief_type), None)
+        self._resolved.clear()
 
     def copy(self) -> RuleTable:
         """An independent copy (to add rules for one engine only)."""
@@ -451,9 +458,10 @@ class Engine:
             b, b0 = self.beliefs[v], before[v]
             if isinstance(b, Intensity):
                 continue  # a set's update is not a reweighting: no evidence/ESS here
-            with np.errstate(invalid="ignore"):
-                log_lik = np.where(np.isfinite(b0.log_weights), b.log_weights - b0.log_weights,
-                                   -np.inf)
+            log_lik = b.log_weights - b0.log_weights
+            if not b0.log_weights.min() > -np.inf:  # a zero-weight prior particle
+                with np.errstate(invalid="ignore"):
+                    log_lik = np.where(np.isfinite(b0.log_weights), log_lik, -np.inf)
             self.evidence[v] = (b0.log_weights, log_lik)
             record.log_evidence[v] = b.log_mass - b0.log_mass
             record.ess[v] = b.ess
@@ -534,11 +542,13 @@ def _weight_particles(engine: Engine, factor, frame) -> None:
 @DEFAULT_RULES.register("resample", Particles)
 def _resample_particles(engine: Engine, variable: str, frame) -> dict[str, Any]:
     b: Particles = engine.beliefs[variable]
+    n = engine.num_particles[variable]
+    if b.num != n:  # a fused mixture: always back to the variable's particle count
+        engine.beliefs[variable] = b.resample(engine.rng, engine.resampler, n)
+        return {"resampled": True}
     ess = b.ess
-    if b.num != engine.num_particles[variable] or ess_triggered(ess, b.num,
-                                                                engine.ess_threshold):
-        engine.beliefs[variable] = b.resample(engine.rng, engine.resampler,
-                                              engine.num_particles[variable])
+    if ess_triggered(ess, b.num, engine.ess_threshold):
+        engine.beliefs[variable] = b.resample(engine.rng, engine.resampler, n)
         return {"resampled": True, "ess": ess}
     return {"resampled": False, "ess": ess}
 

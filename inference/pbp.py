@@ -73,12 +73,13 @@ def _evidence(engine: Engine, variable: str) -> tuple[np.ndarray, np.ndarray]:
     return engine.evidence.get(variable, (b.log_weights, np.zeros(b.num)))
 
 
-def _subsample(engine: Engine, log_weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Indices of ``M`` message particles and their prior log-weights (mass 1)."""
+def _subsample(engine: Engine, log_weights: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
+    """Indices of ``M`` message particles (``None``: all of them) and their prior
+    log-weights (mass 1)."""
     n = log_weights.size
     m = engine.options.get("message_particles") or n
     if int(m) == n:
-        return np.arange(n), log_weights  # prior weights are the normalised posterior
+        return None, log_weights  # all particles; prior weights are the normalised posterior
     m = int(m)
     if m < 1:
         raise ValueError(f"message_particles must be positive, got {m}")
@@ -94,13 +95,15 @@ def coupling_message(engine: Engine, factor, frame, src: str, dst: str) -> dict 
     prior_lw, log_lik = _evidence(engine, src)
     if fusion == "mixture":
         idx, lw_prior = _subsample(engine, prior_lw)
-        x_msg = np.asarray(factor.propagate(engine.rng, b_src.x[idx], src), dtype=float)
+        pick = (lambda a: a) if idx is None else (lambda a: a[idx])  # noqa: E731
+        x_msg = np.asarray(factor.propagate(engine.rng, pick(b_src.x), src), dtype=float)
         n_hist = len(engine.beliefs[dst].history)
-        hist = [np.asarray(factor.map(h[idx], src), dtype=float) for h in b_src.history[:n_hist]]
+        hist = [np.asarray(factor.map(pick(h), src), dtype=float)
+                for h in b_src.history[:n_hist]]
         hist += [x_msg.copy() for _ in range(n_hist - len(hist))]
         mode = engine.options.get("message_weight", "source")
         if mode == "source":
-            lw = lw_prior + log_lik[idx]
+            lw = lw_prior + pick(log_lik)
         elif mode == "target":
             lw = lw_prior + engine.log_likelihood(dst, x_msg, frame)
         else:
@@ -114,7 +117,7 @@ def coupling_message(engine: Engine, factor, frame, src: str, dst: str) -> dict 
         if b == src and a != dst:
             cavity = cavity + msg.log_values
     idx, log_pi = _subsample(engine, log_normalize(cavity))
-    x_src = b_src.x[idx]
+    x_src = b_src.x if idx is None else b_src.x[idx]
     x_dst = engine.beliefs[dst].x
     n, m = x_dst.shape[0], x_src.shape[0]
     rows = max(1, _CHUNK_ELEMENTS // max(1, m * x_dst.shape[1]))

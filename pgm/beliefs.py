@@ -147,7 +147,11 @@ class Particles:
         lm = self.log_mass
         if not -np.inf < lm < np.inf:
             log_normalize(self.log_weights)  # raises DegenerateWeightsError with the reason
-        return self._trusted(self.x, self.log_weights - lm, self.history, log_mass=0.0)
+        out = self._trusted(self.x, self.log_weights - lm, self.history, log_mass=0.0)
+        for key in ("weights", "ess"):  # identical for the normalised copy
+            if key in self.__dict__:
+                out.__dict__[key] = self.__dict__[key]
+        return out
 
     def moved(self, x_new: np.ndarray, history_len: int | None = None) -> Particles:
         """Particles moved to ``x_new``; the current ``x`` is pushed onto the history."""
@@ -175,9 +179,8 @@ class Particles:
         num = self.num if num is None else int(num)
         idx = scheme(rng, self.weights, num)
         lm = self.log_mass
-        out = self.take(idx, np.full(num, lm - np.log(num)))
-        out.__dict__["log_mass"] = lm
-        return out
+        return self._trusted(self.x[idx], np.full(num, lm - np.log(num)),
+                             tuple(h[idx] for h in self.history), log_mass=lm)
 
 
 @dataclass(frozen=True)

@@ -78,8 +78,10 @@ class AffineCoupling(CouplingFactor):
         if abs(np.linalg.det(self.A)) < 1e-12:
             raise ValueError(f"factor {self.name!r}: A must be invertible")
         self._A_inv = np.linalg.inv(self.A)
+        self._identity = bool(np.array_equal(self.A, np.eye(d)))
         self.std = None if std is None else _vec(std, d, f"{self.name}.std")
         self.jitter_std = _vec(jitter_std, d, f"{self.name}.jitter_std")
+        self._jitter = bool(np.any(self.jitter_std > 0))
         if forgetting is not None:
             forgetting = float(check_finite_param(f"{self.name}.forgetting", forgetting))
             if not 0.0 < forgetting <= 1.0:
@@ -108,15 +110,15 @@ class AffineCoupling(CouplingFactor):
     def map(self, x_src: np.ndarray, src: str) -> np.ndarray:
         """Deterministic image of ``x_src`` (from variable ``src``) at the other end."""
         if src == self.variables[1]:
-            return x_src @ self.A.T + self.offset
+            return x_src + self.offset if self._identity else x_src @ self.A.T + self.offset
         if src == self.variables[0]:
-            return (x_src - self.offset) @ self._A_inv.T
+            return x_src - self.offset if self._identity else (x_src - self.offset) @ self._A_inv.T
         raise ValueError(f"factor {self.name!r} does not link {src!r}")
 
     def propagate(self, rng: np.random.Generator, x_src: np.ndarray, src: str) -> np.ndarray:
         """Message particles: ``map`` plus jitter ``N(0, diag(jitter_std²))``."""
         out = self.map(x_src, src)
-        if np.any(self.jitter_std > 0):
+        if self._jitter:
             out = out + rng.standard_normal(out.shape) * self.jitter_std
         return out
 
