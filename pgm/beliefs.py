@@ -13,6 +13,7 @@ module with the VB engine.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -108,10 +109,10 @@ class Particles:
     def weights(self) -> np.ndarray:
         """Normalised weights, shape ``(N,)`` (computed once; do not modify in place)."""
         lm = self.log_mass
-        if not -np.inf < lm < np.inf:
+        if not math.isfinite(lm):
             log_normalize(self.log_weights)  # raises DegenerateWeightsError with the reason
         w = np.exp(self.log_weights - lm)
-        w /= w.sum()  # exact normalisation despite rounding in log_mass
+        w /= float(w.sum())  # exact normalisation despite rounding in log_mass
         w.flags.writeable = False
         return w
 
@@ -119,7 +120,7 @@ class Particles:
     def ess(self) -> float:
         """Effective sample size ``1 / sum(w^2)`` of the normalised weights."""
         w = self.weights
-        return float(1.0 / np.dot(w, w))
+        return 1.0 / float(np.dot(w, w))
 
     def mean(self) -> np.ndarray:
         """Weighted mean, shape ``(d,)``."""
@@ -145,7 +146,7 @@ class Particles:
     def normalized(self) -> Particles:
         """The same particles with total mass 1."""
         lm = self.log_mass
-        if not -np.inf < lm < np.inf:
+        if not math.isfinite(lm):
             log_normalize(self.log_weights)  # raises DegenerateWeightsError with the reason
         out = self._trusted(self.x, self.log_weights - lm, self.history, log_mass=0.0)
         for key in ("weights", "ess"):  # identical for the normalised copy

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .errors import DegenerateWeightsError
@@ -20,12 +22,10 @@ def logsumexp(a: np.ndarray, axis: int | None = None) -> np.ndarray | float:
     if axis is None:
         if a.size == 0:
             return -np.inf
-        m = a.max()
-        if -np.inf < m < np.inf:
-            return float(m + np.log(np.exp(a - m).sum()))
-        if m != m:  # NaN
-            return float("nan")
-        return float(m)  # all -inf, or a +inf entry
+        m = float(a.max())
+        if math.isfinite(m):  # python scalars: ~2x faster than numpy's on small arrays
+            return m + math.log(float(np.exp(a - m).sum()))
+        return m  # NaN, all -inf, or a +inf entry
     if a.size == 0:
         return np.full(np.delete(a.shape, axis), -np.inf)
     m = np.max(a, axis=axis, keepdims=True)
@@ -46,16 +46,16 @@ def log_normalize(log_weights: np.ndarray) -> np.ndarray:
     lw = np.asarray(log_weights, dtype=float)
     if lw.size == 0:
         raise DegenerateWeightsError("no particles")
-    m = lw.max()
+    m = float(lw.max())
     if m != m:  # a NaN: treat it as -inf
         lw = np.where(np.isnan(lw), -np.inf, lw)
-        m = lw.max()
-    if not -np.inf < m < np.inf:
-        if m == np.inf:
+        m = float(lw.max())
+    if not math.isfinite(m):
+        if m == math.inf:
             raise DegenerateWeightsError("a log-weight is +inf")
         raise DegenerateWeightsError("every particle weight is zero")
     shifted = lw - m
-    return shifted - np.log(np.exp(shifted).sum())
+    return shifted - math.log(float(np.exp(shifted).sum()))
 
 
 def normalized_weights(log_weights: np.ndarray) -> np.ndarray:

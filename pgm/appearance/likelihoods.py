@@ -86,7 +86,10 @@ class ColourHistogramLikelihood(LikelihoodFactor):
 
     def boxes(self, x: np.ndarray) -> np.ndarray:
         """Boxes ``(N, 4)`` ``(cx, cy, w, h)`` of particles ``x``."""
-        return x[:, list(self.box_indices)]
+        i = self.box_indices
+        if i == (i[0], i[0] + 1, i[0] + 2, i[0] + 3):
+            return x[:, i[0]:i[0] + 4]  # a view: no copy on the hot path
+        return x[:, list(i)]
 
     def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:
         """Take the template from the first frame at the box ``value`` (if not given)."""
