@@ -194,7 +194,11 @@ def _estimate_intensity(engine: Engine, variable: str, frame) -> dict[str, Any]:
     res = aux.get("last")
     b: Intensity = engine.beliefs[variable]
     factor = phd_factor_of(engine, variable)
+    # merge estimates within 2σ of the current noise estimate (VB) or the fixed R; the
+    # track gate is in units of the *nominal* σ (the factor's R): it must absorb motion
+    # error as well as measurement noise, and a small VB σ̂ alone would cut tracks
     sigma = np.sqrt(aux.get("r_hat", factor.R))
+    gate_sigma = np.sqrt(np.maximum(factor.R, aux.get("r_hat", factor.R)))
     d = engine.graph.variables[variable].dim
     if res is None:
         states, zi = np.zeros((0, d)), np.zeros(0, int)
@@ -204,7 +208,7 @@ def _estimate_intensity(engine: Engine, variable: str, frame) -> dict[str, Any]:
     dets = getattr(frame, "detections", None)
     if dets is not None and len(zi):
         sizes = np.asarray(dets.boxes, dtype=float)[zi, 2:4]
-    tracks = aux["tracks"].update(states, sizes, sigma)
+    tracks = aux["tracks"].update(states, sizes, gate_sigma)
     return {"ids": np.array([t.track_id for t in tracks], dtype=int),
             "states": np.array([t.state for t in tracks]).reshape(-1, d),
             "existence": np.array([t.existence for t in tracks]),
