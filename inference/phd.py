@@ -64,15 +64,18 @@ def phd_correct(weights: np.ndarray, log_g: np.ndarray, factor: PHDLikelihood,
                 log_app: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """One PHD corrector pass in the linear domain (``log_g`` is floored, so no underflow).
 
+    ``log_g`` is overwritten (it becomes ``omega``): the ``(N, |Z|)`` buffer is reused.
+
     Returns the posterior persistent weights ``w``, ``L (M,)``, the association
     weights ``omega (N, M)`` (``p_D g a w / L``) and ``W_z = Σ_j omega_jz``.
     """
-    g = np.exp(log_g)
+    g = np.exp(log_g, out=log_g)  # in place: log_g is a work buffer owned by the caller
     if log_app is not None:
         g *= np.exp(np.clip(log_app, -300.0, 300.0))[:, None]
-    pgw = g * (factor.p_detect * weights)[:, None]
-    L = factor.kappa + factor.nu_birth + pgw.sum(axis=0)
-    omega = pgw / L
+    g *= (factor.p_detect * weights)[:, None]  # p_D g a w
+    L = factor.kappa + factor.nu_birth + g.sum(axis=0)
+    g /= L  # omega
+    omega = g
     w_post = (1.0 - factor.p_detect) * weights + omega.sum(axis=1)
     return {"w": w_post, "L": L, "omega": omega, "W": omega.sum(axis=0)}
 

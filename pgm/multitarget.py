@@ -196,11 +196,19 @@ class PHDLikelihood(LikelihoodFactor):
         prec = 1.0 / self.R if precision is None else np.asarray(precision, dtype=float)
         logv = np.log(self.R) if log_variance is None else np.asarray(log_variance, dtype=float)
         pred = x @ self.H.T  # (N, k)
-        out = np.full((x.shape[0], z.shape[0]),
-                      -0.5 * z.shape[1] * np.log(2 * np.pi) - 0.5 * float(np.sum(logv)))
+        const = -0.5 * z.shape[1] * np.log(2 * np.pi) - 0.5 * float(np.sum(logv))
+        # stored (M, N), returned as its (N, M) transpose: reductions over particles run
+        # along contiguous rows (about 2x faster than (N, M) with few measurements)
+        out = np.empty((z.shape[0], x.shape[0])).T
+        tmp = np.empty_like(out.T).T
         for i in range(z.shape[1]):  # k is 2: a loop over components, not particles
-            d = z[None, :, i] - pred[:, i, None]
-            out -= 0.5 * prec[i] * d * d
+            buf = out if i == 0 else tmp
+            np.subtract(z[None, :, i], pred[:, i, None], out=buf)
+            np.square(buf, out=buf)
+            buf *= -0.5 * prec[i]
+            if i:
+                out += buf
+        out += const
         np.maximum(out, LOG_G_FLOOR, out=out)
         return out
 
