@@ -44,7 +44,10 @@ PAPER = {  # seconds: (part graph, colour PF) at 30 / 90 / 210 particles; (frame
     "seq. 3 (FaceOcc 352x288)": ((300, 3), {30: (30.12, 35.23), 90: (31.67, 38.35),
                                             210: (34.55, 44.67)}),
 }
-CSRT_FPS_FACEOCC1 = 42.5  # ../shared/bench/README.md
+OPENCV = {  # ../shared/bench/README.md: success AUC at frames/s
+    "FaceOcc1": "CSRT 0.815 at 42.5 fps, KCF 0.855 at 288 fps",
+    "Crossing": "CSRT 0.771 at 64 fps, KCF 0.100, MIL 0.288 at 42 fps",
+}
 
 
 def run(frames, init_box, n_nodes, per_node, seed=0, trace=False):
@@ -99,22 +102,28 @@ def main() -> None:
                 title=f"Table 1 workload on FaceOcc1: part graph vs colour PF, inference only, "
                       f"best of {args.repeats}")
 
-    rows = []
-    fr = np.array([f for f, _ in all_frames])
-    for nodes, per_node in ((1, 30), (2, 15), (3, 10), (3, 70)):
-        aucs, fps = [], []
-        for seed in range(args.seeds):
-            boxes, secs, _ = run(all_frames, init, nodes, per_node, seed=seed)
-            aucs.append(single_object_metrics(gt, fr, boxes)["success_auc"])
-            fps.append(len(all_frames) / secs)
-        peak = run(all_frames[:100], init, nodes, per_node, trace=True)[2]
-        rows.append([nodes, per_node, f"{np.mean(aucs):.3f}", f"{np.min(aucs):.3f}",
-                     f"{np.max(aucs):.3f}", np.median(fps), np.median(fps) / CSRT_FPS_FACEOCC1,
-                     peak])
-    print_table(["nodes", "particles/node", "AUC mean", "min", "max", "frames/s",
-                 "x CSRT fps", "peak MiB"], rows,
-                title=f"FaceOcc1, all {len(all_frames)} frames, {args.seeds} seeds "
-                      f"(CSRT: AUC 0.815 at {CSRT_FPS_FACEOCC1} fps, KCF 0.855)")
+    for name in ("FaceOcc1", "Crossing"):
+        if not (SHARED_DATA / name).is_dir():
+            continue
+        src = open_source(SHARED_DATA / name)
+        gt = load_single_gt(src.gt_path)
+        init = init_box_from_gt(gt, 1)
+        seq_frames = list(src.frames())
+        fr = np.array([f for f, _ in seq_frames])
+        rows = []
+        for nodes, per_node in ((1, 30), (1, 100), (2, 15), (3, 10), (3, 70)):
+            aucs, fps = [], []
+            for seed in range(args.seeds):
+                boxes, secs, _ = run(seq_frames, init, nodes, per_node, seed=seed)
+                aucs.append(single_object_metrics(gt, fr, boxes)["success_auc"])
+                fps.append(len(seq_frames) / secs)
+            peak = run(seq_frames[:100], init, nodes, per_node, trace=True)[2]
+            rows.append([nodes, per_node, f"{np.mean(aucs):.3f}", f"{np.min(aucs):.3f}",
+                         f"{np.max(aucs):.3f}", np.median(fps), peak])
+        print_table(["nodes", "particles/node", "AUC mean", "min", "max", "frames/s",
+                     "peak MiB"], rows,
+                    title=f"{name}, all {len(seq_frames)} frames, {args.seeds} seeds "
+                          f"(OpenCV: {OPENCV[name]})")
 
 
 if __name__ == "__main__":
