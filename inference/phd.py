@@ -109,14 +109,16 @@ def _prior_intensity(engine: Engine, factor, frame) -> None:
 def _predict_intensity(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     b: Intensity = engine.beliefs[var]
-    x, lw = b.x, b.log_weights
+    x, lw, labels = b.x, b.log_weights, b.labels
     if b.newborn is not None and b.newborn.num:
         x = np.concatenate([x, b.newborn.x])
         lw = np.concatenate([lw, b.newborn.log_weights])
+        if labels is not None:
+            labels = np.concatenate([labels, engine.aux[var]["newborn_labels"]])
     if x.shape[0]:
         x = np.asarray(factor.sample(engine.rng, x), dtype=float)
     lw = lw + np.log(getattr(factor, "p_survive", 1.0))
-    engine.beliefs[var] = Intensity._trusted(x, lw, ())
+    engine.beliefs[var] = Intensity(x, lw, (), labels=labels)
 
 
 def _update(engine: Engine, var: str, factor: PHDLikelihood, frame, precision=None,
@@ -141,12 +143,18 @@ def _finish(engine: Engine, var: str, factor: PHDLikelihood, res: dict[str, Any]
     with np.errstate(divide="ignore"):
         lw = np.log(res["w"])
     newborn = None
+    aux = engine.aux.setdefault(var, {})
     if z.shape[0] and factor.nu_birth > 0:
         xb = factor.births(engine.rng, z, r_hat, b.dim)
         wb = np.repeat(factor.nu_birth / L / factor.n_birth, factor.n_birth)
         newborn = Particles._trusted(xb, np.log(wb), ())
-    engine.beliefs[var] = Intensity(b.x, lw, (), newborn=newborn)
-    engine.aux.setdefault(var, {})["last"] = res
+        if b.labels is not None:  # one fresh lineage label per measurement
+            first = aux.get("next_label", 0)
+            aux["next_label"] = first + z.shape[0]
+            aux["newborn_labels"] = np.repeat(np.arange(first, first + z.shape[0]),
+                                              factor.n_birth)
+    engine.beliefs[var] = Intensity(b.x, lw, (), newborn=newborn, labels=b.labels)
+    aux["last"] = res
 
 
 @DEFAULT_RULES.register("likelihood", Intensity)
@@ -167,7 +175,8 @@ def _resample_intensity(engine: Engine, variable: str, frame) -> dict[str, Any]:
     budget = max(int(engine.options.get("min_particles", 200)),
                  int(round(engine.num_particles[variable] * mass)))
     idx = engine.resampler(engine.rng, b.weights, budget)
-    out = Intensity(b.x[idx], np.full(budget, np.log(mass / budget)), (), newborn=b.newborn)
+    out = Intensity(b.x[idx], np.full(budget, np.log(mass / budget)), (), newborn=b.newborn,
+                    labels=None if b.labels is None else b.labels[idx])
     engine.beliefs[variable] = out
     return {"resampled": True, "particles": budget}
 

@@ -158,8 +158,88 @@ def _vb_gaussian(engine: Engine, factor, frame) -> dict[str, Any] | None:
 
 
 # -- the VB-PHD filter ------------------------------------------------------------------------
+def _noise_prior(engine: Engine, noise: str) -> InverseGamma:
+    priors = engine.graph.factors_of(noise, "prior")
+    if not priors:
+        raise ValueError(f"noise variable {noise!r} needs a prior for per-track beliefs")
+    return priors[0].belief()
+
+
+def _vb_phd_per_track(engine: Engine, factor, frame) -> dict[str, Any]:
+    """VB-PHD with one inverse-Gamma belief per lineage label (``per_track=True``)."""
+    from scipy.special import digamma
+
+    noise, target = factor.variables
+    phd: PHDLikelihood = phd_factor_of(engine, target)
+    b: Intensity = engine.beliefs[target]
+    aux = engine.aux.setdefault(target, {})
+    if b.labels is None:
+        b = Intensity(b.x, b.log_weights, (), newborn=b.newborn,
+                      labels=np.zeros(b.num, dtype=np.int64))
+        engine.beliefs[target] = b
+        aux.setdefault("next_label", 1)
+    prior = _noise_prior(engine, noise)
+    forget = engine.graph.factors_of(noise, "transition")
+    known: dict[int, InverseGamma] = aux.get("noise_by_label", {})
+    uniq, inv = np.unique(b.labels, return_inverse=True)
+    q_pred = []
+    for lab in uniq.tolist():  # a loop over tracks (labels), not particles
+        q = known.get(lab)
+        if q is None:
+            q_pred.append(prior)
+        else:
+            q_pred.append(q.forget(forget[0].rho, forget[0].alpha_min) if forget else q)
+    k_dim = prior.dim
+    a_hat = np.array([q.alpha for q in q_pred]).reshape(len(uniq), k_dim)
+    b_hat = np.array([q.beta for q in q_pred]).reshape(len(uniq), k_dim)
+    z = phd.measurements(frame)
+    w_pred = np.exp(b.log_weights) if b.num else np.zeros(0)
+    mass = np.bincount(inv, weights=w_pred, minlength=len(uniq))
+    alpha = a_hat + 0.5 * np.minimum(z.shape[0], phd.p_detect * mass)[:, None]
+    beta = b_hat.copy()
+    pred = b.x @ phd.H.T
+    elbo: list[float] = []
+    res: dict[str, Any] = {}
+    r_hat = beta / alpha
+    it = 0
+    for it in range(1, factor.max_iter + 1):  # noqa: B007 - the count is reported
+        prec = (alpha / beta)[inv]
+        logv = (np.log(beta) - digamma(alpha))[inv]
+        res = _update(engine, target, phd, frame, prec, logv)
+        kl = sum(InverseGamma(alpha[k], beta[k]).kl(q_pred[k]) for k in range(len(uniq)))
+        elbo.append(float(np.sum(np.log(res["L"]))) - kl)
+        omega = res["omega"]
+        alpha = a_hat + 0.5 * np.bincount(inv, weights=omega.sum(axis=1),
+                                          minlength=len(uniq))[:, None]
+        sq = np.zeros_like(beta)
+        for i in range(z.shape[1]):
+            d = z[None, :, i] - pred[:, i, None]
+            sq[:, i] = np.bincount(inv, weights=(omega * d * d).sum(axis=1),
+                                   minlength=len(uniq))
+        beta = b_hat + 0.5 * sq
+        new_r = beta / alpha
+        change = float(np.max(np.abs(new_r - r_hat) / r_hat)) if new_r.size else 0.0
+        r_hat = new_r
+        if change < factor.tol:
+            break
+    aux["noise_by_label"] = {lab: InverseGamma(alpha[k], beta[k])
+                             for k, lab in enumerate(uniq.tolist())}
+    post_mass = np.bincount(inv, weights=res["w"], minlength=len(uniq)) if b.num else mass
+    if post_mass.sum() > 0:
+        summary = (post_mass[:, None] * r_hat).sum(axis=0) / post_mass.sum()
+    else:
+        summary = prior.r_hat()
+    _finish(engine, target, phd, res, prior.r_hat())
+    aux["r_hat"] = summary
+    engine.beliefs[noise] = InverseGamma(prior.alpha, prior.alpha * summary)
+    return {"iterations": it, "elbo": elbo, "r_hat": summary, "tracks": len(uniq),
+            "r_hat_by_label": {lab: r_hat[k] for k, lab in enumerate(uniq.tolist())}}
+
+
 @DEFAULT_RULES.register("conjugate", Intensity)
 def _vb_phd(engine: Engine, factor, frame) -> dict[str, Any]:
+    if getattr(factor, "per_track", False):
+        return _vb_phd_per_track(engine, factor, frame)
     noise, target = factor.variables
     phd: PHDLikelihood = phd_factor_of(engine, target)
     q_pred: InverseGamma = engine.beliefs[noise]

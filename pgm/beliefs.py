@@ -191,10 +191,13 @@ class Intensity(Particles):
     ``x, log_weights`` are the *persistent* particles; ``newborn`` holds the particles
     born from this frame's measurements (SPEC §3a): they are not re-weighted, not
     resampled and not extracted this frame, and join the persistent set at the next
-    prediction. ``expected_count`` includes them.
+    prediction. ``expected_count`` includes them. ``labels`` (optional, ``(N,)`` int)
+    are lineage labels carried through prediction and resampling (one label per birth),
+    used for per-track noise beliefs; ``newborn`` then carries labels too.
     """
 
     newborn: Particles | None = None
+    labels: np.ndarray | None = None
 
     @property
     def expected_count(self) -> float:

@@ -191,12 +191,15 @@ class PHDLikelihood(LikelihoodFactor):
 
         With ``precision = E[1/σ²]`` and ``log_variance = E[log σ²]`` of a noise belief
         this is the variational ``log g̃`` of SPEC §3b (constant included); by default
-        the plug-in Gaussian with the factor's ``R``.
+        the plug-in Gaussian with the factor's ``R``. Both may be ``(k,)`` (one noise
+        shared by all particles) or ``(N, k)`` (per-particle, e.g. per-track noise).
         """
         prec = 1.0 / self.R if precision is None else np.asarray(precision, dtype=float)
         logv = np.log(self.R) if log_variance is None else np.asarray(log_variance, dtype=float)
         pred = x @ self.H.T  # (N, k)
-        const = -0.5 * z.shape[1] * np.log(2 * np.pi) - 0.5 * float(np.sum(logv))
+        const = -0.5 * z.shape[1] * np.log(2 * np.pi) - 0.5 * np.sum(logv, axis=-1)
+        const = const[:, None] if np.ndim(const) else float(const)
+        prec = prec.T[:, :, None] if prec.ndim == 2 else prec  # (k, N, 1) per particle
         # stored (M, N), returned as its (N, M) transpose: reductions over particles run
         # along contiguous rows (about 2x faster than (N, M) with few measurements)
         out = np.empty((z.shape[0], x.shape[0])).T
@@ -300,12 +303,18 @@ class VBNoise(ConjugateFactor):
     strict_counts : bool
         Count only measurements with ``W_z ≥ 0.5`` in the noise statistics (halves the
         clutter bias at small σ but breaks the ELBO guarantee; SPEC §3b). Off by default.
+    per_track : bool
+        One noise belief per track instead of one shared by all targets: particles carry
+        a lineage label (one per birth), each label has its own inverse-Gamma belief,
+        and each label's statistics are summed over its own particles (the seed's
+        Algorithm 1 carries ``(α, β)`` per particle; this is its per-track form).
     """
 
     def __init__(self, noise: str, target: str, *, likelihood: str | None = None,
                  tol: float = 1e-3, max_iter: int = 10, strict_counts: bool = False,
-                 name: str | None = None):
+                 per_track: bool = False, name: str | None = None):
         super().__init__(noise, target, likelihood=likelihood, name=name)
+        self.per_track = bool(per_track)
         self.tol = float(check_finite_param(f"{self.name}.tol", tol, nonneg=True))
         self.max_iter = int(max_iter)
         if self.max_iter < 1:
@@ -317,4 +326,6 @@ class VBNoise(ConjugateFactor):
         p.update(tol=self.tol, max_iter=self.max_iter)
         if self.strict_counts:
             p["strict_counts"] = True
+        if self.per_track:
+            p["per_track"] = True
         return p
