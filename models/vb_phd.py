@@ -9,7 +9,8 @@ likelihood, so the engine runs the mean-field fixed point between the intensity 
 the noise belief every frame.
 
 Departure from the seed (say so): its Algorithm 1 carries ``(α, β)`` per particle; here
-one noise variable is shared by all targets (SPEC §3b default).
+one noise variable is shared by all targets by default (SPEC §3b), and
+``per_track_noise=True`` gives one belief per track lineage.
 
 >>> from pgm.models import vb_phd
 >>> g = vb_phd.build_graph(vb_phd.Params())
@@ -44,6 +45,9 @@ class Params(phd.Params):
         Floor of the predicted shape (2).
     vb_tol, vb_max_iter : float, int
         Fixed-point stop: relative change of ``R̂`` below ``vb_tol`` or ``vb_max_iter``.
+    per_track_noise : bool
+        One noise belief per track (particles carry lineage labels) instead of one
+        shared by all targets.
     """
 
     rho: float = 0.8
@@ -51,6 +55,7 @@ class Params(phd.Params):
     alpha_min: float = 2.0
     vb_tol: float = 1e-3
     vb_max_iter: int = 10
+    per_track_noise: bool = False
 
 
 def build_graph(params: Params, name: str = "vb-phd") -> FactorGraph:
@@ -60,7 +65,8 @@ def build_graph(params: Params, name: str = "vb-phd") -> FactorGraph:
     factors = list(base.factors.values()) + [
         InverseGammaPrior("noise", sigma=[params.sigma] * 2, alpha=params.alpha0),
         NoiseForgetting("noise", rho=params.rho, alpha_min=params.alpha_min),
-        VBNoise("noise", "targets", tol=params.vb_tol, max_iter=params.vb_max_iter),
+        VBNoise("noise", "targets", tol=params.vb_tol, max_iter=params.vb_max_iter,
+                per_track=params.per_track_noise),
     ]
     return FactorGraph(list(base.variables.values()) + [noise], factors, name=name,
                        meta=base.meta)

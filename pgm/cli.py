@@ -107,6 +107,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--max-frames", type=_positive_int("--max-frames"), default=None)
     t.add_argument("--detections", help="phd/vb-phd: a MOTChallenge det.txt to use as "
                                         "measurements")
+    t.add_argument("--per-track-noise", action="store_true",
+                   help="vb-phd: one noise belief per track instead of one shared")
     t.add_argument("--detector", default=None,
                    help="phd/vb-phd: 'public' (the sequence's det/det.txt, default), "
                         "'public:MIN_SCORE' or 'mog2' (background subtraction)")
@@ -218,6 +220,10 @@ def cmd_track_multi(args, source) -> int:
     kwargs = {}
     if args.particles is not None:
         kwargs["particles_per_target"] = args.particles
+    if args.per_track_noise:
+        if args.model != "vb-phd":
+            raise InputError("--per-track-noise applies to vb-phd only")
+        kwargs["per_track_noise"] = True
     graph = module.build_graph(video_params(module.Params, width, height, source.fps,
                                             **kwargs))
     result = track_multi(source, graph, detector, rng=as_generator(args.seed), out_dir=args.out,
