@@ -165,10 +165,71 @@ def _noise_prior(engine: Engine, noise: str) -> InverseGamma:
     return priors[0].belief()
 
 
+def _vb_phd_fixed_point(engine: Engine, factor, frame, inv: np.ndarray,
+                        q_pred: list[InverseGamma]) -> dict[str, Any]:
+    """The VB-PHD fixed point with one noise belief per group of particles.
+
+    ``inv`` ``(N,)`` maps each persistent particle to its group; ``q_pred`` holds each
+    group's predicted belief. One group is the shared-noise filter of SPEC §3b; one
+    group per lineage label is the per-track option. Each group's statistics are
+    summed over its own particles (``np.bincount``: no loop over particles).
+    """
+    noise, target = factor.variables
+    phd: PHDLikelihood = phd_factor_of(engine, target)
+    b: Intensity = engine.beliefs[target]
+    n_groups, k = len(q_pred), phd.H.shape[0]
+    a_hat = np.array([q.alpha for q in q_pred]).reshape(n_groups, k)
+    b_hat = np.array([q.beta for q in q_pred]).reshape(n_groups, k)
+    z = phd.measurements(frame)
+    w_pred = np.exp(b.log_weights) if b.num else np.zeros(0)
+    mass = np.bincount(inv, weights=w_pred, minlength=n_groups)
+    # first pass: sum_z W_z unknown -> min(|Z|, p_D x predicted mass), beta = beta_hat
+    alpha = a_hat + 0.5 * np.minimum(z.shape[0], phd.p_detect * mass)[:, None]
+    beta = b_hat.copy()
+    pred = b.x @ phd.H.T
+    elbo: list[float] = []
+    res: dict[str, Any] = {}
+    r_hat = beta / alpha
+    it = 0
+    for it in range(1, factor.max_iter + 1):  # noqa: B007 - the count is reported
+        qs = [InverseGamma(alpha[g], beta[g]) for g in range(n_groups)]  # loop over groups
+        prec = np.array([q.expected_precision() for q in qs]).reshape(n_groups, k)
+        logv = np.array([q.expected_log_variance() for q in qs]).reshape(n_groups, k)
+        if n_groups == 1:  # one shared belief: (k,) vectors, no per-particle copies
+            res = _update(engine, target, phd, frame, prec[0], logv[0])
+        else:
+            res = _update(engine, target, phd, frame, prec[inv], logv[inv])
+        elbo.append(float(np.sum(np.log(res["L"])))
+                    - sum(q.kl(p) for q, p in zip(qs, q_pred, strict=True)))
+        omega, W = res["omega"], res["W"]
+        if factor.strict_counts:
+            omega = omega * (W >= 0.5)[None, :]
+        sq = np.zeros_like(beta)
+        if n_groups == 1:  # shared noise: plain sums
+            alpha = a_hat + 0.5 * omega.sum()
+            for i in range(k):  # k components, vectorised over particles x measurements
+                d = z[None, :, i] - pred[:, i, None]
+                sq[0, i] = np.sum(omega * d * d)
+        else:
+            alpha = a_hat + 0.5 * np.bincount(inv, weights=omega.sum(axis=1),
+                                              minlength=n_groups)[:, None]
+            for i in range(k):
+                d = z[None, :, i] - pred[:, i, None]
+                sq[:, i] = np.bincount(inv, weights=(omega * d * d).sum(axis=1),
+                                       minlength=n_groups)
+        beta = b_hat + 0.5 * sq
+        new_r = beta / alpha
+        change = float(np.max(np.abs(new_r - r_hat) / r_hat)) if new_r.size else 0.0
+        r_hat = new_r
+        if change < factor.tol:
+            break
+    post = np.bincount(inv, weights=res["w"], minlength=n_groups) if b.num else mass
+    return {"iterations": it, "elbo": elbo, "alpha": alpha, "beta": beta, "r_hat": r_hat,
+            "res": res, "mass": post}
+
+
 def _vb_phd_per_track(engine: Engine, factor, frame) -> dict[str, Any]:
     """VB-PHD with one inverse-Gamma belief per lineage label (``per_track=True``)."""
-    from scipy.special import digamma
-
     noise, target = factor.variables
     phd: PHDLikelihood = phd_factor_of(engine, target)
     b: Intensity = engine.beliefs[target]
@@ -189,51 +250,20 @@ def _vb_phd_per_track(engine: Engine, factor, frame) -> dict[str, Any]:
             q_pred.append(prior)
         else:
             q_pred.append(q.forget(forget[0].rho, forget[0].alpha_min) if forget else q)
-    k_dim = prior.dim
-    a_hat = np.array([q.alpha for q in q_pred]).reshape(len(uniq), k_dim)
-    b_hat = np.array([q.beta for q in q_pred]).reshape(len(uniq), k_dim)
-    z = phd.measurements(frame)
-    w_pred = np.exp(b.log_weights) if b.num else np.zeros(0)
-    mass = np.bincount(inv, weights=w_pred, minlength=len(uniq))
-    alpha = a_hat + 0.5 * np.minimum(z.shape[0], phd.p_detect * mass)[:, None]
-    beta = b_hat.copy()
-    pred = b.x @ phd.H.T
-    elbo: list[float] = []
-    res: dict[str, Any] = {}
-    r_hat = beta / alpha
-    it = 0
-    for it in range(1, factor.max_iter + 1):  # noqa: B007 - the count is reported
-        prec = (alpha / beta)[inv]
-        logv = (np.log(beta) - digamma(alpha))[inv]
-        res = _update(engine, target, phd, frame, prec, logv)
-        kl = sum(InverseGamma(alpha[k], beta[k]).kl(q_pred[k]) for k in range(len(uniq)))
-        elbo.append(float(np.sum(np.log(res["L"]))) - kl)
-        omega = res["omega"]
-        alpha = a_hat + 0.5 * np.bincount(inv, weights=omega.sum(axis=1),
-                                          minlength=len(uniq))[:, None]
-        sq = np.zeros_like(beta)
-        for i in range(z.shape[1]):
-            d = z[None, :, i] - pred[:, i, None]
-            sq[:, i] = np.bincount(inv, weights=(omega * d * d).sum(axis=1),
-                                   minlength=len(uniq))
-        beta = b_hat + 0.5 * sq
-        new_r = beta / alpha
-        change = float(np.max(np.abs(new_r - r_hat) / r_hat)) if new_r.size else 0.0
-        r_hat = new_r
-        if change < factor.tol:
-            break
-    aux["noise_by_label"] = {lab: InverseGamma(alpha[k], beta[k])
-                             for k, lab in enumerate(uniq.tolist())}
-    post_mass = np.bincount(inv, weights=res["w"], minlength=len(uniq)) if b.num else mass
+    out = _vb_phd_fixed_point(engine, factor, frame, inv, q_pred)
+    alpha, beta, r_hat, post_mass = out["alpha"], out["beta"], out["r_hat"], out["mass"]
+    aux["noise_by_label"] = {lab: InverseGamma(alpha[g], beta[g])
+                             for g, lab in enumerate(uniq.tolist())}
     if post_mass.sum() > 0:
         summary = (post_mass[:, None] * r_hat).sum(axis=0) / post_mass.sum()
     else:
         summary = prior.r_hat()
-    _finish(engine, target, phd, res, prior.r_hat())
+    _finish(engine, target, phd, out["res"], prior.r_hat())
     aux["r_hat"] = summary
     engine.beliefs[noise] = InverseGamma(prior.alpha, prior.alpha * summary)
-    return {"iterations": it, "elbo": elbo, "r_hat": summary, "tracks": len(uniq),
-            "r_hat_by_label": {lab: r_hat[k] for k, lab in enumerate(uniq.tolist())}}
+    return {"iterations": out["iterations"], "elbo": out["elbo"], "r_hat": summary,
+            "tracks": len(uniq),
+            "r_hat_by_label": {lab: r_hat[g] for g, lab in enumerate(uniq.tolist())}}
 
 
 @DEFAULT_RULES.register("conjugate", Intensity)
@@ -241,40 +271,11 @@ def _vb_phd(engine: Engine, factor, frame) -> dict[str, Any]:
     if getattr(factor, "per_track", False):
         return _vb_phd_per_track(engine, factor, frame)
     noise, target = factor.variables
-    phd: PHDLikelihood = phd_factor_of(engine, target)
-    q_pred: InverseGamma = engine.beliefs[noise]
     b: Intensity = engine.beliefs[target]
-    z = phd.measurements(frame)
-    w_pred = np.exp(b.log_weights) if b.num else np.zeros(0)
-    alpha = q_pred.alpha + 0.5 * min(z.shape[0], phd.p_detect * w_pred.sum())
-    beta = q_pred.beta.copy()
-    pred = b.x @ phd.H.T
-    elbo: list[float] = []
-    res: dict[str, Any] = {}
-    r_hat = beta / alpha
-    it = 0
-    for it in range(1, factor.max_iter + 1):  # noqa: B007 - the count is reported
-        q = InverseGamma(alpha, beta)
-        res = _update(engine, target, phd, frame, q.expected_precision(),
-                      q.expected_log_variance())
-        elbo.append(float(np.sum(np.log(res["L"]))) - q.kl(q_pred))
-        omega, W = res["omega"], res["W"]
-        if factor.strict_counts:
-            omega = omega * (W >= 0.5)[None, :]
-            W = omega.sum(axis=0)
-        alpha = q_pred.alpha + 0.5 * W.sum()
-        sq = np.zeros_like(beta)
-        for i in range(z.shape[1]):  # k components, vectorised over particles x measurements
-            d = z[None, :, i] - pred[:, i, None]
-            sq[i] = np.sum(omega * d * d)
-        beta = q_pred.beta + 0.5 * sq
-        new_r = beta / alpha
-        change = float(np.max(np.abs(new_r - r_hat) / r_hat))
-        r_hat = new_r
-        if change < factor.tol:
-            break
-    q = InverseGamma(alpha, beta)
+    out = _vb_phd_fixed_point(engine, factor, frame, np.zeros(b.num, dtype=np.int64),
+                              [engine.beliefs[noise]])
+    q = InverseGamma(out["alpha"][0], out["beta"][0])
     engine.beliefs[noise] = q
-    _finish(engine, target, phd, res, q.r_hat())
+    _finish(engine, target, phd_factor_of(engine, target), out["res"], q.r_hat())
     engine.aux.setdefault(target, {})["r_hat"] = q.r_hat()
-    return {"iterations": it, "elbo": elbo, "r_hat": q.r_hat()}
+    return {"iterations": out["iterations"], "elbo": out["elbo"], "r_hat": q.r_hat()}
