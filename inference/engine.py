@@ -322,6 +322,7 @@ class Engine:
         #: per-variable state that rules keep across frames (PHD tracks, extraction, ...)
         self.aux: dict[str, dict[str, Any]] = {}
         self._learners = [f for f in self.graph.factors.values() if f.learns]
+        self._groups_cache: dict[tuple, list[list[str]]] = {}
         self.frame: FrameContext | None = None
         self.t = 0
         self._hooks: dict[str, list[Hook]] = {s: [] for s in STAGES}
@@ -445,15 +446,50 @@ class Engine:
             if info:
                 record.info.setdefault(v, {}).update(info)
 
+    def _weight_groups(self, items) -> list[list[str]]:
+        """Likelihood factors grouped by ``batch_key`` (scored in one pass when possible)."""
+        key = tuple(items)
+        groups = self._groups_cache.get(key)
+        if groups is None:
+            by_key: dict[Any, list[str]] = {}
+            groups = []
+            for name in items:
+                f = self.graph.factors[name]
+                bk = getattr(f, "batch_key", None)
+                if bk is None:
+                    groups.append([name])
+                    continue
+                bk = (type(f), bk)
+                if bk not in by_key:
+                    by_key[bk] = []
+                    groups.append(by_key[bk])
+                by_key[bk].append(name)
+            self._groups_cache[key] = groups
+        return groups
+
     def _stage_weight(self, items, frame, record) -> None:
         before = {v: self.beliefs[v] for v in self.beliefs
                   if isinstance(self.beliefs[v], Particles)}
         weighted: list[str] = []
-        for name in items:
-            self._apply_factor(name, frame, record)
-            for v in self.graph.factors[name].variables:
-                if v in before and v not in weighted:
-                    weighted.append(v)
+        for group in self._weight_groups(items):
+            fs = [self.graph.factors[n] for n in group]
+            vs = [f.variables[0] for f in fs]
+            batchable = len(fs) > 1 and all(
+                self.rules.lookup("likelihood", type(self.beliefs[v])) is _weight_particles
+                for v in vs)
+            if batchable:
+                lls = type(fs[0]).log_likelihood_batch(fs, [self.beliefs[v].x for v in vs],
+                                                       frame)
+                for f, v, ll in zip(fs, vs, lls, strict=True):
+                    _check_ll(f, ll, self.beliefs[v].num)
+                    self.beliefs[v] = self.beliefs[v].reweight(ll)
+            else:
+                for name in group:
+                    self._apply_factor(name, frame, record)
+            for f in fs:
+                for v in f.variables:
+                    if v in before and v not in weighted:
+                        weighted.append(v)
         for v in weighted:
             b, b0 = self.beliefs[v], before[v]
             if isinstance(b, Intensity):
@@ -528,15 +564,19 @@ def _predict_particles(engine: Engine, factor, frame) -> None:
     engine.beliefs[var] = b.moved(x_new, history_len=max(0, factor.order - 1))
 
 
+def _check_ll(factor, ll, n: int) -> np.ndarray:
+    ll = np.asarray(ll, dtype=float)
+    if ll.shape != (n,):
+        raise ValueError(f"factor {factor.name!r}: log_likelihood returned shape {ll.shape}, "
+                         f"expected ({n},)")
+    return ll
+
+
 @DEFAULT_RULES.register("likelihood", Particles)
 def _weight_particles(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     b: Particles = engine.beliefs[var]
-    ll = np.asarray(factor.log_likelihood(b.x, frame), dtype=float)
-    if ll.shape != (b.num,):
-        raise ValueError(f"factor {factor.name!r}: log_likelihood returned shape {ll.shape}, "
-                         f"expected ({b.num},)")
-    engine.beliefs[var] = b.reweight(ll)
+    engine.beliefs[var] = b.reweight(_check_ll(factor, factor.log_likelihood(b.x, frame), b.num))
 
 
 @DEFAULT_RULES.register("resample", Particles)

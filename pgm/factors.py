@@ -206,6 +206,20 @@ class LikelihoodFactor(Factor):
     def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         """Log-likelihood of every particle, shape ``(N,)``, vectorised."""
 
+    #: factors with the same non-None key may be scored together by
+    #: ``type(f).log_likelihood_batch`` (one vectorised pass for several variables)
+    batch_key = None
+
+    @classmethod
+    def log_likelihood_batch(cls, factors: list[LikelihoodFactor], xs: list[np.ndarray],
+                             ctx: FrameContext) -> list[np.ndarray]:
+        """Score several factors of this class (equal ``batch_key``) in one pass.
+
+        The default scores them one by one; subclasses override it when a joint pass
+        is cheaper (e.g. colour histograms of all parts of an object in one frame).
+        """
+        return [f.log_likelihood(x, ctx) for f, x in zip(factors, xs, strict=True)]
+
     def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:  # noqa: B027
         """Learn what the factor needs from the first frame (e.g. a template at ``value``).
 

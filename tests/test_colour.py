@@ -516,3 +516,19 @@ def test_bad_parameters_raise():
         scorer.template(img, (-50, -50, 10, 10))
     with pytest.raises(ValueError, match="shape"):
         scorer.rho(img, np.array([[5.0, 5.0, 2.0, 2.0]]), q=np.ones(7))
+
+
+@pytest.mark.parametrize("kernel", ["uniform", "epanechnikov"])
+def test_rho_many_equals_rho_per_template(kernel):
+    rng = np.random.default_rng(21)
+    img = rng.integers(0, 256, (120, 160, 3), dtype=np.uint8)
+    sc = ColourHistogramScorer(kernel=kernel)
+    T = np.array([sc.template(img, b) for b in ((50, 40, 30, 20), (50, 60, 30, 20),
+                                                 (90, 80, 20, 30))])
+    boxes = np.column_stack([rng.normal(70, 25, 40), rng.normal(60, 25, 40),
+                             rng.uniform(10, 40, 40), rng.uniform(10, 40, 40)])
+    owner = rng.integers(0, 3, 40)
+    got = sc.rho_many(FrameContext(1, img), boxes, T, owner)
+    want = np.array([sc.rho(FrameContext(1, img), boxes[i:i + 1], T[owner[i]])[0]
+                     for i in range(40)])
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)

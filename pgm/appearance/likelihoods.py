@@ -106,3 +106,21 @@ class ColourHistogramLikelihood(LikelihoodFactor):
 
     def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         return -self.lam * (1.0 - self.rho(x, ctx))
+
+    @property
+    def batch_key(self):
+        """Factors with equal bin layout and kernel share one scoring pass per frame."""
+        return ("colour", self.layout, self.n_h, self.n_s, self.n_v, self.kernel)
+
+    @classmethod
+    def log_likelihood_batch(cls, factors, xs, ctx):
+        """All the factors' boxes scored in one :meth:`ColourHistogramScorer.rho_many`."""
+        if any(f.template is None for f in factors):
+            raise ValueError("a colour factor has no template: run it from the first frame")
+        boxes = np.concatenate([f.boxes(x) for f, x in zip(factors, xs, strict=True)])
+        owner = np.repeat(np.arange(len(factors)), [len(x) for x in xs])
+        rho = factors[0].scorer.rho_many(ctx, boxes, np.array([f.template for f in factors]),
+                                         owner)
+        lam = np.repeat([f.lam for f in factors], [len(x) for x in xs])
+        out = -lam * (1.0 - rho)
+        return np.split(out, np.cumsum([len(x) for x in xs])[:-1])
