@@ -9,6 +9,7 @@
               --out DIR [--gt FILE]
     pgm eval --gt FILE --pred DIR/tracks.txt [--json]
     pgm graph MODEL [--parts 2|3] --out FILE.{png,svg,pdf,dot}
+    pgm learn dbn --train SEQ [SEQ ...] --out FILE.npz
     pgm demo --out DIR
 
 Bad input (a missing or corrupt video, a malformed box or ground-truth file, a bad
@@ -107,6 +108,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--max-frames", type=_positive_int("--max-frames"), default=None)
     t.add_argument("--detections", help="phd/vb-phd: a MOTChallenge det.txt to use as "
                                         "measurements")
+    t.add_argument("--dbn", help="phd/vb-phd: a DBN person likelihood trained by "
+                                 "'pgm learn dbn' (multiplies the detection terms)")
     t.add_argument("--per-track-noise", action="store_true",
                    help="vb-phd: one noise belief per track instead of one shared")
     t.add_argument("--detector", default=None,
@@ -123,6 +126,19 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("model", help=f"model name ({', '.join(sorted(MODELS))}) or a model .json")
     g.add_argument("--out", required=True, help="FILE.png, .svg, .pdf or .dot")
     _model_options(g)
+
+    lp = sub.add_parser("learn", help="learn model parameters from annotated sequences")
+    lsub = lp.add_subparsers(dest="what", required=True, parser_class=_Parser)
+    ld = lsub.add_parser("dbn", help="train the deep-belief-network person likelihood")
+    ld.add_argument("--train", nargs="+", required=True,
+                    help="MOTChallenge sequence folders with gt/gt.txt (never the one you "
+                         "will evaluate on)")
+    ld.add_argument("--out", required=True, help="output .npz file")
+    ld.add_argument("--every", type=_positive_int("--every"), default=3,
+                    help="use every K-th annotated frame")
+    ld.add_argument("--seed", type=_nonneg_int, default=0)
+    ld.add_argument("--epochs", type=_positive_int("--epochs"), default=40,
+                    help="fine-tuning epochs")
 
     d = sub.add_parser("demo", help="render a synthetic scene, track it, write every output")
     d.add_argument("--out", required=True, help="output folder")
@@ -226,6 +242,14 @@ def cmd_track_multi(args, source) -> int:
         kwargs["per_track_noise"] = True
     graph = module.build_graph(video_params(module.Params, width, height, source.fps,
                                             **kwargs))
+    if args.dbn is not None:
+        from .appearance.dbn import DBNLikelihood
+        from .graph import FactorGraph
+
+        graph = FactorGraph(list(graph.variables.values()),
+                            list(graph.factors.values())
+                            + [DBNLikelihood("targets", model=args.dbn, name="appearance:dbn")],
+                            name=graph.name + "+dbn", meta=graph.meta)
     result = track_multi(source, graph, detector, rng=as_generator(args.seed), out_dir=args.out,
                          gt=gt, write_video=not args.no_video, show_particles=args.show_particles,
                          progress=not args.quiet, max_frames=args.max_frames)
@@ -363,7 +387,29 @@ def cmd_demo(args) -> int:
     return 0
 
 
-COMMANDS = {"track": cmd_track, "eval": cmd_eval, "graph": cmd_graph, "demo": cmd_demo}
+def cmd_learn(args) -> int:
+    from ._rng import as_generator
+    from .appearance.dbn import DBN, training_set
+    from .appearance.features import PatchFeatures
+
+    rng = as_generator(args.seed)
+    feats = PatchFeatures()
+    X, y = training_set(args.train, rng, every=args.every, features=feats)
+    net = DBN()
+    net.features_ = feats.to_dict()
+    net.fit(X, y, rng, finetune_epochs=args.epochs)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    net.save(out)
+    p = net.predict_proba(X)
+    acc = float(np.mean((p > 0.5) == y))
+    print(f"trained on {len(y)} patches ({int(y.sum())} people) from {len(args.train)} "
+          f"sequence(s); training accuracy {acc:.3f}; wrote {out}")
+    return 0
+
+
+COMMANDS = {"track": cmd_track, "eval": cmd_eval, "graph": cmd_graph, "demo": cmd_demo,
+            "learn": cmd_learn}
 
 
 def main(argv: list[str] | None = None) -> int:

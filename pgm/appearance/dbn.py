@@ -1,0 +1,295 @@
+r"""A deep-belief-network person likelihood (seed 000, §II-C; SPEC §3c).
+
+Input: colour histogram + oriented-gradient features of the patch at a particle
+(:class:`~pgm.appearance.features.PatchFeatures`), in [0, 1]. Two Bernoulli RBM
+layers are pre-trained greedily by one-step contrastive divergence (CD-1), then the
+stack plus one logistic output unit is fine-tuned by back-propagation (torch), and the
+output is calibrated by Platt scaling on a held-out split. Its calibrated output
+``s(x)`` enters the PHD update as the likelihood ratio
+
+.. math::
+    \ell(x) = \frac{s(x)}{1 - s(x)} \cdot \frac{1 - \pi}{\pi}
+
+(``π`` the training prior of the person class), tempered by ``γ``
+(:class:`~pgm.multitarget.PHDLikelihood`'s ``appearance_temper``), on the detection
+terms only: declare a :class:`DBNLikelihood` on the set variable.
+
+A trained network is saved as ``.npz`` (arrays plus a JSON header) and loaded with
+``allow_pickle=False``: loading never executes code.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError
+from ..factors import LikelihoodFactor
+from ..frame import FrameContext
+from .features import PatchFeatures
+
+__all__ = ["DBN", "DBNLikelihood", "training_set"]
+
+FORMAT = "pgm-dbn-v1"
+
+
+def _torch():
+    import torch
+
+    return torch
+
+
+class DBN:
+    """Two RBM layers + a logistic unit, calibrated; numpy in, numpy out.
+
+    Parameters
+    ----------
+    hidden : (int, int)
+        Sizes of the two hidden layers.
+    """
+
+    def __init__(self, hidden: tuple[int, int] = (64, 32)):
+        self.hidden = (int(hidden[0]), int(hidden[1]))
+        self.weights_: list[np.ndarray] | None = None   # W1, c1, W2, c2, w_out, b_out
+        self.platt_: tuple[float, float] = (1.0, 0.0)
+        self.prior_: float = 0.5
+        self.features_: dict[str, Any] = {}
+
+    # -- training ------------------------------------------------------------------------
+    def fit(self, X: np.ndarray, y: np.ndarray, rng: np.random.Generator, *,
+            rbm_epochs: int = 10, finetune_epochs: int = 40, batch: int = 128,
+            lr_rbm: float = 0.05, lr_finetune: float = 3e-3, val_fraction: float = 0.2
+            ) -> DBN:
+        """Pre-train (CD-1), fine-tune (BCE, Adam) and calibrate (Platt) on ``X, y``."""
+        torch = _torch()
+        X = np.asarray(X, dtype=np.float32)
+        y = np.asarray(y, dtype=np.float32).reshape(-1)
+        if X.ndim != 2 or len(X) != len(y) or len(X) < 10:
+            raise InputError(f"DBN.fit needs X (n, d) and y (n,) with n >= 10, got {X.shape}, "
+                             f"{y.shape}")
+        if not (0 < y.mean() < 1):
+            raise InputError("DBN.fit needs both classes in y")
+        gen = torch.Generator().manual_seed(int(rng.integers(2**62)))
+        perm = rng.permutation(len(X))
+        n_val = max(1, int(round(val_fraction * len(X))))
+        val, tr = perm[:n_val], perm[n_val:]
+        Xt, yt = torch.from_numpy(X[tr]), torch.from_numpy(y[tr])
+        self.prior_ = float(y[tr].mean())
+        params = []
+        inp = Xt
+        for h in self.hidden:  # greedy layer-wise CD-1
+            W, c = self._rbm(inp, h, gen, rbm_epochs, batch, lr_rbm)
+            params += [W, c]
+            inp = torch.sigmoid(inp @ W + c)
+        w_out = torch.zeros((self.hidden[1], 1))
+        b_out = torch.zeros(1)
+        params += [w_out, b_out]
+        params = [p.clone().requires_grad_(True) for p in params]
+        opt = torch.optim.Adam(params, lr=lr_finetune)
+        loss_fn = torch.nn.BCEWithLogitsLoss()
+        n = len(Xt)
+        for _ in range(finetune_epochs):
+            order = torch.randperm(n, generator=gen)
+            for s in range(0, n, batch):
+                idx = order[s:s + batch]
+                opt.zero_grad()
+                loss = loss_fn(self._logits_t(params, Xt[idx]), yt[idx])
+                loss.backward()
+                opt.step()
+        self.weights_ = [p.detach().numpy().astype(np.float64) for p in params]
+        # Platt scaling on the held-out split: s = sigmoid(a * logit + b)
+        from sklearn.linear_model import LogisticRegression
+
+        z = self.logits(X[val])[:, None]
+        if 0 < y[val].mean() < 1:
+            lr = LogisticRegression(C=1e6).fit(z, y[val])
+            self.platt_ = (float(lr.coef_[0, 0]), float(lr.intercept_[0]))
+        return self
+
+    @staticmethod
+    def _rbm(v0, n_hidden, gen, epochs, batch, lr):
+        torch = _torch()
+        n, d = v0.shape
+        W = 0.01 * torch.randn((d, n_hidden), generator=gen)
+        b = torch.zeros(d)
+        c = torch.zeros(n_hidden)
+        for _ in range(epochs):
+            order = torch.randperm(n, generator=gen)
+            for s in range(0, n, batch):
+                v = v0[order[s:s + batch]]
+                ph = torch.sigmoid(v @ W + c)
+                h = (torch.rand(ph.shape, generator=gen) < ph).float()
+                pv = torch.sigmoid(h @ W.T + b)  # mean-field reconstruction
+                ph2 = torch.sigmoid(pv @ W + c)
+                m = len(v)
+                W += lr * (v.T @ ph - pv.T @ ph2) / m
+                b += lr * (v - pv).mean(0)
+                c += lr * (ph - ph2).mean(0)
+        return W, c
+
+    @staticmethod
+    def _logits_t(params, X):
+        torch = _torch()
+        W1, c1, W2, c2, w, b = params
+        h = torch.sigmoid(torch.sigmoid(X @ W1 + c1) @ W2 + c2)
+        return (h @ w).reshape(-1) + b
+
+    # -- inference -----------------------------------------------------------------------
+    def logits(self, X: np.ndarray) -> np.ndarray:
+        """Uncalibrated output logits ``(n,)`` (numpy forward pass)."""
+        if self.weights_ is None:
+            raise InputError("the DBN is not trained")
+        W1, c1, W2, c2, w, b = self.weights_
+        h = 1 / (1 + np.exp(-(np.asarray(X, dtype=float) @ W1 + c1)))
+        h = 1 / (1 + np.exp(-(h @ W2 + c2)))
+        return (h @ w).reshape(-1) + b[0]
+
+    def calibrated_logits(self, X: np.ndarray) -> np.ndarray:
+        """``a · logit + b`` (Platt): the log-odds of ``s(x)``."""
+        a, c = self.platt_
+        return a * self.logits(X) + c
+
+    def predict_proba(self, X: np.ndarray) -> np.ndarray:
+        """Calibrated ``s(x)``, the probability that each patch is a person."""
+        return 1 / (1 + np.exp(-self.calibrated_logits(X)))
+
+    def log_ratio(self, X: np.ndarray) -> np.ndarray:
+        """``log ℓ(x) = logit s(x) + log((1 − π)/π)`` (SPEC §3c)."""
+        return self.calibrated_logits(X) + np.log((1 - self.prior_) / self.prior_)
+
+    # -- files ---------------------------------------------------------------------------
+    def save(self, path: str | Path) -> None:
+        """Write weights and settings to an ``.npz`` file (no pickle)."""
+        if self.weights_ is None:
+            raise InputError("the DBN is not trained")
+        header = {"format": FORMAT, "hidden": list(self.hidden), "platt": list(self.platt_),
+                  "prior": self.prior_, "features": self.features_}
+        np.savez(path, header=np.array(json.dumps(header)),
+                 **{f"w{k}": w for k, w in enumerate(self.weights_)})
+
+    @classmethod
+    def load(cls, path: str | Path) -> DBN:
+        """Read a file written by :meth:`save` (``allow_pickle=False``)."""
+        p = Path(path)
+        if not p.is_file():
+            raise InputError(f"DBN file not found: {p}")
+        try:
+            with np.load(p, allow_pickle=False) as f:
+                header = json.loads(str(f["header"]))
+                weights = [np.asarray(f[f"w{k}"], dtype=float) for k in range(6)]
+        except (ValueError, KeyError, OSError, json.JSONDecodeError) as exc:
+            raise InputError(f"{p} is not a pgm DBN file: {exc}") from None
+        if header.get("format") != FORMAT:
+            raise InputError(f"{p} is not a pgm DBN file (format {header.get('format')!r})")
+        net = cls(tuple(header["hidden"]))
+        net.weights_ = weights
+        net.platt_ = tuple(header["platt"])
+        net.prior_ = float(header["prior"])
+        net.features_ = dict(header.get("features", {}))
+        return net
+
+
+def _boxes_from_state(x: np.ndarray, size: np.ndarray, pos: tuple[int, int]) -> np.ndarray:
+    """``(cx, cy, w, h)`` boxes standing on the foot points of states ``x``."""
+    w, h = float(size[0]), float(size[1])
+    return np.column_stack([x[:, pos[0]], x[:, pos[1]] - h / 2, np.full(len(x), w),
+                            np.full(len(x), h)])
+
+
+class DBNLikelihood(LikelihoodFactor):
+    """Appearance factor: the DBN's log likelihood ratio of the patch at each particle.
+
+    Declared on a ``set`` variable next to its :class:`~pgm.multitarget.PHDLikelihood`,
+    it multiplies the detection terms (tempered by ``appearance_temper``). Particles
+    are foot points: the patch is a box of the frame's median detection size standing
+    on the particle's foot point (``box_size`` when the frame has no detections).
+
+    Parameters
+    ----------
+    variable : str
+    model : str
+        Path of a DBN saved by :meth:`DBN.save` (``pgm learn dbn``).
+    box_size : (float, float)
+        Fallback patch size ``(w, h)``.
+    position_indices : (int, int)
+        State components of the foot point ``(x, y)``.
+    """
+
+    def __init__(self, variable: str, *, model: str, box_size=(40.0, 100.0),
+                 position_indices=(0, 2), name: str | None = None):
+        super().__init__(variable, name=name)
+        self.model = str(model)
+        self.net = DBN.load(self.model)
+        self.box_size = np.asarray(box_size, dtype=float)
+        self.position_indices = tuple(int(i) for i in position_indices)
+        f = self.net.features_
+        self.features = PatchFeatures(n_orient=f.get("n_orient", 9),
+                                      cells=tuple(f.get("cells", (2, 4))))
+
+    def params(self) -> dict[str, Any]:
+        return {"model": self.model, "box_size": self.box_size,
+                "position_indices": list(self.position_indices)}
+
+    def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
+        size = self.box_size
+        dets = getattr(ctx, "detections", None)
+        if dets is not None and len(dets):
+            size = np.median(np.asarray(dets.boxes)[:, 2:4], axis=0)
+        boxes = _boxes_from_state(x, size, self.position_indices)
+        return self.net.log_ratio(self.features.compute(ctx, boxes))
+
+
+def training_set(sequences, rng: np.random.Generator, *, every: int = 5,
+                 negatives_per_positive: int = 2, max_frames: int | None = None,
+                 features: PatchFeatures | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Features and labels from annotated MOT sequences.
+
+    Positives: ground-truth boxes (flag 1) on every ``every``-th frame. Negatives: for
+    each positive, ``negatives_per_positive`` boxes of a ground-truth size placed
+    uniformly at random, plus one copy of the positive shifted by 0.6–1.0 of its size,
+    all kept only if their IoU with every ground-truth box is below 0.2.
+    """
+    from ..boxes import iou_xywh
+    from ..io.annotations import load_mot
+    from ..io.video import open_source
+
+    feats = features or PatchFeatures()
+    X, y = [], []
+    for seq in sequences:
+        src = open_source(seq)
+        if src.gt_path is None:
+            raise InputError(f"{seq}: no ground truth to train from")
+        gt = load_mot(src.gt_path, kind="gt")
+        W, H = src.size
+        for k, (number, image) in enumerate(src.frames()):
+            if max_frames is not None and k >= max_frames:
+                break
+            if (number - 1) % every:
+                continue
+            _, boxes, _ = gt.at(number)
+            rows = np.flatnonzero(gt.frames == number)
+            keep = ~gt.ignore[rows] if gt.ignore is not None else np.ones(len(rows), bool)
+            boxes = np.asarray(boxes)[keep]
+            if len(boxes) == 0:
+                continue
+            n = len(boxes)
+            sizes = boxes[rng.integers(0, n, n * negatives_per_positive), 2:4]
+            rand = np.column_stack([rng.uniform(0, W - sizes[:, 0]),
+                                    rng.uniform(0, H - sizes[:, 1]), sizes])
+            shift = boxes.copy()
+            sign = rng.choice([-1.0, 1.0], size=(n, 2))
+            shift[:, :2] += sign * rng.uniform(0.6, 1.0, (n, 2)) * boxes[:, 2:4]
+            neg = np.concatenate([rand, shift])
+            ious = iou_xywh(neg[:, None, :], boxes[None, :, :]).max(axis=1)
+            neg = neg[ious < 0.2]
+            all_boxes = np.concatenate([boxes, neg])
+            c = np.column_stack([all_boxes[:, 0] + all_boxes[:, 2] / 2,
+                                 all_boxes[:, 1] + all_boxes[:, 3] / 2, all_boxes[:, 2:4]])
+            X.append(feats.compute(FrameContext(number, image), c))
+            y.append(np.r_[np.ones(len(boxes)), np.zeros(len(neg))])
+    if not X:
+        raise InputError("no annotated frames to train from")
+    return np.concatenate(X), np.concatenate(y)
