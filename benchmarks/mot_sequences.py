@@ -70,7 +70,14 @@ def run(seq_dir: Path, module, detector, seed: int = 0):
     src = open_source(seq_dir)
     gt = load_mot(src.gt_path, kind="gt")
     w, h = src.size
-    graph = module.build_graph(video_params(module.Params, w, h, src.fps))
+    # lengths in units of a person's height: the median public-detection height (as
+    # `pgm track` does); MOG2 has no table up front, so the 75 px reference is used
+    table = getattr(detector, "table", None)
+    if table is None and src.det_path is not None and isinstance(detector, NoisyDetections):
+        table = detector.table
+    height = float(np.median(table.boxes[:, 3])) if table is not None else None
+    graph = module.build_graph(video_params(module.Params, w, h, src.fps,
+                                            typical_height=height))
     return track_multi(src, graph, detector, rng=np.random.default_rng(seed), gt=gt,
                        write_video=False, progress=False)
 

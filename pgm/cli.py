@@ -240,6 +240,9 @@ def cmd_track_multi(args, source) -> int:
         if args.model != "vb-phd":
             raise InputError("--per-track-noise applies to vb-phd only")
         kwargs["per_track_noise"] = True
+    table = getattr(detector, "table", None)  # public detections: their median height
+    if table is not None and len(table):
+        kwargs["typical_height"] = float(np.median(table.boxes[:, 3]))
     graph = module.build_graph(video_params(module.Params, width, height, source.fps,
                                             **kwargs))
     if args.dbn is not None:
