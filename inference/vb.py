@@ -27,7 +27,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy.special import digamma
 
 from pgm.beliefs import Intensity
 from pgm.expfam import Gaussian, InverseGamma
@@ -166,14 +165,6 @@ def _noise_prior(engine: Engine, noise: str) -> InverseGamma:
     return priors[0].belief()
 
 
-def _gamma_kl(a, b, a0, b0) -> float:
-    """Σ KL(Gamma(a, b) ‖ Gamma(a0, b0)) (shape, rate)."""
-    from scipy.special import gammaln
-
-    return float(np.sum((a - a0) * digamma(a) - gammaln(a) + gammaln(a0)
-                        + a0 * (np.log(b) - np.log(b0)) + a * (b0 - b) / b))
-
-
 def _vb_phd_fixed_point(engine: Engine, factor, frame, inv: np.ndarray,
                         q_pred: list[InverseGamma]) -> dict[str, Any]:
     """The VB-PHD fixed point with one noise belief per group of particles.
@@ -199,47 +190,28 @@ def _vb_phd_fixed_point(engine: Engine, factor, frame, inv: np.ndarray,
     elbo: list[float] = []
     res: dict[str, Any] = {}
     r_hat = beta / alpha
-    dof = getattr(factor, "dof", None)
-    m = z.shape[0]
-    lam, log_lam = np.ones(m), np.zeros(m)  # Student-t scales: E[λ_z], E[log λ_z]
-    a_lam = b_lam = np.full(m, 0.5 * dof) if dof else None
     it = 0
     for it in range(1, factor.max_iter + 1):  # noqa: B007 - the count is reported
         qs = [InverseGamma(alpha[g], beta[g]) for g in range(n_groups)]  # loop over groups
         prec = np.array([q.expected_precision() for q in qs]).reshape(n_groups, k)
         logv = np.array([q.expected_log_variance() for q in qs]).reshape(n_groups, k)
-        scale = (lam, log_lam) if dof else (None, None)
         if n_groups == 1:  # one shared belief: (k,) vectors, no per-particle copies
-            res = _update(engine, target, phd, frame, prec[0], logv[0], *scale)
+            res = _update(engine, target, phd, frame, prec[0], logv[0])
         else:
-            res = _update(engine, target, phd, frame, prec[inv], logv[inv], *scale)
-        kl = sum(q.kl(p) for q, p in zip(qs, q_pred, strict=True))
-        if dof:
-            kl += _gamma_kl(a_lam, b_lam, 0.5 * dof, 0.5 * dof)
-        elbo.append(float(np.sum(np.log(res["L"]))) - kl)
+            res = _update(engine, target, phd, frame, prec[inv], logv[inv])
+        elbo.append(float(np.sum(np.log(res["L"])))
+                    - sum(q.kl(p) for q, p in zip(qs, q_pred, strict=True)))
         omega, W = res["omega"], res["W"]
         if factor.strict_counts:
             omega = omega * (W >= 0.5)[None, :]
-        if dof:  # q(λ_z): Gamma((ν + k W_z)/2, (ν + Σ_j ω_jz Σ_i E[1/σ_i²] r_jzi²)/2)
-            quad = np.zeros(m)
-            p_part = prec[inv] if n_groups > 1 else np.broadcast_to(prec[0], (len(pred), k))
-            for i in range(k):
-                d = z[None, :, i] - pred[:, i, None]
-                quad += np.sum(omega * d * d * p_part[:, i, None], axis=0)
-            a_lam = 0.5 * (dof + k * W)
-            b_lam = 0.5 * (dof + quad)
-            lam = a_lam / b_lam
-            log_lam = digamma(a_lam) - np.log(b_lam)
-            omega = omega * lam[None, :]
         sq = np.zeros_like(beta)
         if n_groups == 1:  # shared noise: plain sums
-            alpha = a_hat + 0.5 * res["omega"].sum() if dof else a_hat + 0.5 * omega.sum()
+            alpha = a_hat + 0.5 * omega.sum()
             for i in range(k):  # k components, vectorised over particles x measurements
                 d = z[None, :, i] - pred[:, i, None]
                 sq[0, i] = np.sum(omega * d * d)
         else:
-            counts = res["omega"] if dof else omega
-            alpha = a_hat + 0.5 * np.bincount(inv, weights=counts.sum(axis=1),
+            alpha = a_hat + 0.5 * np.bincount(inv, weights=omega.sum(axis=1),
                                               minlength=n_groups)[:, None]
             for i in range(k):
                 d = z[None, :, i] - pred[:, i, None]

@@ -48,9 +48,6 @@ class Params(phd.Params):
     per_track_noise : bool
         One noise belief per track (particles carry lineage labels) instead of one
         shared by all targets.
-    noise_dof : float, optional
-        Student-t measurement noise with this many degrees of freedom (per-measurement
-        precision scales, robust to outlying detections); ``None``: Gaussian.
     """
 
     rho: float = 0.8
@@ -59,7 +56,6 @@ class Params(phd.Params):
     vb_tol: float = 1e-3
     vb_max_iter: int = 10
     per_track_noise: bool = False
-    noise_dof: float | None = None
 
 
 def build_graph(params: Params, name: str = "vb-phd") -> FactorGraph:
@@ -70,7 +66,7 @@ def build_graph(params: Params, name: str = "vb-phd") -> FactorGraph:
         InverseGammaPrior("noise", sigma=[params.sigma] * 2, alpha=params.alpha0),
         NoiseForgetting("noise", rho=params.rho, alpha_min=params.alpha_min),
         VBNoise("noise", "targets", tol=params.vb_tol, max_iter=params.vb_max_iter,
-                per_track=params.per_track_noise, dof=params.noise_dof),
+                per_track=params.per_track_noise),
     ]
     return FactorGraph(list(base.variables.values()) + [noise], factors, name=name,
                        meta=base.meta)

@@ -186,16 +186,13 @@ class PHDLikelihood(LikelihoodFactor):
         return z
 
     def log_g(self, x: np.ndarray, z: np.ndarray, precision: np.ndarray | None = None,
-              log_variance: np.ndarray | None = None, scale: np.ndarray | None = None,
-              log_scale: np.ndarray | None = None) -> np.ndarray:
+              log_variance: np.ndarray | None = None) -> np.ndarray:
         r"""``(N, M)`` matrix of ``log g(z | x)``, floored at ``LOG_G_FLOOR``.
 
         With ``precision = E[1/σ²]`` and ``log_variance = E[log σ²]`` of a noise belief
         this is the variational ``log g̃`` of SPEC §3b (constant included); by default
         the plug-in Gaussian with the factor's ``R``. Both may be ``(k,)`` (one noise
         shared by all particles) or ``(N, k)`` (per-particle, e.g. per-track noise).
-        ``scale`` and ``log_scale`` ``(M,)`` are a Student-t noise model's per-measurement
-        ``E[λ_z]`` and ``E[log λ_z]`` (precision ``λ_z / σ²``); ``None`` is Gaussian.
         """
         prec = 1.0 / self.R if precision is None else np.asarray(precision, dtype=float)
         logv = np.log(self.R) if log_variance is None else np.asarray(log_variance, dtype=float)
@@ -214,9 +211,6 @@ class PHDLikelihood(LikelihoodFactor):
             buf *= -0.5 * prec[i]
             if i:
                 out += buf
-        if scale is not None:
-            out *= np.asarray(scale, dtype=float)[None, :]
-            out += 0.5 * z.shape[1] * np.asarray(log_scale, dtype=float)[None, :]
         out += const
         np.maximum(out, LOG_G_FLOOR, out=out)
         return out
@@ -309,12 +303,6 @@ class VBNoise(ConjugateFactor):
     strict_counts : bool
         Count only measurements with ``W_z ≥ 0.5`` in the noise statistics (halves the
         clutter bias at small σ but breaks the ELBO guarantee; SPEC §3b). Off by default.
-    dof : float, optional
-        Student-t measurement noise with ``dof`` degrees of freedom: each measurement
-        gets a latent precision scale ``λ_z ~ Gamma(ν/2, ν/2)`` with its own mean-field
-        factor, so measurements with large residuals (a box cut by an occluder, a
-        detection on two people) are down-weighted both in the likelihood and in the
-        noise statistics. ``None`` (default): Gaussian noise, SPEC §3b exactly.
     per_track : bool
         One noise belief per track instead of one shared by all targets: particles carry
         a lineage label (one per birth), each label has its own inverse-Gamma belief,
@@ -324,11 +312,9 @@ class VBNoise(ConjugateFactor):
 
     def __init__(self, noise: str, target: str, *, likelihood: str | None = None,
                  tol: float = 1e-3, max_iter: int = 10, strict_counts: bool = False,
-                 per_track: bool = False, dof: float | None = None, name: str | None = None):
+                 per_track: bool = False, name: str | None = None):
         super().__init__(noise, target, likelihood=likelihood, name=name)
         self.per_track = bool(per_track)
-        self.dof = None if dof is None else float(check_finite_param(f"{self.name}.dof", dof,
-                                                                     positive=True))
         self.tol = float(check_finite_param(f"{self.name}.tol", tol, nonneg=True))
         self.max_iter = int(max_iter)
         if self.max_iter < 1:
@@ -342,6 +328,4 @@ class VBNoise(ConjugateFactor):
             p["strict_counts"] = True
         if self.per_track:
             p["per_track"] = True
-        if self.dof is not None:
-            p["dof"] = self.dof
         return p

@@ -312,3 +312,4 @@ def test_per_track_noise_separates_targets_with_different_noise():
             results[k] = float(np.sqrt(by_label[top].r_hat()).mean())
     assert results[0] < 3.5 and results[1] > 5.5, results
     assert results[0] < results["shared"] < results[1], results
+
