@@ -22,3 +22,17 @@ def test_tutorial_runs(script, tmp_path):
     assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-4000:]
     assert "success AUC" in res.stdout or "frames" in res.stdout
     assert any(tmp_path.iterdir())
+
+
+def test_readme_example_runs(shared_data, tmp_path, monkeypatch):
+    """The README's Python example, as written (outputs redirected to a temp folder)."""
+    import re
+
+    text = (ROOT / "README.md").read_text()
+    code = re.search(r"```python\n(.*?)```", text, re.S).group(1)
+    code = code.replace('"../shared/data', f'"{shared_data}')
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {}
+    exec(compile(code, "README.md", "exec"), namespace)  # noqa: S102 - our own README
+    assert 0.0 <= namespace["result"].metrics["success_auc"] <= 1.0
+    assert (tmp_path / "out" / "tracks.txt").is_file() and (tmp_path / "colour_pf.png").is_file()
