@@ -49,6 +49,7 @@ hidden (lamp post, sign) or partly absorbed while standing.
 from __future__ import annotations
 
 import math
+from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -143,7 +144,7 @@ class Detections:
 # --------------------------------------------------------------------------- sources
 
 
-class DetectionSource:
+class DetectionSource(ABC):
     """Something that turns one frame into :class:`Detections`.
 
     Call it once per frame, in frame order: ``dets = source(frame_number, image)``.
@@ -158,10 +159,11 @@ class DetectionSource:
 
     name: str = "detections"
 
+    @abstractmethod
     def __call__(self, frame_number: int, image: np.ndarray | None) -> Detections:
-        raise NotImplementedError
+        """This frame's detections."""
 
-    def reset(self) -> None:
+    def reset(self) -> None:  # noqa: B027 - optional: stateless sources keep it empty
         """Forget any state carried between frames (a no-op for stateless sources)."""
 
     def __repr__(self) -> str:

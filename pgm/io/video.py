@@ -33,6 +33,7 @@ import configparser
 import math
 import re
 import warnings
+from abc import ABC, abstractmethod
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -111,7 +112,7 @@ def _check_range(start: int, stop: int | None, path: Path) -> tuple[int, int | N
     return start_i, stop_i
 
 
-class FrameSource:
+class FrameSource(ABC):
     """A sequence of frames, streamed.
 
     Attributes
@@ -159,13 +160,15 @@ class FrameSource:
         self.det_path = det_path
 
     @property
+    @abstractmethod
     def size(self) -> tuple[int, int]:
         """``(width, height)`` of the frames, read from the first frame."""
-        raise NotImplementedError
 
+    @abstractmethod
     def __len__(self) -> int:
-        raise NotImplementedError
+        """Number of frames."""
 
+    @abstractmethod
     def frames(self, start: int = 1, stop: int | None = None
                ) -> Iterator[tuple[int, np.ndarray]]:
         """Yield ``(frame_number, image)`` for ``start <= frame_number < stop``.
@@ -185,7 +188,6 @@ class FrameSource:
         image : ndarray, shape (H, W, 3), uint8
             BGR image.
         """
-        raise NotImplementedError
 
     def __iter__(self) -> Iterator[tuple[int, np.ndarray]]:
         return self.frames()
