@@ -173,12 +173,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
             if bar is not None:
                 bar.update(1)
     finally:
-        if bar is not None:
-            bar.close()
-        if writer is not None:
-            writer.close()
-        if video is not None:
-            video.close()
+        _close(bar, writer, video)
     if not frames_done:
         raise InputError("the source has no frames")
     frames_arr = np.asarray(frames_done)
@@ -197,6 +192,13 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
         (out / "run.json").write_text(json.dumps(run, indent=1))
         engine.graph.save(out / "model.json")
     return result
+
+
+def _close(*things) -> None:
+    """Close the progress bar, result writer and video writer that were opened."""
+    for thing in things:
+        if thing is not None:
+            thing.close()
 
 
 def _annotated_frame(engine: Engine, record: StepRecord, image: np.ndarray, box: np.ndarray,
@@ -317,12 +319,7 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
             if bar is not None:
                 bar.update(1)
     finally:
-        if bar is not None:
-            bar.close()
-        if writer is not None:
-            writer.close()
-        if video is not None:
-            video.close()
+        _close(bar, writer, video)
     if n == 0:
         raise InputError("the source has no frames")
     table = MotTable(np.asarray(rows_f, dtype=np.int64), np.asarray(rows_i, dtype=np.int64),
