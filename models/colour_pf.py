@@ -50,6 +50,9 @@ class Params:
         ``"perez"`` (default), ``"hsv"`` or ``"rgb"``.
     kernel : str
         ``"uniform"`` (default) or ``"epanechnikov"``.
+    appearance : str
+        ``"colour"`` (SPEC §1, default) or ``"fragments"`` (a 3×3 grid of colour
+        fragments combined by their median).
     """
 
     init_box: tuple[float, float, float, float]
@@ -60,6 +63,7 @@ class Params:
     lam: float = 20.0
     layout: str = "perez"
     kernel: str = "uniform"
+    appearance: str = "colour"
 
 
 def build_graph(params: Params, name: str = "object") -> FactorGraph:
@@ -76,5 +80,6 @@ def build_graph(params: Params, name: str = "object") -> FactorGraph:
         part_graph.Params(init_box=params.init_box, n_parts=1,
                           num_particles=params.num_particles, damping=params.damping,
                           pos_noise=params.pos_noise, scale_noise=params.scale_noise,
-                          lam=params.lam, layout=params.layout, kernel=params.kernel),
+                          lam=params.lam, layout=params.layout, kernel=params.kernel,
+                          appearance=params.appearance),
         name="colour-pf")

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pgm.appearance.likelihoods import ColourHistogramLikelihood
+from pgm.appearance.likelihoods import ColourHistogramLikelihood, FragmentsLikelihood
 from pgm.couplings import AffineCoupling, RelativeBoxCoupling
 from pgm.factors import AR2Transition, GaussianPrior
 from pgm.graph import FactorGraph
@@ -80,6 +80,10 @@ class Params:
     damping, pos_noise, lam, layout, kernel
         As in :class:`pgm.models.colour_pf.Params`; the position noise default is
         ``0.03 sqrt(w0 h0)`` of the *object* box (parts move with the object).
+    appearance : {"colour", "fragments"}
+        Each node's likelihood: one colour histogram of the box (SPEC §1, default) or a
+        grid of colour fragments combined by their median
+        (:class:`~pgm.appearance.likelihoods.FragmentsLikelihood`).
     """
 
     init_box: tuple[float, float, float, float]
@@ -104,6 +108,7 @@ class Params:
     lam: float = 20.0
     layout: str = "perez"
     kernel: str = "uniform"
+    appearance: str = "colour"
 
 
 def part_names(n: int, split: str = "rows") -> list[str]:
@@ -138,6 +143,8 @@ def _check(params: Params) -> np.ndarray:
         raise ValueError(f"topology must be 'chain' or 'full', got {params.topology!r}")
     if params.coupling not in ("affine", "relative"):
         raise ValueError(f"coupling must be 'affine' or 'relative', got {params.coupling!r}")
+    if params.appearance not in ("colour", "fragments"):
+        raise ValueError(f"appearance must be 'colour' or 'fragments', got {params.appearance!r}")
     if params.fusion not in ("mixture", "product"):
         raise ValueError(f"fusion must be 'mixture' or 'product', got {params.fusion!r}")
     if params.message_weight not in ("source", "target"):
@@ -177,8 +184,10 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
             AR2Transition(nm, noise_std=[pos, pos, 0.0, 0.0], damping=params.damping,
                           scale_noise=params.scale_noise,
                           reference_size=pb[2:] if params.scale_noise > 0 else None),
-            ColourHistogramLikelihood(nm, lam=params.lam, layout=params.layout,
-                                      kernel=params.kernel),
+            (ColourHistogramLikelihood(nm, lam=params.lam, layout=params.layout,
+                                       kernel=params.kernel)
+             if params.appearance == "colour" else
+             FragmentsLikelihood(nm, lam=params.lam, layout=params.layout)),
         ]
     if params.topology == "chain":
         pairs = [(k, k + 1) for k in range(n - 1)]

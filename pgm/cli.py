@@ -159,6 +159,9 @@ def _model_options(p: argparse.ArgumentParser) -> None:
                    help="part-graph: couplings between neighbours (chain) or all pairs")
     p.add_argument("--fusion", choices=("mixture", "product"), default=None,
                    help="part-graph: particle-BP fusion rule (default mixture)")
+    p.add_argument("--appearance", choices=("colour", "fragments"), default=None,
+                   help="colour-pf/part-graph: one colour histogram per box (default) or "
+                        "a 3x3 grid of colour fragments combined by their median")
 
 
 # -- commands ---------------------------------------------------------------------------
@@ -177,7 +180,7 @@ def _load_model_graph(model: str, init_box_cxcywh: np.ndarray, num_particles: in
     if num_particles is not None:
         kwargs["num_particles"] = num_particles
     options = {"parts": "n_parts", "split": "split", "topology": "topology",
-               "fusion": "fusion"}
+               "fusion": "fusion", "appearance": "appearance"}
     for opt, field in options.items():
         value = getattr(args, opt, None) if args is not None else None
         if value is None:

@@ -24,7 +24,7 @@ from ..numerics import check_finite_param
 from ..variable import Variable
 from .colour import ColourHistogramScorer
 
-__all__ = ["ColourHistogramLikelihood"]
+__all__ = ["ColourHistogramLikelihood", "FragmentsLikelihood"]
 
 
 class ColourHistogramLikelihood(LikelihoodFactor):
@@ -124,3 +124,85 @@ class ColourHistogramLikelihood(LikelihoodFactor):
         lam = np.repeat([f.lam for f in factors], [len(x) for x in xs])
         out = -lam * (1.0 - rho)
         return np.split(out, np.cumsum([len(x) for x in xs])[:-1])
+
+
+class FragmentsLikelihood(LikelihoodFactor):
+    """Fragment-based colour likelihood (Adam, Rivlin & Shimshoni 2006, "FragTrack").
+
+    The box is cut into a ``grid = (columns, rows)`` of sub-regions, each scored
+    against its own template fragment (taken in the first frame) through the same
+    integral histograms as :class:`ColourHistogramLikelihood` — all fragments of all
+    particles in one pass (:meth:`ColourHistogramScorer.rho_many`) — and the fragment
+    scores are combined robustly by their ``quantile``, so that a partly occluded object
+    still scores on its visible part. The default is the median: with a third of the
+    fragments hidden, any quantile below 1/3 lands on a hidden fragment (a test pins
+    this); on FaceOcc1 a 3×3 grid scored AUC 0.850 with the median and 0.803 with the
+    25 % quantile (3 seeds, 100 particles):
+
+    .. math::
+        \\log p(z \\mid X) = -\\lambda\\,(1 - Q_q\\{\\rho_f(X)\\}_f)
+    """
+
+    def __init__(self, variable: str, *, lam: float = 20.0, grid=(3, 3), quantile: float = 0.5,
+                 layout: str = "perez", n_h: int = 16, n_s: int = 4, n_v: int | None = None,
+                 templates=None, box_indices=(0, 1, 2, 3), name: str | None = None):
+        super().__init__(variable, name=name)
+        self.lam = float(check_finite_param(f"{self.name}.lam", lam, positive=True))
+        self.grid = (int(grid[0]), int(grid[1]))
+        if min(self.grid) < 1:
+            raise ValueError(f"factor {self.name!r}: grid must be positive, got {grid!r}")
+        self.quantile = float(check_finite_param(f"{self.name}.quantile", quantile))
+        if not 0.0 <= self.quantile <= 1.0:
+            raise ValueError(f"factor {self.name!r}: quantile must be in [0, 1]")
+        self.layout, self.n_h, self.n_s = layout, int(n_h), int(n_s)
+        self.n_v = None if n_v is None else int(n_v)
+        self.box_indices = tuple(int(i) for i in box_indices)
+        self.scorer = ColourHistogramScorer(layout=layout, n_h=self.n_h, n_s=self.n_s,
+                                            n_v=self.n_v)
+        self.templates = None if templates is None else np.asarray(templates, dtype=float)
+
+    def params(self) -> dict[str, Any]:
+        p: dict[str, Any] = {"lam": self.lam, "grid": list(self.grid),
+                             "quantile": self.quantile, "layout": self.layout, "n_h": self.n_h,
+                             "n_s": self.n_s, "box_indices": list(self.box_indices)}
+        if self.n_v is not None:
+            p["n_v"] = self.n_v
+        if self.templates is not None:
+            p["templates"] = self.templates
+        return p
+
+    def fragments(self, boxes: np.ndarray) -> np.ndarray:
+        """Sub-boxes ``(N * F, 4)`` of boxes ``(N, 4)``, fragment-major within each box."""
+        gx, gy = self.grid
+        b = np.asarray(boxes, dtype=float)
+        fw, fh = b[:, 2] / gx, b[:, 3] / gy
+        ix, iy = np.meshgrid(np.arange(gx), np.arange(gy))
+        ox = (ix.ravel() + 0.5)[None, :] * fw[:, None] - b[:, 2:3] / 2
+        oy = (iy.ravel() + 0.5)[None, :] * fh[:, None] - b[:, 3:4] / 2
+        f = gx * gy
+        return np.column_stack([(b[:, 0:1] + ox).ravel(), (b[:, 1:2] + oy).ravel(),
+                                np.repeat(fw, f), np.repeat(fh, f)])
+
+    def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:
+        if self.templates is None:
+            box = np.asarray(value, dtype=float)[list(self.box_indices)][None]
+            hist, in_frac = self.scorer.histograms(ctx, self.fragments(box))
+            if np.any(in_frac <= 0):
+                raise ValueError(f"factor {self.name!r}: a fragment of the initial box lies "
+                                 f"outside the image")
+            self.templates = hist / hist.sum(axis=1, keepdims=True)
+
+    def fragment_rho(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
+        """``(N, F)`` Bhattacharyya coefficient of every fragment of every particle."""
+        if self.templates is None:
+            raise ValueError(f"factor {self.name!r} has no templates: run it from the first "
+                             f"frame")
+        boxes = x[:, list(self.box_indices)]
+        f = self.grid[0] * self.grid[1]
+        owner = np.tile(np.arange(f), len(boxes))
+        rho = self.scorer.rho_many(ctx, self.fragments(boxes), self.templates, owner)
+        return rho.reshape(len(boxes), f)
+
+    def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
+        rho = self.fragment_rho(x, ctx)
+        return -self.lam * (1.0 - np.quantile(rho, self.quantile, axis=1))
