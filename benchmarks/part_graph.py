@@ -50,9 +50,10 @@ OPENCV = {  # ../shared/bench/README.md: success AUC at frames/s
 }
 
 
-def run(frames, init_box, n_nodes, per_node, seed=0, trace=False):
+def run(frames, init_box, n_nodes, per_node, seed=0, trace=False, appearance="colour"):
     graph = part_graph.build_graph(part_graph.Params(init_box=tuple(init_box), n_parts=n_nodes,
-                                                     num_particles=per_node))
+                                                     num_particles=per_node,
+                                                     appearance=appearance))
     engine = Engine(graph, np.random.default_rng(seed))
     boxes, secs = [], 0.0
     mem = PeakMemory() if trace else None
@@ -111,17 +112,20 @@ def main() -> None:
         seq_frames = list(src.frames())
         fr = np.array([f for f, _ in seq_frames])
         rows = []
-        for nodes, per_node in ((1, 30), (1, 100), (2, 15), (3, 10), (3, 70)):
+        for nodes, per_node, app in ((1, 30, "colour"), (1, 100, "colour"), (2, 15, "colour"),
+                                     (3, 10, "colour"), (3, 70, "colour"),
+                                     (1, 100, "fragments"), (3, 10, "fragments")):
             aucs, fps = [], []
             for seed in range(args.seeds):
-                boxes, secs, _ = run(seq_frames, init, nodes, per_node, seed=seed)
+                boxes, secs, _ = run(seq_frames, init, nodes, per_node, seed=seed,
+                                     appearance=app)
                 aucs.append(single_object_metrics(gt, fr, boxes)["success_auc"])
                 fps.append(len(seq_frames) / secs)
-            peak = run(seq_frames[:100], init, nodes, per_node, trace=True)[2]
-            rows.append([nodes, per_node, f"{np.mean(aucs):.3f}", f"{np.min(aucs):.3f}",
+            peak = run(seq_frames[:100], init, nodes, per_node, trace=True, appearance=app)[2]
+            rows.append([nodes, per_node, app, f"{np.mean(aucs):.3f}", f"{np.min(aucs):.3f}",
                          f"{np.max(aucs):.3f}", np.median(fps), peak])
-        print_table(["nodes", "particles/node", "AUC mean", "min", "max", "frames/s",
-                     "peak MiB"], rows,
+        print_table(["nodes", "particles/node", "appearance", "AUC mean", "min", "max",
+                     "frames/s", "peak MiB"], rows,
                     title=f"{name}, all {len(seq_frames)} frames, {args.seeds} seeds "
                           f"(OpenCV: {OPENCV[name]})")
 
