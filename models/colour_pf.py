@@ -51,8 +51,9 @@ class Params:
     kernel : str
         ``"uniform"`` (default) or ``"epanechnikov"``.
     appearance : str
-        ``"colour"`` (SPEC §1, default) or ``"fragments"`` (a 3×3 grid of colour
-        fragments combined by their median).
+        ``"colour"`` (SPEC §1, default), ``"fragments"`` (a 3×3 grid of colour
+        fragments combined by their median), or either with ``"+gradient"`` (times an
+        oriented-gradient cue that can see scale).
     """
 
     init_box: tuple[float, float, float, float]

@@ -28,7 +28,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pgm.appearance.likelihoods import ColourHistogramLikelihood, FragmentsLikelihood
+from pgm.appearance.likelihoods import (
+    ColourHistogramLikelihood,
+    FragmentsLikelihood,
+    GradientLikelihood,
+)
 from pgm.couplings import AffineCoupling, RelativeBoxCoupling
 from pgm.factors import AR2Transition, GaussianPrior
 from pgm.graph import FactorGraph
@@ -41,6 +45,7 @@ __all__ = ["Params", "build_graph", "split_box", "part_names", "BOX_LABELS",
 BOX_LABELS = ("cx", "cy", "w", "h")
 #: particles per node (and per message) in seed 002's experiments
 PAPER_PARTICLES = {1: 30, 2: 15, 3: 10}
+APPEARANCES = ("colour", "fragments", "colour+gradient", "fragments+gradient")
 
 
 @dataclass(frozen=True)
@@ -80,10 +85,13 @@ class Params:
     damping, pos_noise, lam, layout, kernel
         As in :class:`pgm.models.colour_pf.Params`; the position noise default is
         ``0.03 sqrt(w0 h0)`` of the *object* box (parts move with the object).
-    appearance : {"colour", "fragments"}
+    appearance : {"colour", "fragments", "colour+gradient", "fragments+gradient"}
         Each node's likelihood: one colour histogram of the box (SPEC §1, default) or a
         grid of colour fragments combined by their median
-        (:class:`~pgm.appearance.likelihoods.FragmentsLikelihood`).
+        (:class:`~pgm.appearance.likelihoods.FragmentsLikelihood`); ``+gradient``
+        multiplies in an oriented-gradient factor
+        (:class:`~pgm.appearance.likelihoods.GradientLikelihood`, λ/2), a cue that can
+        see scale (pair it with ``scale_noise > 0``).
     """
 
     init_box: tuple[float, float, float, float]
@@ -143,8 +151,8 @@ def _check(params: Params) -> np.ndarray:
         raise ValueError(f"topology must be 'chain' or 'full', got {params.topology!r}")
     if params.coupling not in ("affine", "relative"):
         raise ValueError(f"coupling must be 'affine' or 'relative', got {params.coupling!r}")
-    if params.appearance not in ("colour", "fragments"):
-        raise ValueError(f"appearance must be 'colour' or 'fragments', got {params.appearance!r}")
+    if params.appearance not in APPEARANCES:
+        raise ValueError(f"appearance must be one of {APPEARANCES}, got {params.appearance!r}")
     if params.fusion not in ("mixture", "product"):
         raise ValueError(f"fusion must be 'mixture' or 'product', got {params.fusion!r}")
     if params.message_weight not in ("source", "target"):
@@ -186,9 +194,11 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
                           reference_size=pb[2:] if params.scale_noise > 0 else None),
             (ColourHistogramLikelihood(nm, lam=params.lam, layout=params.layout,
                                        kernel=params.kernel)
-             if params.appearance == "colour" else
+             if params.appearance.startswith("colour") else
              FragmentsLikelihood(nm, lam=params.lam, layout=params.layout)),
         ]
+        if params.appearance.endswith("+gradient"):
+            factors.append(GradientLikelihood(nm, lam=params.lam / 2, name=f"gradient:{nm}"))
     if params.topology == "chain":
         pairs = [(k, k + 1) for k in range(n - 1)]
     else:

@@ -159,9 +159,14 @@ def _model_options(p: argparse.ArgumentParser) -> None:
                    help="part-graph: couplings between neighbours (chain) or all pairs")
     p.add_argument("--fusion", choices=("mixture", "product"), default=None,
                    help="part-graph: particle-BP fusion rule (default mixture)")
-    p.add_argument("--appearance", choices=("colour", "fragments"), default=None,
-                   help="colour-pf/part-graph: one colour histogram per box (default) or "
-                        "a 3x3 grid of colour fragments combined by their median")
+    p.add_argument("--appearance", default=None,
+                   choices=("colour", "fragments", "colour+gradient", "fragments+gradient"),
+                   help="colour-pf/part-graph: one colour histogram per box (default), a "
+                        "3x3 grid of colour fragments combined by their median, either "
+                        "times an oriented-gradient cue")
+    p.add_argument("--scale-noise", type=float, default=None,
+                   help="colour-pf/part-graph: std of a shared log-scale step per frame "
+                        "(0: fixed size; use with a cue that sees scale)")
 
 
 # -- commands ---------------------------------------------------------------------------
@@ -180,7 +185,7 @@ def _load_model_graph(model: str, init_box_cxcywh: np.ndarray, num_particles: in
     if num_particles is not None:
         kwargs["num_particles"] = num_particles
     options = {"parts": "n_parts", "split": "split", "topology": "topology",
-               "fusion": "fusion", "appearance": "appearance"}
+               "fusion": "fusion", "appearance": "appearance", "scale_noise": "scale_noise"}
     for opt, field in options.items():
         value = getattr(args, opt, None) if args is not None else None
         if value is None:

@@ -86,3 +86,24 @@ def test_fragments_model_config_round_trips_and_runs(tmp_path):
                                learned.factors["likelihood:object"].templates)
     with pytest.raises(ValueError, match="appearance must be"):
         part_graph.build_graph(part_graph.Params(init_box=tuple(box), appearance="sift"))
+
+
+def test_gradient_likelihood_peaks_at_the_template_position_and_scale():
+    from pgm.appearance.likelihoods import GradientLikelihood
+
+    rng = np.random.default_rng(3)
+    img, box = textured_scene(rng)
+    g = GradientLikelihood("object", cells=(3, 3))
+    g.initialize(FrameContext(1, img), box)
+    shifts = np.arange(-12, 13, 3)
+    np.testing.assert_allclose(scan(g, img, box, shifts), box)
+    # scale is observable: of boxes 0.7x .. 1.4x the size, the true size scores best
+    scales = np.array([0.7, 0.8, 0.9, 1.0, 1.15, 1.3, 1.4])
+    x = np.array([[box[0], box[1], box[2] * s, box[3] * s] for s in scales])
+    ll = g.log_likelihood(x, FrameContext(2, img))
+    assert scales[np.argmax(ll)] == 1.0, ll
+    # the same scan with a whole-box colour histogram cannot tell 0.9x from 1.0x
+    whole = ColourHistogramLikelihood("object")
+    whole.initialize(FrameContext(1, img), box)
+    lw = whole.log_likelihood(x, FrameContext(2, img))
+    assert np.ptp(ll[2:5]) > np.ptp(lw[2:5])

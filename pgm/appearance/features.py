@@ -39,9 +39,10 @@ def gradient_integrals(image: np.ndarray, n_orient: int) -> np.ndarray:
     np.minimum(bins, n_orient - 1, out=bins)
     H, W = grey.shape
     out = np.empty((n_orient, H + 1, W + 1), dtype=np.float64)
+    plane = np.empty_like(mag)
     for k in range(n_orient):  # a loop over orientation bins, not boxes
-        out[k] = cv2.integral(np.where(bins == k, mag, 0.0).astype(np.float32),
-                              sdepth=cv2.CV_64F)
+        np.multiply(mag, bins == k, out=plane)
+        out[k] = cv2.integral(plane, sdepth=cv2.CV_64F)
     return out
 
 
@@ -82,16 +83,31 @@ class PatchFeatures:
         if len(b) == 0:
             return np.zeros((0, self.dim))
         hist, _ = self.colour.histograms(ctx, b)
-        ii = ctx.cached(("grad-integrals", self.n_orient),
-                        lambda: gradient_integrals(ctx.image, self.n_orient))
-        _, Hp, Wp = ii.shape
+        return np.concatenate([np.sqrt(hist), self.gradients(ctx, b)], axis=1)
+
+    def gradients(self, image_or_ctx, boxes: np.ndarray) -> np.ndarray:
+        """The oriented-gradient part alone, ``(N, n_orient · cells)``, L2-normalised."""
+        ctx = image_or_ctx if isinstance(image_or_ctx, FrameContext) else FrameContext(
+            0, image_or_ctx)
+        b = np.asarray(boxes, dtype=float).reshape(-1, 4)
+        if len(b) == 0:
+            return np.zeros((0, self.n_orient * self.cells[0] * self.cells[1]))
+        H_img, W_img = ctx.shape
         cx, cy = self.cells
         x0 = b[:, 0] - b[:, 2] / 2
         y0 = b[:, 1] - b[:, 3] / 2
         xs = x0[:, None] + b[:, 2:3] * (np.arange(cx + 1) / cx)[None, :]  # (N, cx+1)
         ys = y0[:, None] + b[:, 3:4] * (np.arange(cy + 1) / cy)[None, :]  # (N, cy+1)
-        xi = np.clip(np.round(xs), 0, Wp - 1).astype(np.intp)
-        yi = np.clip(np.round(ys), 0, Hp - 1).astype(np.intp)
+        xi = np.clip(np.round(xs), 0, W_img).astype(np.intp)
+        yi = np.clip(np.round(ys), 0, H_img).astype(np.intp)
+        # integral images over the boxes' union only (plus a 2 px margin, so the Sobel
+        # gradients inside it equal the full frame's), cached per frame and region
+        rx0, rx1 = max(int(xi.min()) - 2, 0), min(int(xi.max()) + 2, W_img)
+        ry0, ry1 = max(int(yi.min()) - 2, 0), min(int(yi.max()) + 2, H_img)
+        ii = ctx.cached(("grad-integrals", self.n_orient, rx0, rx1, ry0, ry1),
+                        lambda: gradient_integrals(ctx.image[ry0:ry1, rx0:rx1], self.n_orient))
+        xi = xi - rx0
+        yi = yi - ry0
         # corner sums for every (box, orientation, cell row, cell column)
         A = ii[:, yi[:, :-1, None], xi[:, None, :-1]]
         B = ii[:, yi[:, :-1, None], xi[:, None, 1:]]
@@ -100,5 +116,4 @@ class PatchFeatures:
         cell = (D - B - C + A)  # (n_orient, N, cy, cx)
         hog = np.moveaxis(cell, 0, -1).reshape(len(b), -1)
         norm = np.linalg.norm(hog, axis=1, keepdims=True)
-        hog = hog / np.maximum(norm, 1e-9)
-        return np.concatenate([np.sqrt(hist), hog], axis=1)
+        return hog / np.maximum(norm, 1e-9)
