@@ -95,6 +95,8 @@ class Factor(ABC):  # noqa: B024 - kind base classes declare the abstract method
             if not isinstance(v, str) or not v:
                 raise ValueError(f"{type(self).__name__}: variable names must be strings, got {v!r}")
         self.variables: tuple[str, ...] = tuple(variables)
+        #: True when the name was made up here (a graph may then disambiguate it)
+        self.auto_named = name is None
         self.name = name if name is not None else f"{self.kind}:{'-'.join(variables)}"
 
     # -- declaration -----------------------------------------------------------------

@@ -67,6 +67,14 @@ class FactorGraph:
         for f in factors:
             if not isinstance(f, Factor):
                 raise ValueError(f"graph {self.name!r}: {f!r} is not a Factor")
+            if f.name in self.factors and getattr(f, "auto_named", False):
+                # a second unnamed factor of the same kind on the same variables (e.g.
+                # two likelihoods that multiply): name it after its type
+                base, k = f"{f.name}:{type(f).__name__}", 2
+                f.name = base
+                while f.name in self.factors:
+                    f.name = f"{base}{k}"
+                    k += 1
             if f.name in self.factors:
                 raise ValueError(f"graph {self.name!r}: factor name {f.name!r} is used twice")
             if f.name in self.variables:

@@ -169,3 +169,13 @@ def test_dot_and_drawing(tmp_path):
     assert (tmp_path / "g.svg").read_text().lstrip().startswith("<?xml")
     with pytest.raises(ValueError, match="cannot draw to"):
         g.draw(tmp_path / "g.gif")
+
+
+def test_unnamed_factors_of_one_kind_get_distinct_names():
+    g = FactorGraph([Variable("x", 1)],
+                    [GaussianPrior("x", mean=[0.0]),
+                     LinearGaussianLikelihood("x", H=[[1.0]], R=[[1.0]]),
+                     LinearGaussianLikelihood("x", H=[[1.0]], R=[[2.0]])])
+    assert list(g.factors) == ["prior:x", "likelihood:x",
+                               "likelihood:x:LinearGaussianLikelihood"]
+    assert FactorGraph.from_dict(g.to_dict()) == g
