@@ -362,11 +362,11 @@ class Engine:
 
     def _check_rules(self) -> None:
         """Fail at construction, naming the factor, if some stage has no rule."""
-        op_of_stage = {"prior": None, "predict": None, "inframe": None, "weight": None}
+        factor_stages = ("prior", "predict", "inframe", "weight")
         for phases in (self.schedule.first_frame, self.schedule.phases):
             for stage, items in phases:
                 for item in items:
-                    if stage in op_of_stage:
+                    if stage in factor_stages:
                         f = self.graph.factors[item[0] if isinstance(item, tuple) else item]
                         bt = self._factor_belief_type(f)
                         if not self.rules.has(f.kind, bt):
