@@ -521,7 +521,7 @@ class Engine:
             scores = {v: self.score_at(v, record.estimates[v], frame) for v in items
                       if self.graph.factors_of(v, "likelihood")}
             for f in self._learners:
-                f.update(record.estimates, scores)
+                f.update(record.estimates, scores, frame)
 
     def log_likelihood(self, variable: str, x: np.ndarray, frame: FrameContext) -> np.ndarray:
         """Sum of ``variable``'s likelihood factors at particles ``x`` ``(N, d)``."""

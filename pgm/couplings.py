@@ -135,7 +135,8 @@ class AffineCoupling(CouplingFactor):
     def learns(self) -> bool:
         return self.forgetting is not None
 
-    def update(self, estimates: dict[str, np.ndarray], scores: dict[str, float]) -> None:
+    def update(self, estimates: dict[str, np.ndarray], scores: dict[str, float],
+               frame=None) -> None:
         """Adapt the offset towards the current estimates (when configured and confident)."""
         if self.forgetting is None:
             return

@@ -117,12 +117,14 @@ class Factor(ABC):  # noqa: B024 - kind base classes declare the abstract method
         """Whether :meth:`update` does anything (the engine skips the scores otherwise)."""
         return type(self).update is not Factor.update
 
-    def update(self, estimates: dict[str, np.ndarray], scores: dict[str, float]) -> None:  # noqa: B027
+    def update(self, estimates: dict[str, np.ndarray], scores: dict[str, float],  # noqa: B027
+               frame: FrameContext | None = None) -> None:
         """Learn after a frame (adaptive offsets, templates, ...); default: nothing.
 
         ``estimates`` are the frame's per-variable estimates; ``scores`` the summed
-        log-likelihood of each variable's likelihood factors at its estimate. The
-        engine calls it only for factors whose :attr:`learns` is true.
+        log-likelihood of each variable's likelihood factors at its estimate; ``frame``
+        the frame itself. The engine calls it only for factors whose :attr:`learns` is
+        true.
         """
 
     def to_dict(self) -> dict[str, Any]:

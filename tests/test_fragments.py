@@ -107,3 +107,26 @@ def test_gradient_likelihood_peaks_at_the_template_position_and_scale():
     whole.initialize(FrameContext(1, img), box)
     lw = whole.log_likelihood(x, FrameContext(2, img))
     assert np.ptp(ll[2:5]) > np.ptp(lw[2:5])
+
+
+def test_adaptive_template_follows_a_slow_appearance_change():
+    """Nummiaro's update: the template moves towards the estimate's histogram when the
+    match is good enough, and stays put otherwise."""
+    rng = np.random.default_rng(4)
+    img, box = textured_scene(rng)
+    changed = img.copy()
+    changed[50:110, 80:120] = np.clip(changed[50:110, 80:120].astype(int) + 25, 0, 255)
+    x = np.array([box])
+    f = ColourHistogramLikelihood("object", adapt_rate=0.5, adapt_threshold=0.0)
+    f.initialize(FrameContext(1, img), box)
+    assert f.learns
+    before = f.rho(x, FrameContext(2, changed))[0]
+    f.update({"object": box}, {}, FrameContext(2, changed))
+    after = f.rho(x, FrameContext(3, changed))[0]
+    assert after > before
+    strict = ColourHistogramLikelihood("object", adapt_rate=0.5, adapt_threshold=0.999)
+    strict.initialize(FrameContext(1, img), box)
+    q0 = strict.template.copy()
+    strict.update({"object": box}, {}, FrameContext(2, changed))
+    np.testing.assert_array_equal(strict.template, q0)
+    assert not ColourHistogramLikelihood("object").learns

@@ -49,12 +49,25 @@ class ColourHistogramLikelihood(LikelihoodFactor):
         at the prior mean (:meth:`initialize`).
     box_indices : tuple of 4 int
         Where ``cx, cy, w, h`` sit in the variable's state.
+    adapt_rate : float
+        Adaptive template (Nummiaro et al. 2003), off at 0 (the default): after a frame
+        whose score at the estimate has ``ρ ≥ adapt_threshold``, the template becomes
+        ``(1 − adapt_rate) q + adapt_rate p(estimate)``.
+    adapt_threshold : float
+        ``π_T``: the Bhattacharyya coefficient required to adapt.
     """
 
     def __init__(self, variable: str, *, lam: float = 20.0, layout: str = "perez",
                  n_h: int = 16, n_s: int = 4, n_v: int | None = None, kernel: str = "uniform",
-                 template=None, box_indices=(0, 1, 2, 3), name: str | None = None):
+                 template=None, box_indices=(0, 1, 2, 3), adapt_rate: float = 0.0,
+                 adapt_threshold: float = 0.8, name: str | None = None):
         super().__init__(variable, name=name)
+        self.adapt_rate = float(check_finite_param(f"{self.name}.adapt_rate", adapt_rate,
+                                                   nonneg=True))
+        if self.adapt_rate > 1:
+            raise ValueError(f"factor {self.name!r}: adapt_rate must be in [0, 1]")
+        self.adapt_threshold = float(check_finite_param(f"{self.name}.adapt_threshold",
+                                                        adapt_threshold))
         self.lam = float(check_finite_param(f"{self.name}.lam", lam, positive=True))
         self.layout, self.kernel = layout, kernel
         self.n_h, self.n_s = int(n_h), int(n_s)
@@ -76,7 +89,24 @@ class ColourHistogramLikelihood(LikelihoodFactor):
             p["n_v"] = self.n_v
         if self.template is not None:
             p["template"] = self.template
+        if self.adapt_rate > 0:
+            p.update(adapt_rate=self.adapt_rate, adapt_threshold=self.adapt_threshold)
         return p
+
+    @property
+    def learns(self) -> bool:
+        return self.adapt_rate > 0
+
+    def update(self, estimates, scores, frame=None) -> None:
+        """Blend the template towards the estimate's histogram when it matches well."""
+        if self.adapt_rate <= 0 or frame is None or self.template is None:
+            return
+        x = np.asarray(estimates[self.variables[0]], dtype=float)[None]
+        if self.rho(x, frame)[0] < self.adapt_threshold:
+            return
+        box = self.boxes(x)[0]
+        current = np.asarray(self.scorer.template(frame, box), dtype=float)
+        self.template = (1 - self.adapt_rate) * self.template + self.adapt_rate * current
 
     def check(self, variables: dict[str, Variable]) -> None:
         dim = variables[self.variables[0]].dim
