@@ -130,3 +130,27 @@ def test_adaptive_template_follows_a_slow_appearance_change():
     strict.update({"object": box}, {}, FrameContext(2, changed))
     np.testing.assert_array_equal(strict.template, q0)
     assert not ColourHistogramLikelihood("object").learns
+
+
+def test_rotation_invariant_model_peaks_and_ignores_rotation():
+    import cv2
+
+    from pgm.appearance.likelihoods import RotationInvariantLikelihood
+
+    rng = np.random.default_rng(5)
+    img = rng.integers(60, 120, (160, 160, 3), dtype=np.uint8)
+    yy, xx = np.mgrid[0:160, 0:160]
+    rad = np.hypot(xx - 80, yy - 80)
+    for r0, colour in ((8, (200, 30, 30)), (16, (30, 200, 30)), (24, (30, 30, 200))):
+        img[(rad >= r0 - 8) & (rad < r0)] = colour
+    img[70:90, 95:102] = (250, 250, 0)  # an asymmetric mark: rotation moves it
+    box = np.array([80.0, 80.0, 56.0, 56.0])
+    f = RotationInvariantLikelihood("object", rings=4, angles=24)
+    f.initialize(FrameContext(1, img), box)
+    assert f.gamma(box[None], FrameContext(1, img))[0] == pytest.approx(1.0)
+    shifts = np.arange(-12, 13, 3)
+    np.testing.assert_allclose(scan(f, img, box, shifts), box)
+    rotated = cv2.rotate(img, cv2.ROTATE_90_CLOCKWISE)  # about (79.5, 79.5)
+    g_rot = f.gamma(np.array([[79.5 + 0.5, 79.5 + 0.5, 56, 56]]), FrameContext(2, rotated))[0]
+    g_shift = f.gamma(np.array([box + [8, 0, 0, 0]]), FrameContext(2, img))[0]
+    assert g_rot < 1.05 < g_shift  # invariant to the quarter turn, not to a shift
