@@ -20,19 +20,17 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import SHARED_DATA, PeakMemory, print_table, single_thread  # noqa: E402
+from _common import SHARED_DATA, print_table, single_thread, time_engine  # noqa: E402
 
 single_thread()
 
-from pgm.frame import FrameContext  # noqa: E402
 from pgm.inference import Engine  # noqa: E402
-from pgm.inference.runner import init_box_from_gt, output_box  # noqa: E402
+from pgm.inference.runner import init_box_from_gt  # noqa: E402
 from pgm.io.annotations import load_single_gt  # noqa: E402
 from pgm.io.video import open_source  # noqa: E402
 from pgm.metrics import single_object_metrics  # noqa: E402
@@ -55,20 +53,7 @@ def run(frames, init_box, n_nodes, per_node, seed=0, trace=False, appearance="co
                                                      num_particles=per_node,
                                                      appearance=appearance))
     engine = Engine(graph, np.random.default_rng(seed))
-    boxes, secs = [], 0.0
-    mem = PeakMemory() if trace else None
-    if mem:
-        mem.__enter__()
-    for number, image in frames:
-        ctx = FrameContext(number, image)
-        t0 = time.perf_counter()
-        rec = engine.step(ctx)
-        secs += time.perf_counter() - t0
-        c = output_box(engine.graph, rec)
-        boxes.append([c[0] - c[2] / 2, c[1] - c[3] / 2, c[2], c[3]])
-    if mem:
-        mem.__exit__(None, None, None)
-    return np.array(boxes), secs, (mem.peak_mib if mem else float("nan"))
+    return time_engine(engine, frames, trace)
 
 
 def main() -> None:

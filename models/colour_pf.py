@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 from pgm.graph import FactorGraph
 
-__all__ = ["Params", "build_graph", "BOX_LABELS"]
+from .part_graph import BOX_LABELS
 
-BOX_LABELS = ("cx", "cy", "w", "h")
+__all__ = ["Params", "build_graph", "BOX_LABELS"]
 
 
 @dataclass(frozen=True)

@@ -49,27 +49,26 @@ def parse_box(text: str) -> np.ndarray:
     return vals
 
 
-def _positive_int(name: str):
+def _int_at_least(name: str, low: int):
+    """An argparse type: an integer ``>= low``, with a one-line message naming ``name``."""
     def conv(text: str) -> int:
         try:
             v = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"{name} must be an integer, got {text!r}") from None
-        if v < 1:
-            raise argparse.ArgumentTypeError(f"{name} must be a positive integer, got {v}")
+        if v < low:
+            what = "a positive integer" if low == 1 else f"at least {low}"
+            raise argparse.ArgumentTypeError(f"{name} must be {what}, got {v}")
         return v
 
     return conv
 
 
-def _nonneg_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"seed must be an integer, got {text!r}") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"seed must be non-negative, got {v}")
-    return v
+def _positive_int(name: str):
+    return _int_at_least(name, 1)
+
+
+_nonneg_int = _int_at_least("seed", 0)
 
 
 class _Parser(argparse.ArgumentParser):
