@@ -31,7 +31,9 @@ import numpy as np
 from pgm.appearance.likelihoods import (
     ColourHistogramLikelihood,
     FragmentsLikelihood,
+    GMMKLLikelihood,
     GradientLikelihood,
+    RotationInvariantLikelihood,
 )
 from pgm.couplings import AffineCoupling, RelativeBoxCoupling
 from pgm.factors import AR2Transition, GaussianPrior
@@ -45,7 +47,32 @@ __all__ = ["Params", "build_graph", "split_box", "part_names", "BOX_LABELS",
 BOX_LABELS = ("cx", "cy", "w", "h")
 #: particles per node (and per message) in seed 002's experiments
 PAPER_PARTICLES = {1: 30, 2: 15, 3: 10}
-APPEARANCES = ("colour", "fragments", "colour+gradient", "fragments+gradient")
+#: the cues an ``appearance`` string may combine with "+" (each a likelihood factor)
+CUES = ("colour", "fragments", "gradient", "gmm", "rings")
+
+
+def appearance_cues(appearance: str) -> list[str]:
+    """The cues of an ``appearance`` string such as ``"fragments+gradient"``."""
+    cues = [c.strip() for c in str(appearance).split("+")]
+    bad = [c for c in cues if c not in CUES]
+    if bad or len(set(cues)) != len(cues):
+        raise ValueError(f"appearance must be distinct cues from {CUES} joined by '+', got "
+                         f"{appearance!r}")
+    return cues
+
+
+def cue_factor(cue: str, variable: str, params, name: str | None = None):
+    """The likelihood factor of one appearance cue on a box variable."""
+    if cue == "colour":
+        return ColourHistogramLikelihood(variable, lam=params.lam, layout=params.layout,
+                                         kernel=params.kernel, name=name)
+    if cue == "fragments":
+        return FragmentsLikelihood(variable, lam=params.lam, layout=params.layout, name=name)
+    if cue == "gradient":
+        return GradientLikelihood(variable, lam=params.lam / 2, name=name)
+    if cue == "gmm":
+        return GMMKLLikelihood(variable, name=name)
+    return RotationInvariantLikelihood(variable, name=name)
 
 
 @dataclass(frozen=True)
@@ -85,13 +112,17 @@ class Params:
     damping, pos_noise, lam, layout, kernel
         As in :class:`pgm.models.colour_pf.Params`; the position noise default is
         ``0.03 sqrt(w0 h0)`` of the *object* box (parts move with the object).
-    appearance : {"colour", "fragments", "colour+gradient", "fragments+gradient"}
-        Each node's likelihood: one colour histogram of the box (SPEC §1, default) or a
-        grid of colour fragments combined by their median
-        (:class:`~pgm.appearance.likelihoods.FragmentsLikelihood`); ``+gradient``
-        multiplies in an oriented-gradient factor
-        (:class:`~pgm.appearance.likelihoods.GradientLikelihood`, λ/2), a cue that can
-        see scale (pair it with ``scale_noise > 0``).
+    appearance : str
+        Each node's likelihood factors: cues from :data:`CUES` joined by ``+``, which
+        multiply. ``"colour"`` (default): one colour histogram of the box (SPEC §1);
+        ``"fragments"``: a grid of colour fragments combined by their median
+        (:class:`~pgm.appearance.likelihoods.FragmentsLikelihood`); ``"gradient"``: an
+        oriented-gradient factor (:class:`~pgm.appearance.likelihoods.GradientLikelihood`,
+        λ/2), a cue that can see scale (pair it with ``scale_noise > 0``); ``"gmm"``:
+        GMM-KL (:class:`~pgm.appearance.likelihoods.GMMKLLikelihood`); ``"rings"``: the
+        rotation-invariant model
+        (:class:`~pgm.appearance.likelihoods.RotationInvariantLikelihood`). E.g.
+        ``"fragments+gradient"``.
     """
 
     init_box: tuple[float, float, float, float]
@@ -151,8 +182,7 @@ def _check(params: Params) -> np.ndarray:
         raise ValueError(f"topology must be 'chain' or 'full', got {params.topology!r}")
     if params.coupling not in ("affine", "relative"):
         raise ValueError(f"coupling must be 'affine' or 'relative', got {params.coupling!r}")
-    if params.appearance not in APPEARANCES:
-        raise ValueError(f"appearance must be one of {APPEARANCES}, got {params.appearance!r}")
+    appearance_cues(params.appearance)
     if params.fusion not in ("mixture", "product"):
         raise ValueError(f"fusion must be 'mixture' or 'product', got {params.fusion!r}")
     if params.message_weight not in ("source", "target"):
@@ -192,13 +222,9 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
             AR2Transition(nm, noise_std=[pos, pos, 0.0, 0.0], damping=params.damping,
                           scale_noise=params.scale_noise,
                           reference_size=pb[2:] if params.scale_noise > 0 else None),
-            (ColourHistogramLikelihood(nm, lam=params.lam, layout=params.layout,
-                                       kernel=params.kernel)
-             if params.appearance.startswith("colour") else
-             FragmentsLikelihood(nm, lam=params.lam, layout=params.layout)),
         ]
-        if params.appearance.endswith("+gradient"):
-            factors.append(GradientLikelihood(nm, lam=params.lam / 2, name=f"gradient:{nm}"))
+        for k, cue in enumerate(appearance_cues(params.appearance)):
+            factors.append(cue_factor(cue, nm, params, name=None if k == 0 else f"{cue}:{nm}"))
     if params.topology == "chain":
         pairs = [(k, k + 1) for k in range(n - 1)]
     else:

@@ -158,11 +158,11 @@ def _model_options(p: argparse.ArgumentParser) -> None:
                    help="part-graph: couplings between neighbours (chain) or all pairs")
     p.add_argument("--fusion", choices=("mixture", "product"), default=None,
                    help="part-graph: particle-BP fusion rule (default mixture)")
-    p.add_argument("--appearance", default=None,
-                   choices=("colour", "fragments", "colour+gradient", "fragments+gradient"),
-                   help="colour-pf/part-graph: one colour histogram per box (default), a "
-                        "3x3 grid of colour fragments combined by their median, either "
-                        "times an oriented-gradient cue")
+    p.add_argument("--appearance", default=None, metavar="CUE[+CUE...]",
+                   help="colour-pf/part-graph: likelihood cues per node, multiplied: colour "
+                        "(one colour histogram, default), fragments (3x3 colour fragments, "
+                        "median), gradient (oriented gradients; sees scale), gmm (GMM-KL), "
+                        "rings (rotation-invariant); e.g. fragments+gradient")
     p.add_argument("--scale-noise", type=float, default=None,
                    help="colour-pf/part-graph: std of a shared log-scale step per frame "
                         "(0: fixed size; use with a cue that sees scale)")

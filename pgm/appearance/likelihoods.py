@@ -23,9 +23,10 @@ from ..frame import FrameContext
 from ..numerics import check_finite_param
 from ..variable import Variable
 from .colour import ColourHistogramScorer
+from .gmm import MixtureTemplate, SharedComponentKL, fit_template, literal_kl
 
 __all__ = ["ColourHistogramLikelihood", "FragmentsLikelihood", "GradientLikelihood",
-           "RotationInvariantLikelihood"]
+           "RotationInvariantLikelihood", "GMMKLLikelihood"]
 
 
 class ColourHistogramLikelihood(LikelihoodFactor):
@@ -373,3 +374,109 @@ class RotationInvariantLikelihood(LikelihoodFactor):
 
     def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         return -self.lam * (self.gamma(x, ctx) - 1.0)
+
+
+class GMMKLLikelihood(LikelihoodFactor):
+    r"""GMM-KL appearance (seed 003, §3.2.6, eq. 6; SPEC §4): a Gaussian mixture over
+    RGB fitted to the template's pixels in the first frame (scikit-learn), the
+    Monte-Carlo KL divergence ``D`` of eq. 6 between it and the candidate's mixture, and
+
+    .. math::
+        \log p(z \mid X) = -\lambda\, D(X)
+
+    (SPEC §4: the seed's "proportional to the KL distance" inverted).
+
+    ``method="shared"`` (default) scores every particle without fitting a mixture per
+    particle: the candidate's mixture keeps the template's components plus a uniform
+    outlier component and re-estimates only the weights, by one EM step whose per-pixel
+    responsibilities are computed once per frame and summed per box through integral
+    images (:class:`pgm.appearance.gmm.SharedComponentKL`). ``method="literal"`` fits
+    a mixture to every box (:func:`pgm.appearance.gmm.literal_kl`): the slow reference,
+    for small cases. On a synthetic scan across an object the two rank candidates with
+    Spearman correlation ≥ 0.9 and share the minimum (a test checks this).
+
+    Parameters
+    ----------
+    lam : float
+        ``λ`` (default 20: on FaceOcc1 and Crossing, one node with 100 particles and 3
+        seeds, λ = 20 tracked better than 0.5 or 5 on both).
+    n_components : int
+        Template mixture components (default 4).
+    symmetric : bool
+        Both terms of eq. 6 (default) or the one-sided version.
+    outlier_weight : float
+        The template's weight on the outlier component (shared method).
+    n_samples : int
+        Template pixels kept for the Monte-Carlo template term.
+    weights, means, covariances, samples : array_like, optional
+        A fitted template (saved with the model); learned in the first frame if omitted.
+    """
+
+    def __init__(self, variable: str, *, lam: float = 20.0, n_components: int = 4,
+                 symmetric: bool = True, method: str = "shared", outlier_weight: float = 0.01,
+                 n_samples: int = 256, seed: int = 0, weights=None, means=None,
+                 covariances=None, samples=None, box_indices=(0, 1, 2, 3),
+                 name: str | None = None):
+        super().__init__(variable, name=name)
+        self.lam = float(check_finite_param(f"{self.name}.lam", lam, positive=True))
+        self.n_components = int(n_components)
+        self.n_samples = int(n_samples)
+        if self.n_components < 1 or self.n_samples < 1:
+            raise ValueError(f"factor {self.name!r}: n_components and n_samples must be "
+                             f"positive")
+        if method not in ("shared", "literal"):
+            raise ValueError(f"factor {self.name!r}: method must be 'shared' or 'literal', "
+                             f"got {method!r}")
+        self.method, self.symmetric, self.seed = method, bool(symmetric), int(seed)
+        self.outlier_weight = float(check_finite_param(f"{self.name}.outlier_weight",
+                                                       outlier_weight, positive=True))
+        if self.outlier_weight >= 1:
+            raise ValueError(f"factor {self.name!r}: outlier_weight must be below 1")
+        self.box_indices = tuple(int(i) for i in box_indices)
+        self.template = None
+        self._kl = None
+        given = [a is not None for a in (weights, means, covariances, samples)]
+        if any(given):
+            if not all(given):
+                raise ValueError(f"factor {self.name!r}: give all of weights, means, "
+                                 f"covariances and samples, or none")
+            try:
+                self._set_template(MixtureTemplate(weights, means, covariances, samples))
+            except ValueError as exc:
+                raise ValueError(f"factor {self.name!r}: {exc}") from None
+
+    def _set_template(self, template) -> None:
+        self.template = template
+        self._kl = SharedComponentKL(template, self.outlier_weight, self.symmetric)
+
+    def params(self) -> dict[str, Any]:
+        p: dict[str, Any] = {"lam": self.lam, "n_components": self.n_components,
+                             "symmetric": self.symmetric, "method": self.method,
+                             "outlier_weight": self.outlier_weight,
+                             "n_samples": self.n_samples, "seed": self.seed,
+                             "box_indices": list(self.box_indices)}
+        if self.template is not None:
+            t = self.template
+            p.update(weights=t.weights, means=t.means, covariances=t.covariances,
+                     samples=t.samples)
+        return p
+
+    def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:
+        if self.template is None:
+            box = np.asarray(value, dtype=float)[list(self.box_indices)]
+            self._set_template(fit_template(ctx.image, box, n_components=self.n_components,
+                                            n_samples=self.n_samples, seed=self.seed))
+
+    def divergence(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
+        """``D`` of eq. 6 for every particle, ``(N,)``."""
+        if self.template is None:
+            raise ValueError(f"factor {self.name!r} has no template: run it from the first "
+                             f"frame")
+        boxes = x[:, list(self.box_indices)]
+        if self.method == "literal":
+            return literal_kl(ctx.image, boxes, self.template, symmetric=self.symmetric,
+                              seed=self.seed)
+        return self._kl.divergence(ctx, boxes)
+
+    def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
+        return -self.lam * self.divergence(x, ctx)
