@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pgm.appearance.likelihoods import (
+    ColourContrastLikelihood,
     ColourHistogramLikelihood,
     FragmentsLikelihood,
     GMMKLLikelihood,
@@ -48,7 +49,7 @@ BOX_LABELS = ("cx", "cy", "w", "h")
 #: particles per node (and per message) in seed 002's experiments
 PAPER_PARTICLES = {1: 30, 2: 15, 3: 10}
 #: the cues an ``appearance`` string may combine with "+" (each a likelihood factor)
-CUES = ("colour", "fragments", "gradient", "gmm", "rings")
+CUES = ("colour", "fragments", "gradient", "gmm", "rings", "contrast")
 
 
 def appearance_cues(appearance: str) -> list[str]:
@@ -72,6 +73,8 @@ def cue_factor(cue: str, variable: str, params, name: str | None = None):
         return GradientLikelihood(variable, lam=params.lam / 2, name=name)
     if cue == "gmm":
         return GMMKLLikelihood(variable, name=name)
+    if cue == "contrast":
+        return ColourContrastLikelihood(variable, layout=params.layout, name=name)
     return RotationInvariantLikelihood(variable, name=name)
 
 

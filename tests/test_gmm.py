@@ -127,3 +127,59 @@ def test_gmm_bad_parameters():
         MixtureTemplate([np.nan], [[0.5]], [[[1.0]]], [[0.5]])
     with pytest.raises(ValueError, match="fewer than 2 pixels"):
         fit_template(np.zeros((10, 10, 3), np.uint8), np.array([-20.0, -20, 4, 4]))
+
+
+# -- the colour-contrast (foreground/background log-odds) cue ---------------------------
+def test_contrast_cue_peaks_at_the_object_position_and_size():
+    from pgm.appearance.likelihoods import ColourContrastLikelihood, ColourHistogramLikelihood
+
+    img, box = two_colour_person(np.random.default_rng(6))
+    f = ColourContrastLikelihood("object")
+    f.initialize(FrameContext(1, img), box)
+    shifts, scales = np.arange(-6, 7, 2.0), np.array([0.6, 0.8, 0.9, 1.0, 1.1, 1.25, 1.5])
+    x = np.array([[box[0] + dx, box[1] + dy, box[2] * s, box[3] * s]
+                  for dx in shifts for dy in shifts for s in scales])
+    ll = f.log_likelihood(x, FrameContext(2, img))
+    np.testing.assert_allclose(x[np.argmax(ll)], box)
+    # a normalised whole-box histogram cannot tell a box inside the object from it
+    c = ColourHistogramLikelihood("object")
+    c.initialize(FrameContext(1, img), box)
+    half = np.array([[box[0], box[1] - box[3] / 4, box[2] * 0.5, box[3] * 0.5], box])
+    ll_c = c.log_likelihood(half, FrameContext(2, img))
+    ll_f = f.log_likelihood(half, FrameContext(2, img))
+    assert ll_f[1] - ll_f[0] > 5.0 and abs(ll_c[1] - ll_c[0]) < ll_f[1] - ll_f[0]
+
+
+def test_contrast_box_sums_equal_a_plain_loop_and_round_trip(tmp_path):
+    from pgm import FactorGraph, GaussianPrior, Variable
+    from pgm.appearance.likelihoods import ColourContrastLikelihood
+
+    rng = np.random.default_rng(7)
+    img, box = two_colour_person(rng)
+    f = ColourContrastLikelihood("object", adapt_rate=0.2)
+    ctx = FrameContext(1, img)
+    f.initialize(ctx, box)
+    x = np.column_stack([rng.uniform(-10, 130, 30), rng.uniform(-10, 90, 30),
+                         rng.uniform(2, 50, 30), rng.uniform(2, 50, 30)])
+    got = f.box_sums(x, FrameContext(2, img))
+    bins = f.scorer.bins(FrameContext(3, img))
+    from pgm.appearance.gmm import pixel_bounds
+
+    for b, s in zip(x, got, strict=True):
+        x0, x1, y0, y1 = (int(v[0]) for v in pixel_bounds(b, *img.shape[:2]))
+        assert s == pytest.approx(f.log_odds[bins[y0:y1, x0:x1]].sum(), abs=1e-9)
+    g = FactorGraph([Variable("object", 4)], [GaussianPrior("object", mean=box, cov=1.0), f],
+                    name="t")
+    g.save(tmp_path / "g.json")
+    back = FactorGraph.load(tmp_path / "g.json").factors[f.name]
+    np.testing.assert_allclose(back.log_odds, f.log_odds)
+    # adapting towards a frame where the background turned the object's colour
+    before = f.log_odds.copy()
+    shifted = img.copy()
+    shifted[:20] = (40, 180, 200)
+    f.update({"object": box}, {}, FrameContext(4, shifted))
+    assert not np.allclose(before, f.log_odds)
+    with pytest.raises(ValueError, match="together"):
+        ColourContrastLikelihood("object", ref_area=10.0)
+    with pytest.raises(ValueError, match="adapt_rate"):
+        ColourContrastLikelihood("object", adapt_rate=2.0)

@@ -55,13 +55,11 @@ def _features(image: np.ndarray) -> np.ndarray:
 
 
 def pixel_bounds(boxes: np.ndarray, height: int, width: int):
-    """Integer pixel bounds ``x0, x1, y0, y1`` (half-open, clipped) of boxes ``(cx, cy, w, h)``."""
-    b = np.asarray(boxes, dtype=float).reshape(-1, 4)
-    x0 = np.clip(np.round(b[:, 0] - b[:, 2] / 2), 0, width).astype(np.intp)
-    x1 = np.clip(np.round(b[:, 0] + b[:, 2] / 2), 0, width).astype(np.intp)
-    y0 = np.clip(np.round(b[:, 1] - b[:, 3] / 2), 0, height).astype(np.intp)
-    y1 = np.clip(np.round(b[:, 1] + b[:, 3] / 2), 0, height).astype(np.intp)
-    return x0, np.maximum(x1, x0), y0, np.maximum(y1, y0)
+    """Integer pixel bounds ``x0, x1, y0, y1`` (half-open, clipped) of boxes
+    ``(cx, cy, w, h)``: the same pixels the colour histograms count."""
+    from .colour import _pixel_bounds
+
+    return _pixel_bounds(np.asarray(boxes, dtype=float).reshape(-1, 4), height, width)[:4]
 
 
 def box_pixels(image: np.ndarray, box) -> np.ndarray:
