@@ -4,12 +4,16 @@ Each model module has a frozen ``Params`` dataclass and ``build_graph(params)``.
 :data:`MODELS` maps the CLI's model names to them.
 """
 
-from . import colour_pf, linear_gaussian, part_graph, phd, vb_phd
+from . import colour_pf, linear_gaussian, part_graph, phd, single_object, vb_phd
 
-__all__ = ["colour_pf", "linear_gaussian", "part_graph", "phd", "vb_phd", "MODELS", "get_model"]
+__all__ = ["colour_pf", "linear_gaussian", "part_graph", "phd", "single_object", "vb_phd", "MODELS",
+           "get_model", "DEFAULT_SINGLE_OBJECT"]
 
 #: CLI model name → module with ``Params`` and ``build_graph``
-MODELS = {"colour-pf": colour_pf, "part-graph": part_graph, "phd": phd, "vb-phd": vb_phd}
+MODELS = {"colour-pf": colour_pf, "part-graph": part_graph, "phd": phd, "vb-phd": vb_phd,
+          "single-object": single_object}
+#: what ``pgm track`` runs on a single object when no ``--model`` is given
+DEFAULT_SINGLE_OBJECT = "single-object"
 
 
 def get_model(name: str):

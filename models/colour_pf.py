@@ -51,9 +51,8 @@ class Params:
     kernel : str
         ``"uniform"`` (default) or ``"epanechnikov"``.
     appearance : str
-        ``"colour"`` (SPEC §1, default), ``"fragments"`` (a 3×3 grid of colour
-        fragments combined by their median), or either with ``"+gradient"`` (times an
-        oriented-gradient cue that can see scale).
+        ``"colour"`` (SPEC §1, default) or other cues joined by ``+``
+        (:data:`pgm.models.part_graph.CUES`; see :class:`pgm.models.part_graph.Params`).
     """
 
     init_box: tuple[float, float, float, float]

@@ -2,7 +2,8 @@
 
 ::
 
-    pgm track SOURCE --model colour-pf|part-graph (--init X,Y,W,H | --gt FILE) --out DIR
+    pgm track SOURCE [--model single-object|colour-pf|part-graph] (--init X,Y,W,H | --gt FILE)
+              --out DIR
               [--parts 2|3] [--fusion mixture|product] [--particles N] [--seed S]
               [--no-video] [--show-particles]
     pgm track SOURCE --model phd|vb-phd [--detections FILE | --detector public|mog2]
@@ -90,8 +91,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     t = sub.add_parser("track", help="track an object through a video or image sequence")
     t.add_argument("source", help="video file, image folder, MOTChallenge or OTB sequence folder")
-    t.add_argument("--model", default="colour-pf",
-                   help=f"model name ({', '.join(sorted(MODELS))}) or a saved model .json")
+    t.add_argument("--model", default=None,
+                   help=f"model name ({', '.join(sorted(MODELS))}) or a saved model .json; "
+                        f"default: single-object (the best single-object configuration), or "
+                        f"vb-phd when --detections/--detector is given")
     init = t.add_mutually_exclusive_group()
     init.add_argument("--init", help="box in frame 1: X,Y,W,H (top-left, 1-based like MOT/OTB)")
     t.add_argument("--gt", help="ground-truth file (initialises from frame 1 when --init is "
@@ -293,6 +296,13 @@ def cmd_track(args) -> int:
     from .io.video import open_source
 
     source = open_source(args.source)
+    if args.model is None:
+        from .models import DEFAULT_SINGLE_OBJECT
+
+        multi = args.detections is not None or args.detector is not None
+        args.model = "vb-phd" if multi else DEFAULT_SINGLE_OBJECT
+        if not args.quiet:
+            print(f"pgm: using model {args.model} (no --model given)", file=sys.stderr)
     if args.model in MULTI_TARGET_MODELS:
         return cmd_track_multi(args, source)
     if args.detections is not None or args.detector is not None:

@@ -268,3 +268,15 @@ def test_multi_target_bad_input(mot_dir, scene_dir, tmp_path, capsys):
     code, _, err = run_cli(capsys, "track", scene_dir, "--model", "colour-pf", "--detector",
                            "mog2", "--out", tmp_path / "o2")
     assert_one_line_error(code, err, "--detections/--detector apply to")
+
+
+def test_no_model_runs_the_best_single_object_configuration(scene_dir, tmp_path, capsys):
+    gt = load_single_gt(scene_dir / "groundtruth_rect.txt")
+    x, y, w, h = gt.boxes[0]
+    code, _, err = run_cli(capsys, "track", scene_dir, "--init", f"{x + 1},{y + 1},{w},{h}",
+                           "--out", tmp_path, "--no-video", "--max-frames", 5)
+    assert code == 0 and "using model single-object" in err
+    saved = json.loads((tmp_path / "model.json").read_text())
+    kinds = sorted(f["type"] for f in saved["factors"] if f["kind"] == "likelihood")
+    assert kinds == ["ColourContrastLikelihood", "FragmentsLikelihood",
+                     "RotationInvariantLikelihood"]
