@@ -154,3 +154,29 @@ def test_rotation_invariant_model_peaks_and_ignores_rotation():
     g_rot = f.gamma(np.array([[79.5 + 0.5, 79.5 + 0.5, 56, 56]]), FrameContext(2, rotated))[0]
     g_shift = f.gamma(np.array([box + [8, 0, 0, 0]]), FrameContext(2, img))[0]
     assert g_rot < 1.05 < g_shift  # invariant to the quarter turn, not to a shift
+
+
+def test_rotation_invariant_ring_stats_equal_a_plain_loop():
+    from pgm.appearance.likelihoods import RotationInvariantLikelihood
+
+    rng = np.random.default_rng(6)
+    img = rng.integers(0, 256, (90, 120, 3), dtype=np.uint8)
+    f = RotationInvariantLikelihood("object", rings=3, angles=8, radial_samples=2)
+    x = np.column_stack([rng.uniform(-5, 125, 12), rng.uniform(-5, 95, 12),
+                         rng.uniform(4, 50, 12), rng.uniform(4, 50, 12)])
+    got = f.ring_stats(x, FrameContext(1, img))
+    for n, (cx, cy, w, h) in enumerate(x):
+        R = 0.5 * np.sqrt(w * h)
+        for k in range(3):
+            vals = []
+            for s in range(2):
+                r = R * (2 * k + s + 0.5) / 6
+                for a in range(8):
+                    t = 2 * np.pi * a / 8
+                    px = min(max(int(np.floor(cx + r * np.cos(t))), 0), 119)
+                    py = min(max(int(np.floor(cy + r * np.sin(t))), 0), 89)
+                    vals.append(img[py, px].astype(float))
+            vals = np.array(vals)
+            np.testing.assert_allclose(got[n, k, :, 0], vals.mean(axis=0), rtol=1e-9)
+            np.testing.assert_allclose(got[n, k, :, 1], np.maximum(vals.var(axis=0), 4.0),
+                                       rtol=1e-6)

@@ -351,12 +351,18 @@ class RotationInvariantLikelihood(LikelihoodFactor):
         py = b[:, 1, None, None] + r * self._sin[None, None, :]
         xi = np.clip(np.floor(px), 0, W - 1).astype(np.intp)
         yi = np.clip(np.floor(py), 0, H - 1).astype(np.intp)
-        vals = img[yi, xi].astype(float)  # (N, K·S, A, C): one gather for all particles
-        n, _, _, c = vals.shape
-        vals = vals.reshape(n, self.rings, self.radial_samples * self.angles, c)
-        mean = vals.mean(axis=2)
-        var = np.maximum(vals.var(axis=2), self.min_var)
-        return np.stack([mean, var], axis=-1)
+        c = 1 if img.ndim == 2 else img.shape[2]
+        flat = np.ascontiguousarray(img).reshape(-1)
+        idx = ((yi * W + xi) * c).reshape(len(b), self.rings, -1)  # (N, rings, samples)
+        m = idx.shape[2]
+        out = np.empty((len(b), self.rings, c, 2))
+        for ch in range(c):  # one gather per colour channel, all particles at once
+            v = flat[idx + ch].astype(np.float32)
+            mean = v.sum(axis=2, dtype=np.float64) / m
+            sq = np.einsum("nks,nks->nk", v, v, dtype=np.float64) / m
+            out[:, :, ch, 0] = mean
+            out[:, :, ch, 1] = np.maximum(sq - mean * mean, self.min_var)
+        return out
 
     def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:
         if self.template is None:
