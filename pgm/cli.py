@@ -257,12 +257,10 @@ def cmd_track_multi(args, source) -> int:
                                             **kwargs))
     if args.dbn is not None:
         from .appearance.dbn import DBNLikelihood
-        from .graph import FactorGraph
 
-        graph = FactorGraph(list(graph.variables.values()),
-                            list(graph.factors.values())
-                            + [DBNLikelihood("targets", model=args.dbn, name="appearance:dbn")],
-                            name=graph.name + "+dbn", meta=graph.meta)
+        graph = graph.with_factors(DBNLikelihood("targets", model=args.dbn,
+                                                 name="appearance:dbn"),
+                                   name=graph.name + "+dbn")
     result = track_multi(source, graph, detector, rng=as_generator(args.seed), out_dir=args.out,
                          gt=gt, write_video=not args.no_video, show_particles=args.show_particles,
                          progress=not args.quiet, max_frames=args.max_frames)

@@ -146,6 +146,12 @@ class FactorGraph:
             return [v.name for v in self.variables.values() if v.role == "part"]
         return [out] if isinstance(out, str) else list(out)
 
+    def with_factors(self, *factors: Factor, name: str | None = None) -> FactorGraph:
+        """A new graph with ``factors`` added (validated like any graph), e.g. one more
+        appearance likelihood on an existing model. The factors are shared, not copied."""
+        return type(self)(list(self.variables.values()), list(self.factors.values())
+                          + list(factors), name=name or self.name, meta=self.meta)
+
     def __repr__(self) -> str:
         kinds = {}
         for f in self.factors.values():

@@ -120,3 +120,55 @@ def test_dbn_trained_on_tud_recognises_people_in_pets(shared_data):
     p = net.predict_proba(Xt)
     assert roc_auc_score(yt, p) > 0.95
     assert np.mean((p > 0.5) == yt) > max(yt.mean(), 1 - yt.mean()) + 0.1
+
+
+@pytest.fixture(scope="module")
+def tiny_dbn(tmp_path_factory):
+    rng = np.random.default_rng(0)
+    dim = PatchFeatures().dim
+    X = rng.random((120, dim)).astype(np.float32)
+    y = (X[:, 0] > 0.5).astype(np.float32)
+    path = tmp_path_factory.mktemp("tiny") / "dbn.npz"
+    net = DBN(hidden=(8, 4)).fit(X, y, rng, rbm_epochs=1, finetune_epochs=30)
+    net.save(path)
+    return str(path)
+
+
+def test_dbn_contamination_bounds_the_ratio_and_zero_is_literal(tiny_dbn):
+    rng = np.random.default_rng(1)
+    img = rng.integers(0, 256, (120, 160, 3), dtype=np.uint8)
+    x = np.column_stack([rng.uniform(0, 160, 50), np.zeros(50), rng.uniform(40, 120, 50),
+                         np.zeros(50)])
+    literal = DBNLikelihood("t", model=tiny_dbn, epsilon=0.0, stride=0.0)
+    boxes = np.column_stack([x[:, 0], x[:, 2] - 50, np.full(50, 40.0), np.full(50, 100.0)])
+    want = literal.net.log_ratio(literal.features.compute(img, boxes))
+    np.testing.assert_allclose(literal.log_likelihood(x, FrameContext(1, img)), want)
+    eps = 0.2
+    robust = DBNLikelihood("t", model=tiny_dbn, epsilon=eps, stride=0.0)
+    got = robust.log_likelihood(x, FrameContext(1, img))
+    pi = robust.net.prior_
+    lo, hi = np.log(eps * (1 - pi) / (1 - eps * pi)), np.log((1 - eps * (1 - pi)) / (eps * pi))
+    assert np.all(got >= lo - 1e-9) and np.all(got <= hi + 1e-9)
+    assert np.all(np.sign(got) == np.sign(want)) or np.allclose(want, 0)  # order kept
+    assert np.all(np.diff(got[np.argsort(want)]) >= -1e-12)
+    with pytest.raises(InputError, match="epsilon"):
+        DBNLikelihood("t", model=tiny_dbn, epsilon=1.0)
+
+
+def test_dbn_lattice_scores_each_cell_once(tiny_dbn, monkeypatch):
+    rng = np.random.default_rng(2)
+    img = rng.integers(0, 256, (120, 160, 3), dtype=np.uint8)
+    stride = 4.0
+    cells = rng.integers(5, 30, (12, 2))
+    pick = rng.integers(0, 12, 200)  # 200 particles on at most 12 cell centres
+    x = np.zeros((200, 4))
+    x[:, 0], x[:, 2] = (cells[pick, 0] + 0.5) * stride, (cells[pick, 1] + 0.5) * stride
+    exact = DBNLikelihood("t", model=tiny_dbn, stride=0.0)
+    lattice = DBNLikelihood("t", model=tiny_dbn, stride=stride)
+    rows = []
+    orig = lattice.features.compute
+    monkeypatch.setattr(lattice.features, "compute",
+                        lambda ctx, b: rows.append(len(b)) or orig(ctx, b))
+    got = lattice.log_likelihood(x, FrameContext(1, img))
+    np.testing.assert_allclose(got, exact.log_likelihood(x, FrameContext(1, img)), rtol=1e-6)
+    assert rows == [len(np.unique(pick))]
