@@ -1,6 +1,6 @@
 """PHD and VB-PHD on the shared multi-person sequences, next to the peers' figures.
 
-    python benchmarks/mot_sequences.py [--mog2] [--noise-experiment] [--dbn]
+    python benchmarks/mot_sequences.py [--mog2] [--noise-experiment] [--dbn] [--seeds K]
 
 Public detections (``det/det.txt``, all rows) on PETS09-S2L1 (frames 1-240),
 TUD-Campus and TUD-Stadtmitte; with ``--mog2`` also background subtraction on the full
@@ -8,6 +8,9 @@ PETS09-S2L1 video. Scored with :func:`pgm.mot_metrics.evaluate_mot` (CLEAR / Ide
 HOTA at IoU 0.5, flag-0 rows as ignore regions; OSPA on foot points). Frames per
 second are inference only (detection and decoding excluded). The peers' rows are
 copied from ``../shared/bench/README.md`` (trackers 2.6.1, same protocol).
+
+``--seeds K``: public-detection rows are means over seeds 0..K-1 (default 1: seed 0),
+with the range of MOTA over the seeds in its own column.
 
 ``--dbn``: also VB-PHD + DBN, leave one sequence out: for each sequence a DBN
 (``pgm learn dbn`` defaults: every 3rd frame, 40 fine-tuning epochs, seed 0) is trained
@@ -89,6 +92,39 @@ def train_dbn(train_dirs, path: Path, seed: int = 0) -> float:
     return time.perf_counter() - t0
 
 
+def dbn_check(seq_dir: Path, path: Path, every: int = 5) -> str:
+    """The held-out DBN's literal log-ratio (ε = 0) at the annotated people's foot points
+    (patch of the median detection size, as in tracking) and at random foot points."""
+    from sklearn.metrics import roc_auc_score
+
+    from pgm.appearance.dbn import DBNLikelihood
+    from pgm.frame import FrameContext
+
+    f = DBNLikelihood("t", model=str(path), epsilon=0.0, stride=0.0)
+    src = open_source(seq_dir)
+    gt = load_mot(src.gt_path, kind="gt")
+    size = np.median(load_mot(src.det_path, kind="det").boxes[:, 2:4], axis=0)
+    f.box_size = size
+    rng = np.random.default_rng(0)
+    W, H = src.size
+    pos, neg = [], []
+    for n, img in src.frames():
+        _, b, _ = gt.at(n)
+        if n % every or len(b) == 0:
+            continue
+        ctx = FrameContext(n, img)
+        feet = np.zeros((len(b), 4))
+        feet[:, 0], feet[:, 2] = b[:, 0] + b[:, 2] / 2, b[:, 1] + b[:, 3]
+        pos += list(f.log_likelihood(feet, ctx))
+        rnd = np.zeros((20, 4))
+        rnd[:, 0], rnd[:, 2] = rng.uniform(0, W, 20), rng.uniform(size[1], H, 20)
+        neg += list(f.log_likelihood(rnd, ctx))
+    auc = roc_auc_score(np.r_[np.ones(len(pos)), np.zeros(len(neg))], np.r_[pos, neg])
+    return (f"log-ratio at people: median {np.median(pos):.1f}, 10% quantile "
+            f"{np.quantile(pos, 0.1):.1f}; at random points: median {np.median(neg):.1f}; "
+            f"ROC AUC {auc:.3f}")
+
+
 def run(seq_dir: Path, module, detector, seed: int = 0, dbn: Path | None = None):
     src = open_source(seq_dir)
     gt = load_mot(src.gt_path, kind="gt")
@@ -116,6 +152,7 @@ def main() -> None:
     ap.add_argument("--noise-experiment", action="store_true")
     ap.add_argument("--dbn", action="store_true",
                     help="also VB-PHD + DBN, trained leaving the sequence out")
+    ap.add_argument("--seeds", type=int, default=1, help="seeds per public-detection row")
     args = ap.parse_args()
     rows = []
     import tempfile
@@ -126,23 +163,27 @@ def main() -> None:
         d = SHARED_DATA / seq
         if not d.is_dir():
             continue
-        for name, module in MODELS:
-            r = run(d, module, make_detector("public", open_source(d)))
-            m = r.metrics
-            rows.append([seq, name, m["mota"], m["idf1"], m["hota"], m["id_switches"],
-                         m["ospa_50_1"], m["ospa_100_2"], m["ospa2"], r.fps])
+        runs = [(name, module, None) for name, module in MODELS]
         if args.dbn:
             others = [q for q in seqs if q != d]
             path = Path(tmp.name) / f"dbn-without-{seq}.npz"
             secs = train_dbn(others, path)
             print(f"DBN for {seq}: trained on {', '.join(q.name for q in others)} in "
-                  f"{secs:.0f} s", flush=True)
-            r = run(d, vb_phd, make_detector("public", open_source(d)), dbn=path)
-            m = r.metrics
-            rows.append([seq, "VB-PHD + DBN (LOSO)", m["mota"], m["idf1"], m["hota"],
-                         m["id_switches"], m["ospa_50_1"], m["ospa_100_2"], m["ospa2"], r.fps])
+                  f"{secs:.0f} s; {dbn_check(d, path)}", flush=True)
+            runs.append(("VB-PHD + DBN (LOSO)", vb_phd, path))
+        for name, module, dbn in runs:
+            ms = []
+            for seed in range(args.seeds):
+                r = run(d, module, make_detector("public", open_source(d)), seed=seed, dbn=dbn)
+                m = r.metrics
+                ms.append([m["mota"], m["idf1"], m["hota"], m["id_switches"], m["ospa_50_1"],
+                           m["ospa_100_2"], m["ospa2"], r.fps])
+            ms = np.array(ms, dtype=float)
+            mean = ms.mean(axis=0)
+            rows.append([seq, name, *mean[:3], f"{mean[3]:.1f}", *mean[4:],
+                         f"{ms[:, 0].min():.3f}-{ms[:, 0].max():.3f}"])
         for peer, vals in peers.items():
-            rows.append([seq, peer, *vals, "-", "-"])
+            rows.append([seq, peer, *vals, "-", "-", "-"])
     if args.mog2 and (SHARED_DATA / "PETS09-S2L1-video").is_dir():
         d = SHARED_DATA / "PETS09-S2L1-video"
         for name, module in MODELS:
@@ -150,10 +191,10 @@ def main() -> None:
             m = r.metrics
             rows.append(["PETS09-S2L1-video (MOG2, 795 fr.)", name, m["mota"], m["idf1"],
                          m["hota"], m["id_switches"], m["ospa_50_1"], m["ospa_100_2"],
-                         m["ospa2"], r.fps])
+                         m["ospa2"], r.fps, "-"])
     print_table(["sequence", "tracker", "MOTA", "IDF1", "HOTA", "ID sw.", "OSPA(50,1)",
-                 "OSPA(100,2)", "OSPA2(50,1)", "frames/s"], rows,
-                title="public detections unless stated; PHD/VB-PHD seed 0")
+                 "OSPA(100,2)", "OSPA2(50,1)", "frames/s", "MOTA range"], rows,
+                title=f"public detections unless stated; mean of seeds 0-{args.seeds - 1}")
     if args.noise_experiment:
         d = SHARED_DATA / "PETS09-S2L1"
         src = open_source(d)
