@@ -122,12 +122,12 @@ def _predict_intensity(engine: Engine, factor, frame) -> None:
 
 
 def _update(engine: Engine, var: str, factor: PHDLikelihood, frame, precision=None,
-            log_variance=None) -> dict[str, Any]:
+            log_variance=None, sq=None) -> dict[str, Any]:
     """Corrector on the *predicted* persistent particles; returns the pieces."""
     b: Intensity = engine.beliefs[var]
     z = factor.measurements(frame)
     w = np.exp(b.log_weights) if b.num else np.zeros(0)
-    log_g = factor.log_g(b.x, z, precision, log_variance)
+    log_g = factor.log_g(b.x, z, precision, log_variance, sq=sq)
     log_app = appearance_log_scores(engine, var, b.x, frame)
     out = phd_correct(w, log_g, factor, log_app)
     out["z"] = z

@@ -186,7 +186,7 @@ def _vb_phd_fixed_point(engine: Engine, factor, frame, inv: np.ndarray,
     # first pass: sum_z W_z unknown -> min(|Z|, p_D x predicted mass), beta = beta_hat
     alpha = a_hat + 0.5 * np.minimum(z.shape[0], phd.p_detect * mass)[:, None]
     beta = b_hat.copy()
-    pred = b.x @ phd.H.T
+    sq_dist = phd.sq_dist(b.x, z)  # (k, M, N), once per frame: reused by every iteration
     elbo: list[float] = []
     res: dict[str, Any] = {}
     r_hat = beta / alpha
@@ -196,26 +196,25 @@ def _vb_phd_fixed_point(engine: Engine, factor, frame, inv: np.ndarray,
         prec = np.array([q.expected_precision() for q in qs]).reshape(n_groups, k)
         logv = np.array([q.expected_log_variance() for q in qs]).reshape(n_groups, k)
         if n_groups == 1:  # one shared belief: (k,) vectors, no per-particle copies
-            res = _update(engine, target, phd, frame, prec[0], logv[0])
+            res = _update(engine, target, phd, frame, prec[0], logv[0], sq=sq_dist)
         else:
-            res = _update(engine, target, phd, frame, prec[inv], logv[inv])
+            res = _update(engine, target, phd, frame, prec[inv], logv[inv], sq=sq_dist)
         elbo.append(float(np.sum(np.log(res["L"])))
                     - sum(q.kl(p) for q, p in zip(qs, q_pred, strict=True)))
         omega, W = res["omega"], res["W"]
         if factor.strict_counts:
             omega = omega * (W >= 0.5)[None, :]
         sq = np.zeros_like(beta)
+        om = np.ascontiguousarray(omega.T)  # (M, N), a view of the corrector's buffer
         if n_groups == 1:  # shared noise: plain sums
             alpha = a_hat + 0.5 * omega.sum()
             for i in range(k):  # k components, vectorised over particles x measurements
-                d = z[None, :, i] - pred[:, i, None]
-                sq[0, i] = np.sum(omega * d * d)
+                sq[0, i] = np.vdot(om, sq_dist[i])
         else:
             alpha = a_hat + 0.5 * np.bincount(inv, weights=omega.sum(axis=1),
                                               minlength=n_groups)[:, None]
             for i in range(k):
-                d = z[None, :, i] - pred[:, i, None]
-                sq[:, i] = np.bincount(inv, weights=(omega * d * d).sum(axis=1),
+                sq[:, i] = np.bincount(inv, weights=np.einsum("mn,mn->n", om, sq_dist[i]),
                                        minlength=n_groups)
         beta = b_hat + 0.5 * sq
         new_r = beta / alpha

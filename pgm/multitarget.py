@@ -185,18 +185,32 @@ class PHDLikelihood(LikelihoodFactor):
         z = np.asarray(z, dtype=float).reshape(-1, self.H.shape[0])
         return z
 
+    def sq_dist(self, x: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """``(k, M, N)`` squared residuals ``(z_i − (H x)_i)²`` per measured component,
+        measurement-major (each ``[i]`` C-contiguous; ``[i].T`` is the ``(N, M)`` view).
+        The VB fixed point computes them once per frame and reuses them in every
+        iteration's :meth:`log_g` and noise statistics."""
+        pred = x @ self.H.T  # (N, k)
+        out = np.empty((z.shape[1], z.shape[0], x.shape[0]))
+        for i in range(z.shape[1]):  # k components, vectorised over measurements x particles
+            np.subtract(z[:, i, None], pred[None, :, i], out=out[i])
+            np.square(out[i], out=out[i])
+        return out
+
     def log_g(self, x: np.ndarray, z: np.ndarray, precision: np.ndarray | None = None,
-              log_variance: np.ndarray | None = None) -> np.ndarray:
+              log_variance: np.ndarray | None = None, sq: np.ndarray | None = None
+              ) -> np.ndarray:
         r"""``(N, M)`` matrix of ``log g(z | x)``, floored at ``LOG_G_FLOOR``.
 
         With ``precision = E[1/σ²]`` and ``log_variance = E[log σ²]`` of a noise belief
         this is the variational ``log g̃`` of SPEC §3b (constant included); by default
         the plug-in Gaussian with the factor's ``R``. Both may be ``(k,)`` (one noise
         shared by all particles) or ``(N, k)`` (per-particle, e.g. per-track noise).
+        ``sq``: the :meth:`sq_dist` of ``x`` and ``z`` when already computed (the result
+        is the same, bit for bit).
         """
         prec = 1.0 / self.R if precision is None else np.asarray(precision, dtype=float)
         logv = np.log(self.R) if log_variance is None else np.asarray(log_variance, dtype=float)
-        pred = x @ self.H.T  # (N, k)
         const = -0.5 * z.shape[1] * np.log(2 * np.pi) - 0.5 * np.sum(logv, axis=-1)
         const = const[:, None] if np.ndim(const) else float(const)
         prec = prec.T[:, :, None] if prec.ndim == 2 else prec  # (k, N, 1) per particle
@@ -204,11 +218,15 @@ class PHDLikelihood(LikelihoodFactor):
         # along contiguous rows (about 2x faster than (N, M) with few measurements)
         out = np.empty((z.shape[0], x.shape[0])).T
         tmp = np.empty_like(out.T).T
+        pred = x @ self.H.T if sq is None else None  # (N, k)
         for i in range(z.shape[1]):  # k is 2: a loop over components, not particles
             buf = out if i == 0 else tmp
-            np.subtract(z[None, :, i], pred[:, i, None], out=buf)
-            np.square(buf, out=buf)
-            buf *= -0.5 * prec[i]
+            if sq is None:
+                np.subtract(z[None, :, i], pred[:, i, None], out=buf)
+                np.square(buf, out=buf)
+                buf *= -0.5 * prec[i]
+            else:
+                np.multiply(sq[i].T, -0.5 * prec[i], out=buf)
             if i:
                 out += buf
         out += const

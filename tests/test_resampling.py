@@ -8,7 +8,7 @@ from hypothesis.extra.numpy import arrays
 
 from pgm.beliefs import Particles
 from pgm.errors import DegenerateWeightsError
-from pgm.inference.resampling import RESAMPLERS, ess_triggered, get_resampler
+from pgm.inference.resampling import RESAMPLERS, ess_triggered, get_resampler, systematic
 from pgm.numerics import log_normalize
 
 SCHEMES = sorted(RESAMPLERS)
@@ -139,3 +139,20 @@ def test_ess_and_trigger():
 def test_unknown_scheme():
     with pytest.raises(ValueError, match="unknown resampling scheme"):
         get_resampler("bogus")
+
+
+def test_systematic_counts_equal_the_inverse_cdf_of_the_same_points():
+    from pgm.inference.resampling import _inverse_cdf
+
+    gen = np.random.default_rng(11)
+    for trial in range(300):
+        n = int(gen.integers(1, 60))
+        w = gen.random(n) ** int(gen.integers(1, 6))
+        w[gen.random(n) < 0.2] = 0.0
+        if w.sum() == 0:
+            w[0] = 1.0
+        m = int(gen.integers(1, 120))
+        got = systematic(np.random.default_rng(trial), w, m)
+        u = np.random.default_rng(trial).random()
+        want = _inverse_cdf(w, (np.arange(m) + u) / m)
+        np.testing.assert_array_equal(got, want)
