@@ -88,7 +88,8 @@ def _install_tracks(engine: Engine, variable: str) -> None:
     opts = engine.options
     engine.aux.setdefault(variable, {})["tracks"] = TrackManager(
         F, f.H, np.sqrt(f.R), gate=opts.get("track_gate", 5.0),
-        confirm_hits=opts.get("confirm_hits", 3), max_coast=opts.get("max_coast", 2))
+        confirm_hits=opts.get("confirm_hits", 3), max_coast=opts.get("max_coast", 2),
+        max_lost=opts.get("max_lost"))
 
 
 @DEFAULT_RULES.register("prior", Intensity)
