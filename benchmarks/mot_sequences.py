@@ -1,7 +1,7 @@
 """PHD and VB-PHD on the shared multi-person sequences, next to the peers' figures.
 
     python benchmarks/mot_sequences.py [--mog2] [--noise-experiment] [--dbn] [--seeds K]
-                                       [--lost-seconds S]
+                                       [--lost-seconds S] [--merge-gate G]
 
 Public detections (``det/det.txt``, all rows) on PETS09-S2L1 (frames 1-240),
 TUD-Campus and TUD-Stadtmitte; with ``--mog2`` also background subtraction on the full
@@ -15,6 +15,7 @@ with the range of MOTA over the seeds in its own column.
 
 ``--lost-seconds S``: how long the track layer keeps a lost track for
 re-identification (default 1, as ``pgm track``; 0 turns the lost stage off).
+``--merge-gate G``: extraction merge gate in σ (default 3, as ``pgm track``).
 
 ``--dbn``: also VB-PHD + DBN, leave one sequence out: for each sequence a DBN
 (``pgm learn dbn`` defaults: every 3rd frame, 40 fine-tuning epochs, seed 0) is trained
@@ -130,7 +131,7 @@ def dbn_check(seq_dir: Path, path: Path, every: int = 5) -> str:
 
 
 def run(seq_dir: Path, module, detector, seed: int = 0, dbn: Path | None = None,
-        lost_seconds: float = 1.0):
+        lost_seconds: float = 1.0, merge_gate: float = 3.0):
     src = open_source(seq_dir)
     gt = load_mot(src.gt_path, kind="gt")
     w, h = src.size
@@ -141,7 +142,8 @@ def run(seq_dir: Path, module, detector, seed: int = 0, dbn: Path | None = None,
         table = detector.table
     height = float(np.median(table.boxes[:, 3])) if table is not None else None
     graph = module.build_graph(video_params(module.Params, w, h, src.fps,
-                                            typical_height=height, lost_seconds=lost_seconds))
+                                            typical_height=height, lost_seconds=lost_seconds,
+                                            merge_gate=merge_gate))
     if dbn is not None:
         from pgm.appearance.dbn import DBNLikelihood
 
@@ -160,6 +162,8 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=1, help="seeds per public-detection row")
     ap.add_argument("--lost-seconds", type=float, default=1.0,
                     help="track layer: seconds a lost track is kept for re-identification")
+    ap.add_argument("--merge-gate", type=float, default=3.0,
+                    help="extraction: estimates closer than this many sigma are merged")
     args = ap.parse_args()
     rows = []
     import tempfile
@@ -182,7 +186,7 @@ def main() -> None:
             ms = []
             for seed in range(args.seeds):
                 r = run(d, module, make_detector("public", open_source(d)), seed=seed, dbn=dbn,
-                        lost_seconds=args.lost_seconds)
+                        lost_seconds=args.lost_seconds, merge_gate=args.merge_gate)
                 m = r.metrics
                 ms.append([m["mota"], m["idf1"], m["hota"], m["id_switches"], m["ospa_50_1"],
                            m["ospa_100_2"], m["ospa2"], r.fps])

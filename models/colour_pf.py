@@ -24,7 +24,7 @@ from pgm.graph import FactorGraph
 
 from .part_graph import BOX_LABELS
 
-__all__ = ["Params", "build_graph", "BOX_LABELS"]
+__all__ = ["Params", "build_graph", "one_node_graph", "BOX_LABELS"]
 
 
 @dataclass(frozen=True)
@@ -72,14 +72,19 @@ def build_graph(params: Params, name: str = "object") -> FactorGraph:
     This is the one-node case of :func:`pgm.models.part_graph.build_graph`, not a
     separate code path.
     """
-    from . import part_graph
-
     if name != "object":
         raise ValueError("the colour PF's variable is called 'object'")
+    return one_node_graph(params, "colour-pf")
+
+
+def one_node_graph(params: Params, graph_name: str) -> FactorGraph:
+    """The one-node part graph of ``params`` (any ``Params`` with these fields)."""
+    from . import part_graph
+
     return part_graph.build_graph(
         part_graph.Params(init_box=params.init_box, n_parts=1,
                           num_particles=params.num_particles, damping=params.damping,
                           pos_noise=params.pos_noise, scale_noise=params.scale_noise,
                           lam=params.lam, layout=params.layout, kernel=params.kernel,
                           appearance=params.appearance),
-        name="colour-pf")
+        name=graph_name)

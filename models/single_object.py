@@ -29,37 +29,23 @@ from dataclasses import dataclass
 
 from pgm.graph import FactorGraph
 
+from . import colour_pf
+
 __all__ = ["Params", "build_graph", "APPEARANCE"]
 
 APPEARANCE = "fragments+rings+contrast"
 
 
 @dataclass(frozen=True)
-class Params:
-    """Settings; the fields are those of :class:`pgm.models.colour_pf.Params` with the
-    defaults of the best configuration (``appearance``, 100 particles)."""
+class Params(colour_pf.Params):
+    """The fields of :class:`pgm.models.colour_pf.Params` (100 particles by default)
+    with the best configuration's ``appearance``."""
 
-    init_box: tuple[float, float, float, float]
-    num_particles: int = 100
-    damping: float = 0.5
-    pos_noise: float | None = None
-    scale_noise: float = 0.0
-    lam: float = 20.0
-    layout: str = "perez"
-    kernel: str = "uniform"
     appearance: str = APPEARANCE
 
 
 def build_graph(params: Params, name: str = "object") -> FactorGraph:
     """The one-node part graph with the three cues (:func:`pgm.models.part_graph.build_graph`)."""
-    from . import part_graph
-
     if name != "object":
         raise ValueError("the single-object model's variable is called 'object'")
-    return part_graph.build_graph(
-        part_graph.Params(init_box=params.init_box, n_parts=1,
-                          num_particles=params.num_particles, damping=params.damping,
-                          pos_noise=params.pos_noise, scale_noise=params.scale_noise,
-                          lam=params.lam, layout=params.layout, kernel=params.kernel,
-                          appearance=params.appearance),
-        name="single-object")
+    return colour_pf.one_node_graph(params, "single-object")
