@@ -38,6 +38,7 @@ from pgm.appearance.likelihoods import (  # noqa: E402
     GMMKLLikelihood,
     GradientLikelihood,
     RotationInvariantLikelihood,
+    TemplateLikelihood,
 )
 from pgm.frame import FrameContext  # noqa: E402
 
@@ -66,6 +67,7 @@ def factories(dbn_path: str):
         ("GMM-KL shared", lambda: GMMKLLikelihood("o")),
         ("rings (rot.-inv.)", lambda: RotationInvariantLikelihood("o")),
         ("contrast", lambda: ColourContrastLikelihood("o")),
+        ("template (NCC 12x24)", lambda: TemplateLikelihood("o")),
         ("DBN (colour+HOG)", lambda: DBNLikelihood("o", model=dbn_path,
                                                    position_indices=(0, 1))),
     ]

@@ -43,6 +43,7 @@ from pgm.metrics import single_object_metrics  # noqa: E402
 from pgm.models import part_graph, single_object  # noqa: E402
 
 DEFAULT = single_object.APPEARANCE
+SCALE = single_object.SCALE_NOISE
 #: (label, part_graph.Params overrides): the ablation
 CONFIGS = [
     ("colour PF (SPEC §1)", dict(appearance="colour")),
@@ -52,17 +53,19 @@ CONFIGS = [
     ("GMM-KL", dict(appearance="gmm")),
     ("rings (rotation-invariant)", dict(appearance="rings")),
     ("contrast", dict(appearance="contrast")),
-    (f"DEFAULT {DEFAULT}", dict(appearance=DEFAULT)),
-    ("  - fragments (rings+contrast)", dict(appearance="rings+contrast")),
-    ("  - rings (fragments+contrast)", dict(appearance="fragments+contrast")),
-    ("  - contrast (fragments+rings)", dict(appearance="fragments+rings")),
-    ("  + scale (log-scale step 0.01)", dict(appearance=DEFAULT, scale_noise=0.01)),
-    ("  + gradient + scale 0.01", dict(appearance=DEFAULT + "+gradient", scale_noise=0.01)),
-    ("  + GMM-KL", dict(appearance=DEFAULT + "+gmm")),
+    ("template (NCC)", dict(appearance="template")),
+    (f"DEFAULT {DEFAULT}, scale {SCALE}", dict(appearance=DEFAULT, scale_noise=SCALE)),
+    ("  - scale (fixed size)", dict(appearance=DEFAULT)),
+    ("  - template (contrast, scale)", dict(appearance="contrast", scale_noise=SCALE)),
+    ("  - contrast (template, scale)", dict(appearance="template", scale_noise=SCALE)),
+    ("  + fragments", dict(appearance=DEFAULT + "+fragments", scale_noise=SCALE)),
+    ("  + rings", dict(appearance=DEFAULT + "+rings", scale_noise=SCALE)),
+    ("  + gradient", dict(appearance=DEFAULT + "+gradient", scale_noise=SCALE)),
+    ("fragments+rings+contrast (fixed size)", dict(appearance="fragments+rings+contrast")),
     ("3 nodes x 10, fragments+contrast", dict(n_parts=3, num_particles=10,
                                               appearance="fragments+contrast")),
 ]
-QUICK = {"colour PF (SPEC §1)", f"DEFAULT {DEFAULT}", "contrast"}
+QUICK = {"colour PF (SPEC §1)", f"DEFAULT {DEFAULT}, scale {SCALE}", "contrast"}
 OPENCV = {"FaceOcc1": "CSRT 0.815 / KCF 0.855", "Crossing": "CSRT 0.771 / KCF 0.100"}
 
 

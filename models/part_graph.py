@@ -35,6 +35,7 @@ from pgm.appearance.likelihoods import (
     GMMKLLikelihood,
     GradientLikelihood,
     RotationInvariantLikelihood,
+    TemplateLikelihood,
 )
 from pgm.couplings import AffineCoupling, RelativeBoxCoupling
 from pgm.factors import AR2Transition, GaussianPrior
@@ -49,7 +50,7 @@ BOX_LABELS = ("cx", "cy", "w", "h")
 #: particles per node (and per message) in seed 002's experiments
 PAPER_PARTICLES = {1: 30, 2: 15, 3: 10}
 #: the cues an ``appearance`` string may combine with "+" (each a likelihood factor)
-CUES = ("colour", "fragments", "gradient", "gmm", "rings", "contrast")
+CUES = ("colour", "fragments", "gradient", "gmm", "rings", "contrast", "template")
 
 
 def appearance_cues(appearance: str) -> list[str]:
@@ -75,6 +76,8 @@ def cue_factor(cue: str, variable: str, params, name: str | None = None):
         return GMMKLLikelihood(variable, name=name)
     if cue == "contrast":
         return ColourContrastLikelihood(variable, layout=params.layout, name=name)
+    if cue == "template":
+        return TemplateLikelihood(variable, lam=params.lam, name=name)
     return RotationInvariantLikelihood(variable, name=name)
 
 
@@ -124,8 +127,12 @@ class Params:
         λ/2), a cue that can see scale (pair it with ``scale_noise > 0``); ``"gmm"``:
         GMM-KL (:class:`~pgm.appearance.likelihoods.GMMKLLikelihood`); ``"rings"``: the
         rotation-invariant model
-        (:class:`~pgm.appearance.likelihoods.RotationInvariantLikelihood`). E.g.
-        ``"fragments+gradient"``.
+        (:class:`~pgm.appearance.likelihoods.RotationInvariantLikelihood`);
+        ``"contrast"``: foreground/background colour log-odds
+        (:class:`~pgm.appearance.likelihoods.ColourContrastLikelihood`); ``"template"``:
+        grey-level NCC template matching
+        (:class:`~pgm.appearance.likelihoods.TemplateLikelihood`, sees scale). E.g.
+        ``"contrast+template"``.
     """
 
     init_box: tuple[float, float, float, float]

@@ -162,13 +162,14 @@ def _model_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fusion", choices=("mixture", "product"), default=None,
                    help="part-graph: particle-BP fusion rule (default mixture)")
     p.add_argument("--appearance", default=None, metavar="CUE[+CUE...]",
-                   help="colour-pf/part-graph: likelihood cues per node, multiplied: colour "
-                        "(one colour histogram, default), fragments (3x3 colour fragments, "
-                        "median), gradient (oriented gradients; sees scale), gmm (GMM-KL), "
-                        "rings (rotation-invariant); e.g. fragments+gradient")
+                   help="single-object/colour-pf/part-graph: likelihood cues per node, "
+                        "multiplied: colour (one colour histogram), fragments (3x3 colour "
+                        "fragments, median), gradient (oriented gradients), gmm (GMM-KL), "
+                        "rings (rotation-invariant), contrast (foreground/background colour "
+                        "log-odds), template (grey NCC; sees scale); e.g. contrast+template")
     p.add_argument("--scale-noise", type=float, default=None,
-                   help="colour-pf/part-graph: std of a shared log-scale step per frame "
-                        "(0: fixed size; use with a cue that sees scale)")
+                   help="single-object/colour-pf/part-graph: std of a shared log-scale step "
+                        "per frame (0: fixed size; use with a cue that sees scale)")
 
 
 # -- commands ---------------------------------------------------------------------------

@@ -278,5 +278,4 @@ def test_no_model_runs_the_best_single_object_configuration(scene_dir, tmp_path,
     assert code == 0 and "using model single-object" in err
     saved = json.loads((tmp_path / "model.json").read_text())
     kinds = sorted(f["type"] for f in saved["factors"] if f["kind"] == "likelihood")
-    assert kinds == ["ColourContrastLikelihood", "FragmentsLikelihood",
-                     "RotationInvariantLikelihood"]
+    assert kinds == ["ColourContrastLikelihood", "TemplateLikelihood"]

@@ -180,3 +180,56 @@ def test_rotation_invariant_ring_stats_equal_a_plain_loop():
             np.testing.assert_allclose(got[n, k, :, 0], vals.mean(axis=0), rtol=1e-9)
             np.testing.assert_allclose(got[n, k, :, 1], np.maximum(vals.var(axis=0), 4.0),
                                        rtol=1e-6)
+
+
+def test_template_ncc_peaks_at_position_and_scale_and_ignores_gain():
+    from pgm.appearance.likelihoods import TemplateLikelihood
+
+    rng = np.random.default_rng(8)
+    img, box = textured_scene(rng)
+    f = TemplateLikelihood("object")
+    f.initialize(FrameContext(1, img), box)
+    shifts, scales = np.arange(-6, 7, 3.0), np.array([0.7, 0.85, 1.0, 1.15, 1.3])
+    x = np.array([[box[0] + dx, box[1] + dy, box[2] * s, box[3] * s]
+                  for dx in shifts for dy in shifts for s in scales])
+    ll = f.log_likelihood(x, FrameContext(2, img))
+    np.testing.assert_allclose(x[np.argmax(ll)], box)
+    brighter = np.clip(0.5 * img.astype(float) + 60, 0, 255).astype(np.uint8)
+    assert f.log_likelihood(box[None], FrameContext(3, brighter))[0] > -0.05 * f.lam
+
+
+def test_template_samples_equal_a_plain_loop_and_round_trip(tmp_path):
+    import cv2
+
+    from pgm import FactorGraph, GaussianPrior, Variable
+    from pgm.appearance.likelihoods import TemplateLikelihood
+
+    rng = np.random.default_rng(9)
+    img = rng.integers(0, 256, (70, 90, 3), dtype=np.uint8)
+    f = TemplateLikelihood("object", grid=(3, 5), adapt_rate=0.5)
+    x = np.column_stack([rng.uniform(-5, 95, 10), rng.uniform(-5, 75, 10),
+                         rng.uniform(3, 40, 10), rng.uniform(3, 40, 10)])
+    got = f.samples(x, FrameContext(1, img))
+    grey = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY).astype(float)
+    for n, (cx, cy, w, h) in enumerate(x):
+        v = []
+        for r in range(5):
+            for c in range(3):
+                px = min(max(int(np.floor(cx + w * ((c + 0.5) / 3 - 0.5))), 0), 89)
+                py = min(max(int(np.floor(cy + h * ((r + 0.5) / 5 - 0.5))), 0), 69)
+                v.append(grey[py, px])
+        v = np.array(v) - np.mean(v)
+        np.testing.assert_allclose(got[n], v / max(np.linalg.norm(v), 1e-6), atol=1e-9)
+    f.initialize(FrameContext(1, img), x[0])
+    before = f.template.copy()
+    f.update({"object": x[1]}, {}, FrameContext(2, img))
+    assert not np.allclose(before, f.template)
+    g = FactorGraph([Variable("object", 4)],
+                    [GaussianPrior("object", mean=x[0], cov=1.0), f], name="t")
+    g.save(tmp_path / "g.json")
+    np.testing.assert_allclose(FactorGraph.load(tmp_path / "g.json").factors[f.name].template,
+                               f.template)
+    with pytest.raises(ValueError, match="grid"):
+        TemplateLikelihood("object", grid=(1, 1))
+    with pytest.raises(ValueError, match="samples"):
+        TemplateLikelihood("object", grid=(2, 2), template=[1.0, 2.0])

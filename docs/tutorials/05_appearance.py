@@ -3,8 +3,8 @@ Tutorial 5 — appearance: composing cues, and a learned person likelihood
 ========================================================================
 
 Several likelihood factors on one variable multiply — declaring them is all it takes.
-This tutorial composes colour, fragment, oriented-gradient, GMM-KL, rotation-invariant
-and colour-contrast cues on a one-node tracker and compares them on a synthetic
+This tutorial composes colour, fragment, oriented-gradient, GMM-KL, rotation-invariant,
+colour-contrast and template (NCC) cues on a one-node tracker and compares them on a synthetic
 occlusion scene (the ``single-object`` model that ``pgm track`` runs by default is one
 of these compositions), then trains the
 deep-belief-network person likelihood of the VB-PHD paper on one synthetic crowd and
@@ -32,6 +32,7 @@ from pgm.appearance.likelihoods import (
     GMMKLLikelihood,
     GradientLikelihood,
     RotationInvariantLikelihood,
+    TemplateLikelihood,
 )
 from pgm.detections import PublicDetections
 from pgm.inference.runner import track, track_multi
@@ -75,9 +76,10 @@ for graph in (tracker(ColourHistogramLikelihood("object")),
               tracker(FragmentsLikelihood("object"), GradientLikelihood("object", lam=10)),
               tracker(GMMKLLikelihood("object")),
               tracker(ColourContrastLikelihood("object")),
-              # the default single-object model: fragments x rings x contrast
               tracker(FragmentsLikelihood("object"), RotationInvariantLikelihood("object"),
-                      ColourContrastLikelihood("object"))):
+                      ColourContrastLikelihood("object")),
+              # the default single-object model's cues (it adds a scale variable)
+              tracker(ColourContrastLikelihood("object"), TemplateLikelihood("object"))):
     r = track(source, graph, rng=np.random.default_rng(0), gt=gt, num_particles=100,
               progress=False)
     print(f"{graph.name:45s} success AUC {r.metrics['success_auc']:.3f} "
