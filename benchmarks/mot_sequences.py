@@ -198,24 +198,28 @@ def main() -> None:
                 r = run(d, module, make_detector("public", open_source(d)), seed=seed, dbn=dbn,
                         lost_seconds=args.lost_seconds, merge_gate=args.merge_gate)
                 m = r.metrics
-                ms.append([m["mota"], m["idf1"], m["hota"], m["id_switches"], m["ospa_50_1"],
-                           m["ospa_100_2"], m["ospa2"], r.fps])
+                sig = (float(np.median(r.noise_sigma))
+                       if r.noise_sigma else np.nan)
+                ms.append([m["mota"], m["idf1"], m["hota"], m["id_switches"], m["fp"], m["fn"],
+                           m["ospa_50_1"], m["ospa_100_2"], m["ospa2"], r.fps, sig])
             ms = np.array(ms, dtype=float)
             mean = ms.mean(axis=0)
-            rows.append([seq, name, *mean[:3], f"{mean[3]:.1f}", *mean[4:],
-                         f"{ms[:, 0].min():.3f}-{ms[:, 0].max():.3f}"])
+            rows.append([seq, name, *mean[:3], *(f"{v:.1f}" for v in mean[3:6]), *mean[6:10],
+                         f"{ms[:, 0].min():.3f}-{ms[:, 0].max():.3f}",
+                         "-" if np.isnan(mean[10]) else f"{mean[10]:.1f}"])
         for peer, vals in peers.items():
-            rows.append([seq, peer, *vals, "-", "-", "-"])
+            rows.append([seq, peer, *vals[:4], "-", "-", *vals[4:], "-", "-", "-", "-"])
     if args.mog2 and (SHARED_DATA / "PETS09-S2L1-video").is_dir():
         d = SHARED_DATA / "PETS09-S2L1-video"
         for name, module in MODELS:
             r = run(d, module, make_detector("mog2", open_source(d)))
             m = r.metrics
             rows.append(["PETS09-S2L1-video (MOG2, 795 fr.)", name, m["mota"], m["idf1"],
-                         m["hota"], m["id_switches"], m["ospa_50_1"], m["ospa_100_2"],
-                         m["ospa2"], r.fps, "-"])
-    print_table(["sequence", "tracker", "MOTA", "IDF1", "HOTA", "ID sw.", "OSPA(50,1)",
-                 "OSPA(100,2)", "OSPA2(50,1)", "frames/s", "MOTA range"], rows,
+                         m["hota"], m["id_switches"], m["fp"], m["fn"], m["ospa_50_1"],
+                         m["ospa_100_2"], m["ospa2"], r.fps, "-", "-"])
+    print_table(["sequence", "tracker", "MOTA", "IDF1", "HOTA", "ID sw.", "FP", "FN",
+                 "OSPA(50,1)", "OSPA(100,2)", "OSPA2(50,1)", "frames/s", "MOTA range",
+                 "median σ̂ px"], rows,
                 title="public detections unless stated; " + (
                     f"mean of seeds 0-{args.seeds - 1}" if args.seeds > 1 else "seed 0"))
     if args.sigma_factors:
