@@ -31,7 +31,25 @@ __all__ = ["ColourHistogramLikelihood", "FragmentsLikelihood", "GradientLikeliho
            "TemplateLikelihood"]
 
 
-class ColourHistogramLikelihood(LikelihoodFactor):
+
+def _adapt_rate(factor: LikelihoodFactor, value: float) -> float:
+    """A validated adaptation rate in [0, 1] (0: the factor does not learn)."""
+    rate = float(check_finite_param(f"{factor.name}.adapt_rate", value, nonneg=True))
+    if rate > 1:
+        raise ValueError(f"factor {factor.name!r}: adapt_rate must be in [0, 1]")
+    return rate
+
+
+class _Adaptive:
+    """Mixin: a factor that learns (has :meth:`update` called) when ``adapt_rate > 0``."""
+
+    adapt_rate: float = 0.0
+
+    @property
+    def learns(self) -> bool:
+        return self.adapt_rate > 0
+
+class ColourHistogramLikelihood(_Adaptive, LikelihoodFactor):
     """Colour-histogram likelihood of a box variable ``(cx, cy, w, h, ...)``.
 
     Parameters
@@ -66,10 +84,7 @@ class ColourHistogramLikelihood(LikelihoodFactor):
                  template=None, box_indices=(0, 1, 2, 3), adapt_rate: float = 0.0,
                  adapt_threshold: float = 0.8, name: str | None = None):
         super().__init__(variable, name=name)
-        self.adapt_rate = float(check_finite_param(f"{self.name}.adapt_rate", adapt_rate,
-                                                   nonneg=True))
-        if self.adapt_rate > 1:
-            raise ValueError(f"factor {self.name!r}: adapt_rate must be in [0, 1]")
+        self.adapt_rate = _adapt_rate(self, adapt_rate)
         self.adapt_threshold = float(check_finite_param(f"{self.name}.adapt_threshold",
                                                         adapt_threshold))
         self.lam = float(check_finite_param(f"{self.name}.lam", lam, positive=True))
@@ -96,10 +111,6 @@ class ColourHistogramLikelihood(LikelihoodFactor):
         if self.adapt_rate > 0:
             p.update(adapt_rate=self.adapt_rate, adapt_threshold=self.adapt_threshold)
         return p
-
-    @property
-    def learns(self) -> bool:
-        return self.adapt_rate > 0
 
     def update(self, estimates, scores, frame=None) -> None:
         """Blend the template towards the estimate's histogram when it matches well."""
@@ -490,7 +501,7 @@ class GMMKLLikelihood(LikelihoodFactor):
         return -self.lam * self.divergence(x, ctx)
 
 
-class ColourContrastLikelihood(LikelihoodFactor):
+class ColourContrastLikelihood(_Adaptive, LikelihoodFactor):
     r"""Foreground/background colour log-odds summed over the box: a colour cue that
     sees scale.
 
@@ -523,10 +534,7 @@ class ColourContrastLikelihood(LikelihoodFactor):
                                                 positive=True))
         self.clip = float(check_finite_param(f"{self.name}.clip", clip, positive=True))
         self.delta = float(check_finite_param(f"{self.name}.delta", delta, positive=True))
-        self.adapt_rate = float(check_finite_param(f"{self.name}.adapt_rate", adapt_rate,
-                                                   nonneg=True))
-        if self.adapt_rate > 1:
-            raise ValueError(f"factor {self.name!r}: adapt_rate must be in [0, 1]")
+        self.adapt_rate = _adapt_rate(self, adapt_rate)
         self.layout, self.n_h, self.n_s = layout, int(n_h), int(n_s)
         self.n_v = None if n_v is None else int(n_v)
         self.box_indices = tuple(int(i) for i in box_indices)
@@ -586,10 +594,6 @@ class ColourContrastLikelihood(LikelihoodFactor):
                                  f"image")
             self._set(obj, bg, float(box[2] * box[3]))
 
-    @property
-    def learns(self) -> bool:
-        return self.adapt_rate > 0
-
     def update(self, estimates, scores, frame=None) -> None:
         """Blend both histograms towards those around the estimate."""
         if self.adapt_rate <= 0 or frame is None or self.object_hist is None:
@@ -638,7 +642,7 @@ def grey_frame(ctx: FrameContext) -> np.ndarray:
     return ctx.cached(("grey-f32",), make)
 
 
-class TemplateLikelihood(LikelihoodFactor):
+class TemplateLikelihood(_Adaptive, LikelihoodFactor):
     r"""Grey-level template matching by zero-mean normalised cross-correlation (NCC).
 
     Every box is read on a fixed ``grid = (columns, rows)`` of sample points placed
@@ -664,10 +668,7 @@ class TemplateLikelihood(LikelihoodFactor):
         if min(self.grid) < 1 or self.grid[0] * self.grid[1] < 2:
             raise ValueError(f"factor {self.name!r}: grid must be positive with at least 2 "
                              f"points, got {grid!r}")
-        self.adapt_rate = float(check_finite_param(f"{self.name}.adapt_rate", adapt_rate,
-                                                   nonneg=True))
-        if self.adapt_rate > 1:
-            raise ValueError(f"factor {self.name!r}: adapt_rate must be in [0, 1]")
+        self.adapt_rate = _adapt_rate(self, adapt_rate)
         self.box_indices = tuple(int(i) for i in box_indices)
         self.template = None
         if template is not None:
@@ -709,10 +710,6 @@ class TemplateLikelihood(LikelihoodFactor):
     def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:
         if self.template is None:
             self.template = self.samples(np.asarray(value, dtype=float)[None], ctx)[0]
-
-    @property
-    def learns(self) -> bool:
-        return self.adapt_rate > 0
 
     def update(self, estimates, scores, frame=None) -> None:
         """Blend the template towards the estimate's samples."""
