@@ -119,7 +119,7 @@ def _predict_intensity(engine: Engine, factor, frame) -> None:
     if x.shape[0]:
         x = np.asarray(factor.sample(engine.rng, x), dtype=float)
     lw = lw + np.log(getattr(factor, "p_survive", 1.0))
-    engine.beliefs[var] = Intensity(x, lw, (), labels=labels)
+    engine.beliefs[var] = Intensity._trusted_set(x, lw, labels=labels)
 
 
 def _update(engine: Engine, var: str, factor: PHDLikelihood, frame, precision=None,
@@ -154,7 +154,10 @@ def _finish(engine: Engine, var: str, factor: PHDLikelihood, res: dict[str, Any]
             aux["next_label"] = first + z.shape[0]
             aux["newborn_labels"] = np.repeat(np.arange(first, first + z.shape[0]),
                                               factor.n_birth)
-    engine.beliefs[var] = Intensity(b.x, lw, (), newborn=newborn, labels=b.labels)
+    w_sum = float(res["w"].sum())
+    engine.beliefs[var] = Intensity._trusted_set(
+        b.x, lw, newborn=newborn, labels=b.labels,
+        log_mass=np.log(w_sum) if w_sum > 0 else None)
     aux["last"] = res
 
 
@@ -176,8 +179,9 @@ def _resample_intensity(engine: Engine, variable: str, frame) -> dict[str, Any]:
     budget = max(int(engine.options.get("min_particles", 200)),
                  int(round(engine.num_particles[variable] * mass)))
     idx = engine.resampler(engine.rng, b.weights, budget)
-    out = Intensity(b.x[idx], np.full(budget, np.log(mass / budget)), (), newborn=b.newborn,
-                    labels=None if b.labels is None else b.labels[idx])
+    out = Intensity._trusted_set(b.x[idx], np.full(budget, np.log(mass / budget)),
+                                 newborn=b.newborn, log_mass=np.log(mass),
+                                 labels=None if b.labels is None else b.labels[idx])
     engine.beliefs[variable] = out
     return {"resampled": True, "particles": budget}
 
@@ -192,11 +196,11 @@ def extract(res: dict[str, Any], merge_gate: float, sigma: np.ndarray,
     states = (omega[:, keep].T @ x) / W[keep][:, None]
     order = np.argsort(-W[keep])
     states, keep = states[order], keep[order]
+    z = res["z"][keep]
+    d = np.sqrt(((((z[:, None, :] - z[None, :, :]) / sigma) ** 2).sum(-1)))  # (K, K)
     chosen: list[int] = []
-    z = res["z"]
     for i in range(len(keep)):  # greedy merge: loop over the few estimates, not particles
-        if all(np.sqrt((((z[keep[i]] - z[keep[j]]) / sigma) ** 2).sum()) > merge_gate
-               for j in chosen):
+        if not chosen or d[i, chosen].min() > merge_gate:
             chosen.append(i)
     return states[chosen], keep[chosen]
 

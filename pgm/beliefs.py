@@ -206,6 +206,15 @@ class Intensity(Particles):
         return (self.mass if self.num else 0.0) + extra
 
     @classmethod
+    def _trusted_set(cls, x: np.ndarray, log_weights: np.ndarray, *,
+                     newborn: Particles | None = None, labels: np.ndarray | None = None,
+                     log_mass: float | None = None) -> Intensity:
+        """:meth:`Particles._trusted` for intensities (the PHD rules' hot path)."""
+        obj = cls._trusted(x, log_weights, (), log_mass=log_mass)
+        obj.__dict__.update(newborn=newborn, labels=labels)
+        return obj
+
+    @classmethod
     def empty(cls, dim: int) -> Intensity:
         """No particles, mass 0."""
         return cls(np.zeros((0, dim)), np.zeros(0))
