@@ -313,3 +313,25 @@ def test_per_track_noise_separates_targets_with_different_noise():
     assert results[0] < 3.5 and results[1] > 5.5, results
     assert results[0] < results["shared"] < results[1], results
 
+
+
+def test_reused_buffers_give_the_same_numbers():
+    """The transition's and the likelihood's reused buffers change nothing: the same
+    random stream and the same matrix, call after call, whatever the sizes."""
+    from pgm.models import phd as phd_model
+
+    g = phd_model.build_graph(phd_model.Params(area=1e6, sigma=5.0, q=0.5))
+    tr = g.factors_of("targets", "transition")[0]
+    lik = g.factors_of("targets", "likelihood")[0]
+    gen = np.random.default_rng(0)
+    for n in (3000, 1500, 5000, 10):
+        x = gen.normal(0, 100, (n, 4))
+        got = tr.sample(np.random.default_rng(n), x)
+        want = x @ tr.F.T + np.random.default_rng(n).standard_normal(x.shape) @ tr._sqrt.T
+        np.testing.assert_array_equal(got, want)
+        z = gen.normal(0, 100, (int(gen.integers(1, 9)), 2))
+        a = lik.log_g(x, z)
+        pred = x @ lik.H.T
+        ref = (-0.5 * (((z[None] - pred[:, None]) ** 2) / lik.R).sum(-1)
+               - np.log(2 * np.pi) - 0.5 * np.log(lik.R).sum())
+        np.testing.assert_allclose(a, np.maximum(ref, -300.0), rtol=1e-12, atol=1e-9)
