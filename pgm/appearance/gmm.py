@@ -40,6 +40,8 @@ import cv2
 import numpy as np
 from scipy.special import logsumexp
 
+from .colour import _pixel_bounds
+
 __all__ = ["MixtureTemplate", "fit_template", "component_logpdf", "box_pixels",
            "pixel_bounds", "SharedComponentKL", "literal_kl"]
 
@@ -57,8 +59,6 @@ def _features(image: np.ndarray) -> np.ndarray:
 def pixel_bounds(boxes: np.ndarray, height: int, width: int):
     """Integer pixel bounds ``x0, x1, y0, y1`` (half-open, clipped) of boxes
     ``(cx, cy, w, h)``: the same pixels the colour histograms count."""
-    from .colour import _pixel_bounds
-
     return _pixel_bounds(np.asarray(boxes, dtype=float).reshape(-1, 4), height, width)[:4]
 
 
