@@ -82,12 +82,21 @@ def layout(graph: FactorGraph) -> dict[str, np.ndarray]:
         pos = {n: np.asarray(p) for n, p in raw.items()}
     out: dict[str, np.ndarray] = dict(pos)
     counts: dict[tuple[str, str], int] = {}
+    n_lik = {v: len([f for f in graph.factors_of(v, "likelihood") if len(f.variables) == 1])
+             for v in names}
     for f in graph.factors.values():
         if len(f.variables) == 1:
             v = f.variables[0]
             key = (v, f.kind)
             k = counts.get(key, 0)
             counts[key] = k + 1
+            if f.kind == "likelihood" and n_lik[v] > 1:
+                # several cues on one variable: a row below it, each with its own z
+                step = min(1.9, 3.3 / n_lik[v])
+                dx = (k - (n_lik[v] - 1) / 2) * step
+                out[f.name] = pos[v] + np.array([dx, -1.2])
+                out[f"z:{f.name}"] = pos[v] + np.array([dx, -2.2])
+                continue
             ang = _UNARY_ANGLE[f.kind] + 0.45 * k * (-1) ** k
             out[f.name] = pos[v] + 1.1 * np.array([np.cos(ang), np.sin(ang)])
             if f.kind == "likelihood":
@@ -144,8 +153,10 @@ def draw(graph: FactorGraph, path: str | Path | None = None, ax=None,
         p = pos[f.name]
         ax.add_patch(Rectangle(p - s_fac / 2, s_fac, s_fac, fc=KIND_COLOURS[f.kind], ec="k",
                                zorder=3))
-        ax.text(p[0], p[1] - 0.32, type(f).__name__, ha="center", va="top", fontsize=7,
-                zorder=4)
+        label = type(f).__name__
+        if f.kind == "likelihood" and label.endswith("Likelihood") and label != "Likelihood":
+            label = label[:-len("Likelihood")]  # the colour already says "likelihood"
+        ax.text(p[0], p[1] - 0.32, label, ha="center", va="top", fontsize=7, zorder=4)
     for v in graph.variables.values():
         p = pos[v.name]
         ax.add_patch(Circle(p, r_var, fc=ROLE_COLOURS[v.role], ec="k", lw=1.5, zorder=3))
