@@ -2,7 +2,7 @@
 
     python benchmarks/mot_sequences.py [--mog2] [--noise-experiment] [--dbn] [--seeds K]
                                        [--lost-seconds S] [--merge-gate G]
-                                       [--sigma-factors 0.25,4]
+                                       [--sigma-factors 0.25,4] [--dbn-calibrate N]
 
 Public detections (``det/det.txt``, all rows) on PETS09-S2L1 (frames 1-240),
 TUD-Campus and TUD-Stadtmitte; with ``--mog2`` also background subtraction on the full
@@ -21,7 +21,9 @@ re-identification (default 1, as ``pgm track``; 0 turns the lost stage off).
 ``--dbn``: also VB-PHD + DBN, leave one sequence out: for each sequence a DBN
 (``pgm learn dbn`` defaults: every 3rd frame, 40 fine-tuning epochs, seed 0) is trained
 on the other two and its likelihood ratio multiplies into the VB-PHD update (SPEC §3c);
-the training time is printed.
+the training time is printed. ``--dbn-calibrate N``: detections the DBN factor collects
+on the video before re-fitting its calibration without labels (default 60, the
+factor's default; 0: keep the trained calibration).
 
 ``--sigma-factors F1,F2,...``: a mis-specification experiment — PHD and VB-PHD (seed
 0) on each sequence with the nominal measurement σ (and the VB prior's) multiplied by
@@ -137,7 +139,8 @@ def dbn_check(seq_dir: Path, path: Path, every: int = 5) -> str:
 
 
 def run(seq_dir: Path, module, detector, seed: int = 0, dbn: Path | None = None,
-        lost_seconds: float = 1.0, merge_gate: float = 3.0, sigma_factor: float = 1.0):
+        lost_seconds: float = 1.0, merge_gate: float = 3.0, sigma_factor: float = 1.0,
+        dbn_calibrate: int = 60):
     src = open_source(seq_dir)
     gt = load_mot(src.gt_path, kind="gt")
     w, h = src.size
@@ -156,6 +159,7 @@ def run(seq_dir: Path, module, detector, seed: int = 0, dbn: Path | None = None,
         from pgm.appearance.dbn import DBNLikelihood
 
         graph = graph.with_factors(DBNLikelihood("targets", model=str(dbn),
+                                                 calibrate_with=dbn_calibrate,
                                                  name="appearance:dbn"))
     return track_multi(src, graph, detector, rng=np.random.default_rng(seed), gt=gt,
                        write_video=False, progress=False)
@@ -168,6 +172,8 @@ def main() -> None:
     ap.add_argument("--dbn", action="store_true",
                     help="also VB-PHD + DBN, trained leaving the sequence out")
     ap.add_argument("--seeds", type=int, default=1, help="seeds per public-detection row")
+    ap.add_argument("--dbn-calibrate", type=int, default=60,
+                    help="detections collected before the DBN re-fits its calibration (0: off)")
     ap.add_argument("--lost-seconds", type=float, default=1.0,
                     help="track layer: seconds a lost track is kept for re-identification")
     ap.add_argument("--sigma-factors", default=None,
@@ -196,7 +202,8 @@ def main() -> None:
             ms = []
             for seed in range(args.seeds):
                 r = run(d, module, make_detector("public", open_source(d)), seed=seed, dbn=dbn,
-                        lost_seconds=args.lost_seconds, merge_gate=args.merge_gate)
+                        lost_seconds=args.lost_seconds, merge_gate=args.merge_gate,
+                        dbn_calibrate=args.dbn_calibrate)
                 m = r.metrics
                 sig = (float(np.median(r.noise_sigma))
                        if r.noise_sigma else np.nan)

@@ -172,3 +172,33 @@ def test_dbn_lattice_scores_each_cell_once(tiny_dbn, monkeypatch):
     got = lattice.log_likelihood(x, FrameContext(1, img))
     np.testing.assert_allclose(got, exact.log_likelihood(x, FrameContext(1, img)), rtol=1e-6)
     assert rows == [len(np.unique(pick))]
+
+
+def test_dbn_recalibrates_on_detections_without_labels(tiny_dbn, tmp_path):
+    from pgm import FactorGraph, Variable
+    from pgm.detections import Detections
+    from pgm.multitarget import IntensityPrior
+
+    rng = np.random.default_rng(3)
+    img = rng.integers(0, 256, (240, 320, 3), dtype=np.uint8)
+    f = DBNLikelihood("t", model=tiny_dbn, calibrate_with=12, stride=0.0)
+    before = (f.net.platt_, f.net.prior_)
+    x = np.column_stack([rng.uniform(0, 320, 20), np.zeros(20), rng.uniform(100, 240, 20),
+                         np.zeros(20)])
+    boxes = np.array([[30.0, 40, 40, 100], [150, 60, 40, 100], [250, 120, 40, 100]])
+    for k in range(3):  # 9 detections: not yet
+        f.log_likelihood(x, FrameContext(k + 1, img, detections=Detections(boxes, np.ones(3))))
+    assert not f.calibrated and (f.net.platt_, f.net.prior_) == before
+    f.log_likelihood(x, FrameContext(4, img, detections=Detections(boxes, np.ones(3))))
+    assert f.calibrated and (f.net.platt_, f.net.prior_) != before
+    assert 0 < f.net.prior_ < 1
+    # the fitted calibration is part of the declaration and comes back on loading
+    g = FactorGraph([Variable("t", 4, role="set")],
+                    [IntensityPrior("t", mean=np.zeros(4), mass=0.0), f], name="g")
+    g.save(tmp_path / "g.json")
+    back = FactorGraph.load(tmp_path / "g.json").factors[f.name]
+    assert back.calibrated and back.net.platt_ == pytest.approx(f.net.platt_)
+    np.testing.assert_allclose(back.log_likelihood(x, FrameContext(5, img)),
+                               f.log_likelihood(x, FrameContext(5, img)))
+    with pytest.raises(InputError, match="together"):
+        DBNLikelihood("t", model=tiny_dbn, platt=[1.0, 0.0])
