@@ -381,7 +381,7 @@ def cmd_demo(args) -> int:
     from .inference.runner import track
     from .io.annotations import load_single_gt
     from .io.video import open_source
-    from .models import colour_pf, part_graph
+    from .models import colour_pf, part_graph, single_object
     from .synthetic import demo_scene
 
     out = Path(args.out)
@@ -396,7 +396,9 @@ def cmd_demo(args) -> int:
              colour_pf.build_graph(colour_pf.Params(init_box=box,
                                                     num_particles=args.particles))),
             ("part graph (two nodes)", out / "part-graph",
-             part_graph.build_graph(part_graph.Params(init_box=box, n_parts=2)))]
+             part_graph.build_graph(part_graph.Params(init_box=box, n_parts=2))),
+            ("single-object (the default)", out / "single-object",
+             single_object.build_graph(single_object.Params(init_box=box)))]
     results = []
     for label, folder, graph in runs:
         folder.mkdir(parents=True, exist_ok=True)
@@ -408,7 +410,7 @@ def cmd_demo(args) -> int:
     print(f"demo: synthetic scene ({len(results[0][1].frames)} frames; the walker's lower half "
           f"passes behind a magazine) in {scene_dir}")
     print(f"demo: wrote tracks.txt, annotated.mp4, metrics.json, graph.png under {out} (colour "
-          f"PF) and {out / 'part-graph'}")
+          f"PF), {out / 'part-graph'} and {out / 'single-object'}")
     width = max(len(label) for label, _ in results)
     print(f"{'tracker':<{width}}  success AUC  precision@20px  frames/s")
     for label, r in results:

@@ -193,7 +193,8 @@ def test_console_script_end_to_end(tmp_path):
     for name in ("tracks.txt", "annotated.mp4", "metrics.json", "graph.png", "graph.dot"):
         assert (tmp_path / name).stat().st_size > 0
         assert (tmp_path / "part-graph" / name).stat().st_size > 0
-    assert "part graph (two nodes)" in res.stdout
+        assert (tmp_path / "single-object" / name).stat().st_size > 0
+    assert "part graph (two nodes)" in res.stdout and "single-object" in res.stdout
     res = subprocess.run([sys.executable, "-m", "pgm.cli", "track", str(tmp_path / "nope"),
                           "--init", "1,1,2,2", "--out", str(tmp_path / "o")],
                          capture_output=True, text=True, timeout=300)
