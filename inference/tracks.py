@@ -137,7 +137,7 @@ class TrackManager:
                 t = Track(states[ei].copy())
                 self._update_size(t, None if sizes is None else sizes[ei])
                 self.tracks.append(t)
-        # drop lost tracks: tentative ones at the first miss, confirmed ones after coasting
+        # drop tracks: tentative ones at the first miss, confirmed ones after max_lost
         self.tracks = [t for t in self.tracks
                        if (t.misses == 0 or (t.track_id is not None
                                              and t.misses <= self.max_lost))]

@@ -18,6 +18,7 @@ Resampling is selective (ESS < N/2) — the engine's default.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 from pgm.graph import FactorGraph
@@ -81,10 +82,5 @@ def one_node_graph(params: Params, graph_name: str) -> FactorGraph:
     """The one-node part graph of ``params`` (any ``Params`` with these fields)."""
     from . import part_graph
 
-    return part_graph.build_graph(
-        part_graph.Params(init_box=params.init_box, n_parts=1,
-                          num_particles=params.num_particles, damping=params.damping,
-                          pos_noise=params.pos_noise, scale_noise=params.scale_noise,
-                          lam=params.lam, layout=params.layout, kernel=params.kernel,
-                          appearance=params.appearance),
-        name=graph_name)
+    fields = {f.name: getattr(params, f.name) for f in dataclasses.fields(params)}
+    return part_graph.build_graph(part_graph.Params(n_parts=1, **fields), name=graph_name)

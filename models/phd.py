@@ -149,8 +149,7 @@ def build_graph(params: Params, name: str = "phd") -> FactorGraph:
               "confirm_hits": int(params.confirm_hits), "max_coast": int(params.max_coast)}
     if params.max_lost is not None:
         engine["max_lost"] = int(params.max_lost)
-    if params.merge_gate != 2.0:
-        engine["merge_gate"] = float(check_finite_param("merge_gate", params.merge_gate,
-                                                        positive=True))
+    engine["merge_gate"] = float(check_finite_param("merge_gate", params.merge_gate,
+                                                    positive=True))
     return FactorGraph([targets], factors, name=name,
                        meta={"output": "targets", "engine": engine, "multi_target": True})

@@ -31,7 +31,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .frame import FrameContext
-from .numerics import check_finite_param
+from .numerics import check_finite_param, scratch
 from .variable import Variable
 
 __all__ = [
@@ -417,18 +417,12 @@ class LinearGaussianTransition(TransitionFactor):
         # many particles: noise into reused buffers. A fresh (N, d) temporary of this size
         # is mmap'd by glibc and page-faulted in on every call, which cost more than the
         # matrix products (same random stream either way)
-        noise, mixed = self._buffers(x.shape)
+        noise = scratch(self, "_noise", x.shape)
+        mixed = scratch(self, "_mixed", x.shape)
         rng.standard_normal(out=noise)
         np.matmul(noise, self._sqrt.T, out=mixed)
         out += mixed
         return out
-
-    def _buffers(self, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-        buf = self.__dict__.get("_scratch")
-        if buf is None or buf.shape[1] < shape[0] or buf.shape[2] != shape[1]:
-            buf = np.empty((2, max(shape[0], 1) * 5 // 4, shape[1]))
-            self.__dict__["_scratch"] = buf
-        return buf[0, :shape[0]], buf[1, :shape[0]]
 
     def log_prob(self, x: np.ndarray, *past: np.ndarray) -> np.ndarray:
         from scipy.stats import multivariate_normal

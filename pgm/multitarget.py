@@ -30,7 +30,7 @@ from .factors import (
     _sqrt_psd,
 )
 from .frame import FrameContext
-from .numerics import check_finite_param
+from .numerics import check_finite_param, scratch
 from .variable import Variable
 
 __all__ = ["IntensityPrior", "PHDLikelihood", "InverseGammaPrior", "NoiseForgetting",
@@ -217,7 +217,7 @@ class PHDLikelihood(LikelihoodFactor):
         # stored (M, N), returned as its (N, M) transpose: reductions over particles run
         # along contiguous rows (about 2x faster than (N, M) with few measurements)
         out = np.empty((z.shape[0], x.shape[0])).T
-        tmp = self._scratch_like(out.T).T  # reused: a fresh one is page-faulted in per call
+        tmp = scratch(self, "_log_g_tmp", out.T.shape).T  # reused, see pgm.numerics.scratch
         pred = x @ self.H.T if sq is None else None  # (N, k)
         for i in range(z.shape[1]):  # k is 2: a loop over components, not particles
             buf = out if i == 0 else tmp
@@ -232,14 +232,6 @@ class PHDLikelihood(LikelihoodFactor):
         out += const
         np.maximum(out, LOG_G_FLOOR, out=out)
         return out
-
-    def _scratch_like(self, a: np.ndarray) -> np.ndarray:
-        """A reused buffer of ``a``'s shape (C order), grown as needed."""
-        buf = self.__dict__.get("_scratch")
-        if buf is None or buf.size < a.size:
-            buf = np.empty(max(a.size, 1) * 5 // 4)
-            self.__dict__["_scratch"] = buf
-        return buf[:a.size].reshape(a.shape)
 
     def births(self, rng: np.random.Generator, z: np.ndarray, r_hat: np.ndarray,
                d: int) -> np.ndarray:

@@ -8,7 +8,7 @@ import numpy as np
 
 from .errors import DegenerateWeightsError
 
-__all__ = ["logsumexp", "log_normalize", "normalized_weights", "ess_from_log_weights",
+__all__ = ["scratch", "logsumexp", "log_normalize", "normalized_weights", "ess_from_log_weights",
            "check_finite_param"]
 
 
@@ -67,6 +67,19 @@ def ess_from_log_weights(log_weights: np.ndarray) -> float:
     """Effective sample size ``1 / sum(w_i^2)`` of normalised weights (Kong 1992)."""
     w = normalized_weights(log_weights)
     return float(1.0 / np.sum(w * w))
+
+
+def scratch(owner: object, key: str, shape: tuple[int, ...]) -> np.ndarray:
+    """A float64 C-contiguous work buffer of ``shape``, kept on ``owner`` under ``key``
+    and reused (grown by a quarter when too small). Fresh temporaries of hundreds of
+    kilobytes are mmap'd by glibc and page-faulted in on every call; hot loops that make
+    one per step reuse this instead. The content is undefined."""
+    size = int(np.prod(shape))
+    buf = owner.__dict__.get(key)
+    if buf is None or buf.size < size:
+        buf = np.empty(max(size, 1) * 5 // 4)
+        owner.__dict__[key] = buf
+    return buf[:size].reshape(shape)
 
 
 def check_finite_param(name: str, value, *, positive: bool = False, nonneg: bool = False):

@@ -163,7 +163,7 @@ def test_contrast_box_sums_equal_a_plain_loop_and_round_trip(tmp_path):
                          rng.uniform(2, 50, 30), rng.uniform(2, 50, 30)])
     got = f.box_sums(x, FrameContext(2, img))
     bins = f.scorer.bins(FrameContext(3, img))
-    from pgm.appearance.gmm import pixel_bounds
+    from pgm.appearance.colour import pixel_bounds
 
     for b, s in zip(x, got, strict=True):
         x0, x1, y0, y1 = (int(v[0]) for v in pixel_bounds(b, *img.shape[:2]))

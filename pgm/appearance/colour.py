@@ -83,7 +83,7 @@ from ..errors import InputError
 from ..frame import FrameContext
 
 __all__ = ["quantize_colour", "colour_bin_count", "box_histograms", "bhattacharyya",
-           "ColourHistogramScorer", "LAYOUTS", "KERNELS"]
+           "pixel_bounds", "ColourHistogramScorer", "LAYOUTS", "KERNELS"]
 
 LAYOUTS = ("perez", "hsv", "rgb")
 KERNELS = ("uniform", "epanechnikov", "grid-uniform")
@@ -394,6 +394,13 @@ def _pixel_bounds(b: np.ndarray, height: int, width: int):
     """
     ints, inside, in_frac = _bounds(b, height, width)
     return ints[0, 0], ints[1, 0], ints[0, 1], ints[1, 1], inside, in_frac
+
+
+def pixel_bounds(boxes: np.ndarray, height: int, width: int):
+    """Integer pixel bounds ``x0, x1, y0, y1`` (half-open, clipped) of boxes
+    ``(cx, cy, w, h)``: the pixels the colour histograms count, for any factor that
+    sums over boxes with its own integral image."""
+    return _pixel_bounds(np.asarray(boxes, dtype=float).reshape(-1, 4), height, width)[:4]
 
 
 def _union_of(ints: np.ndarray, inside: np.ndarray):

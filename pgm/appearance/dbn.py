@@ -101,13 +101,18 @@ class DBN:
                 loss.backward()
                 opt.step()
         self.weights_ = [p.detach().numpy().astype(np.float64) for p in params]
-        # Platt scaling on the held-out split: s = sigmoid(a * logit + b)
+        # Platt scaling on the held-out split
+        if 0 < y[val].mean() < 1:
+            self.calibrate(self.logits(X[val]), y[val], C=1e6)
+        return self
+
+    def calibrate(self, logits: np.ndarray, labels: np.ndarray, C: float = 1e6) -> DBN:
+        """Platt scaling: fit ``s = sigmoid(a · logit + b)`` to raw ``logits`` and 0/1
+        ``labels`` (logistic regression, inverse regularisation ``C``)."""
         from sklearn.linear_model import LogisticRegression
 
-        z = self.logits(X[val])[:, None]
-        if 0 < y[val].mean() < 1:
-            lr = LogisticRegression(C=1e6).fit(z, y[val])
-            self.platt_ = (float(lr.coef_[0, 0]), float(lr.intercept_[0]))
+        lr = LogisticRegression(C=C).fit(np.asarray(logits, dtype=float)[:, None], labels)
+        self.platt_ = (float(lr.coef_[0, 0]), float(lr.intercept_[0]))
         return self
 
     @staticmethod
@@ -193,11 +198,16 @@ class DBN:
         return net
 
 
+def _feet_boxes(feet: np.ndarray, size: np.ndarray) -> np.ndarray:
+    """``(cx, cy, w, h)`` boxes of ``size`` standing on foot points ``(n, 2)``."""
+    w, h = float(size[0]), float(size[1])
+    return np.column_stack([feet[:, 0], feet[:, 1] - h / 2, np.full(len(feet), w),
+                            np.full(len(feet), h)])
+
+
 def _boxes_from_state(x: np.ndarray, size: np.ndarray, pos: tuple[int, int]) -> np.ndarray:
     """``(cx, cy, w, h)`` boxes standing on the foot points of states ``x``."""
-    w, h = float(size[0]), float(size[1])
-    return np.column_stack([x[:, pos[0]], x[:, pos[1]] - h / 2, np.full(len(x), w),
-                            np.full(len(x), h)])
+    return _feet_boxes(x[:, list(pos)], size)
 
 
 class DBNLikelihood(LikelihoodFactor):
@@ -208,7 +218,7 @@ class DBNLikelihood(LikelihoodFactor):
     are foot points: the patch is a box of the frame's median detection size standing
     on the particle's foot point (``box_size`` when the frame has no detections).
 
-    Two departures from a literal reading of SPEC §3c, both measured:
+    Three departures from a literal reading of SPEC §3c, all measured:
 
     * **robustness** ``epsilon``: the calibrated score is mixed with the class prior,
       ``s' = (1 − ε) s + ε π`` — "with probability ε the network knows nothing" — so the
@@ -220,7 +230,6 @@ class DBNLikelihood(LikelihoodFactor):
       (default: an eighth of the patch width) and the network runs once per distinct
       grid cell — particles of one target share a few dozen cells — instead of once
       per particle.
-
     * **self-calibration** ``calibrate_with``: the Platt calibration and the class prior
       are re-fitted on the new video without labels, after the first frames, with the
       public detections' patches as positives and a fixed lattice of foot points away
@@ -305,33 +314,24 @@ class DBNLikelihood(LikelihoodFactor):
         grid = np.column_stack([gx.ravel(), gy.ravel()])
         far = np.all((np.abs(grid[:, None, 0] - feet[None, :, 0]) > size[0])
                      | (np.abs(grid[:, None, 1] - feet[None, :, 1]) > size[1] / 2), axis=1)
-        i, j = self.position_indices
         pts = np.concatenate([feet, grid[far]])
-        states = np.zeros((len(pts), max(i, j) + 1))
-        states[:, i], states[:, j] = pts[:, 0], pts[:, 1]
-        logits = self.net.logits(self.features.compute(
-            ctx, _boxes_from_state(states, size, self.position_indices)))
+        logits = self.net.logits(self.features.compute(ctx, _feet_boxes(pts, size)))
         pos, neg = self._calib
         pos.extend(logits[:len(feet)].tolist())
         neg.extend(logits[len(feet):].tolist())
         if len(pos) >= self.calibrate_with and len(neg) >= 10:
-            from sklearn.linear_model import LogisticRegression
-
-            X = np.array(pos + neg)[:, None]
             y = np.r_[np.ones(len(pos)), np.zeros(len(neg))]
-            lr = LogisticRegression(C=1.0).fit(X, y)
-            self.net.platt_ = (float(lr.coef_[0, 0]), float(lr.intercept_[0]))
+            self.net.calibrate(np.array(pos + neg), y, C=1.0)
             self.net.prior_ = float(len(pos) / len(y))
             self.calibrated = True
             self._calib = ([], [])
 
     def log_ratio(self, feats: np.ndarray) -> np.ndarray:
         """``log ℓ`` of feature rows, with the ε-contamination."""
-        lr = self.net.log_ratio(feats)
         if self.epsilon <= 0:
-            return lr
+            return self.net.log_ratio(feats)
         pi = self.net.prior_
-        s = 1.0 / (1.0 + np.exp(-(lr - np.log((1 - pi) / pi))))  # back to the score
+        s = 1.0 / (1.0 + np.exp(-self.net.calibrated_logits(feats)))
         s = (1 - self.epsilon) * s + self.epsilon * pi
         return np.log(s) - np.log1p(-s) + np.log((1 - pi) / pi)
 
@@ -346,13 +346,9 @@ class DBNLikelihood(LikelihoodFactor):
         if stride <= 0 or len(x) == 0:
             boxes = _boxes_from_state(x, size, self.position_indices)
             return self.log_ratio(self.features.compute(ctx, boxes))
-        i, j = self.position_indices
-        cells = np.floor(np.column_stack([x[:, i], x[:, j]]) / stride).astype(np.int64)
+        cells = np.floor(x[:, list(self.position_indices)] / stride).astype(np.int64)
         uniq, inverse = np.unique(cells, axis=0, return_inverse=True)
-        centres = (uniq + 0.5) * stride
-        states = np.zeros((len(uniq), max(i, j) + 1))
-        states[:, i], states[:, j] = centres[:, 0], centres[:, 1]
-        boxes = _boxes_from_state(states, size, self.position_indices)
+        boxes = _feet_boxes((uniq + 0.5) * stride, size)
         return self.log_ratio(self.features.compute(ctx, boxes))[inverse.reshape(-1)]
 
 

@@ -40,10 +40,10 @@ import cv2
 import numpy as np
 from scipy.special import logsumexp
 
-from .colour import _pixel_bounds
+from .colour import pixel_bounds
 
 __all__ = ["MixtureTemplate", "fit_template", "component_logpdf", "box_pixels",
-           "pixel_bounds", "SharedComponentKL", "literal_kl"]
+           "SharedComponentKL", "literal_kl"]
 
 _LOG2PI = np.log(2 * np.pi)
 
@@ -54,12 +54,6 @@ def _features(image: np.ndarray) -> np.ndarray:
     if img.ndim == 2:
         return img[..., None].astype(np.float64) / 255.0
     return img[..., ::-1].astype(np.float64) / 255.0
-
-
-def pixel_bounds(boxes: np.ndarray, height: int, width: int):
-    """Integer pixel bounds ``x0, x1, y0, y1`` (half-open, clipped) of boxes
-    ``(cx, cy, w, h)``: the same pixels the colour histograms count."""
-    return _pixel_bounds(np.asarray(boxes, dtype=float).reshape(-1, 4), height, width)[:4]
 
 
 def box_pixels(image: np.ndarray, box) -> np.ndarray:

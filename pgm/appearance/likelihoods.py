@@ -23,8 +23,8 @@ from ..factors import LikelihoodFactor
 from ..frame import FrameContext
 from ..numerics import check_finite_param
 from ..variable import Variable
-from .colour import ColourHistogramScorer
-from .gmm import MixtureTemplate, SharedComponentKL, fit_template, literal_kl, pixel_bounds
+from .colour import ColourHistogramScorer, pixel_bounds
+from .gmm import MixtureTemplate, SharedComponentKL, fit_template, literal_kl
 
 __all__ = ["ColourHistogramLikelihood", "FragmentsLikelihood", "GradientLikelihood",
            "RotationInvariantLikelihood", "GMMKLLikelihood", "ColourContrastLikelihood",
