@@ -59,8 +59,8 @@ def time_engine(engine, frames, trace_memory: bool = False):
 
     import numpy as np
 
-    from pgm.frame import FrameContext
-    from pgm.inference.runner import output_box
+    from pgm.app.runner import output_box
+    from pgm.core.frame import FrameContext
 
     boxes, secs = [], 0.0
     mem = PeakMemory() if trace_memory else None

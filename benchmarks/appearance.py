@@ -1,6 +1,6 @@
 """Appearance factors benchmark: µs per candidate box for every likelihood factor.
 
-For each factor of :mod:`pgm.appearance.likelihoods` (and the DBN's patch features
+For each factor of :mod:`pgm.observation.appearance.likelihoods` (and the DBN's patch features
 plus network), ``N`` = 100 and 1000 boxes (40x80, centres scattered around the first
 PETS09-S2L1 person, the frame resized to 384x288 and 768x576 as in
 ``benchmarks/likelihood.py``) are scored on a *fresh* ``FrameContext`` per call, so the
@@ -31,7 +31,8 @@ single_thread()
 import cv2  # noqa: E402
 from likelihood import best_of, int_bounds, load_frame, make_boxes, per_box_calchist_hsv  # noqa: E402
 
-from pgm.appearance.likelihoods import (  # noqa: E402
+from pgm.core.frame import FrameContext  # noqa: E402
+from pgm.observation.appearance.likelihoods import (  # noqa: E402
     ColourContrastLikelihood,
     ColourHistogramLikelihood,
     FragmentsLikelihood,
@@ -40,13 +41,12 @@ from pgm.appearance.likelihoods import (  # noqa: E402
     RotationInvariantLikelihood,
     TemplateLikelihood,
 )
-from pgm.frame import FrameContext  # noqa: E402
 
 
 def tiny_dbn(path: Path, rng) -> str:
     """A DBN trained for a few epochs on random features: its cost, not its accuracy."""
-    from pgm.appearance.dbn import DBN
-    from pgm.appearance.features import PatchFeatures
+    from pgm.observation.appearance.dbn import DBN
+    from pgm.observation.appearance.features import PatchFeatures
 
     dim = PatchFeatures().dim
     X = rng.random((200, dim)).astype(np.float32)
@@ -56,7 +56,7 @@ def tiny_dbn(path: Path, rng) -> str:
 
 
 def factories(dbn_path: str):
-    from pgm.appearance.dbn import DBNLikelihood
+    from pgm.observation.appearance.dbn import DBNLikelihood
 
     return [
         ("colour perez (SPEC §1)", lambda: ColourHistogramLikelihood("o")),

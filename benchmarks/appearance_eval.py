@@ -35,11 +35,11 @@ single_thread()
 
 import cv2  # noqa: E402
 
+from pgm.app.runner import init_box_from_gt  # noqa: E402
+from pgm.evaluation.single_object import single_object_metrics  # noqa: E402
 from pgm.inference import Engine  # noqa: E402
-from pgm.inference.runner import init_box_from_gt  # noqa: E402
 from pgm.io.annotations import SingleTrack, load_mot, load_single_gt  # noqa: E402
 from pgm.io.video import open_source  # noqa: E402
-from pgm.metrics import single_object_metrics  # noqa: E402
 from pgm.models import part_graph, single_object  # noqa: E402
 
 DEFAULT = single_object.APPEARANCE

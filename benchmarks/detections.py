@@ -3,7 +3,7 @@
 Streams ``PETS09-S2L1-video/vtest.avi`` (768x576) and scores each detection source
 against the flag-1 rows of ``gt/gt.txt`` (flag-0 boxes are ignore regions: a detection
 on one is neither a hit nor a false positive), frame by frame, with
-:func:`pgm.detections.match_detections`:
+:func:`pgm.observation.detections.match_detections`:
 
 * ``P/R iou``: precision / recall pooled over the first N frames, one-to-one matching
   at IoU >= 0.3; ``mean R``: the mean over frames of each frame's recall;
@@ -12,7 +12,7 @@ on one is neither a hit nor a false positive), frame by frame, with
   over a group of two or more people; ``in grp``: share of people inside such a box;
 * ``ms/fr``: detector time per frame (decoding excluded, one thread), over all frames run.
 
-MOG2 settings (everything else at the :class:`pgm.detections.MOG2Detector` defaults):
+MOG2 settings (everything else at the :class:`pgm.observation.detections.MOG2Detector` defaults):
 ``default``; ``opencv-tb`` OpenCV's background ratio 0.9 and a larger (7x15) closing;
 ``var25`` var_threshold 25; ``no-close`` no closing; ``tb0.5`` background ratio 0.5.
 
@@ -33,15 +33,15 @@ from _common import SHARED_DATA, print_table, single_thread  # noqa: E402
 
 single_thread()
 
-from pgm.detections import (  # noqa: E402
+from pgm.io.annotations import load_mot  # noqa: E402
+from pgm.io.video import open_source  # noqa: E402
+from pgm.observation.detections import (  # noqa: E402
     DetectionSource,
     MatchCounts,
     MOG2Detector,
     PublicDetections,
     match_detections,
 )
-from pgm.io.annotations import load_mot  # noqa: E402
-from pgm.io.video import open_source  # noqa: E402
 
 MOG2_SETTINGS: dict[str, dict] = {
     "default": {},

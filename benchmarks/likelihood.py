@@ -3,7 +3,7 @@
 Prints the columns of the "Colour-histogram likelihood" table of
 ``shared/bench/README.md`` so the two can be set side by side:
 
-(a) ``ours``: :meth:`pgm.appearance.colour.ColourHistogramScorer.rho` (integral
+(a) ``ours``: :meth:`pgm.observation.appearance.colour.ColourHistogramScorer.rho` (integral
     histograms over the union of the boxes, template bins only), the frame already
     quantised (its fixed per-frame cost is printed separately);
 (b) ``calcHist``: per box, ``cv2.calcHist`` of the HSV image's ROI slice, 16x4x4 bins,
@@ -45,7 +45,8 @@ from pathlib import Path  # noqa: E402
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 
-from pgm.appearance.colour import (  # noqa: E402
+from pgm.core.frame import FrameContext  # noqa: E402
+from pgm.observation.appearance.colour import (  # noqa: E402
     _ROI_MARGIN,
     ColourHistogramScorer,
     _bounds,
@@ -54,7 +55,6 @@ from pgm.appearance.colour import (  # noqa: E402
     _union_of,
     quantize_colour,
 )
-from pgm.frame import FrameContext  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "PETS09-S2L1"
 

@@ -6,7 +6,7 @@
 
 Public detections (``det/det.txt``, all rows) on PETS09-S2L1 (frames 1-240),
 TUD-Campus and TUD-Stadtmitte; with ``--mog2`` also background subtraction on the full
-PETS09-S2L1 video. Scored with :func:`pgm.mot_metrics.evaluate_mot` (CLEAR / Identity /
+PETS09-S2L1 video. Scored with :func:`pgm.evaluation.mot.evaluate_mot` (CLEAR / Identity /
 HOTA at IoU 0.5, flag-0 rows as ignore regions; OSPA on foot points). Frames per
 second are inference only (detection and decoding excluded). The peers' rows are
 copied from ``../shared/bench/README.md`` (trackers 2.6.1, same protocol).
@@ -48,12 +48,12 @@ from _common import SHARED_DATA, print_table, single_thread  # noqa: E402
 
 single_thread()
 
-from pgm.detections import Detections, PublicDetections, make_detector  # noqa: E402
-from pgm.inference.runner import track_multi  # noqa: E402
+from pgm.app.runner import track_multi  # noqa: E402
 from pgm.io.annotations import MotTable, load_mot  # noqa: E402
 from pgm.io.video import open_source  # noqa: E402
 from pgm.models import phd, vb_phd  # noqa: E402
 from pgm.models.phd import video_params  # noqa: E402
+from pgm.observation.detections import Detections, PublicDetections, make_detector  # noqa: E402
 
 PEERS = {  # bench/README.md: MOTA, IDF1, HOTA, IDSW, OSPA(50,1), OSPA(100,2)
     "PETS09-S2L1": {"SORT": (0.612, 0.450, 0.362, 53, 12.2, 32.3),
@@ -91,8 +91,8 @@ def train_dbn(train_dirs, path: Path, seed: int = 0) -> float:
     """Train a DBN on ``train_dirs`` as ``pgm learn dbn`` does; returns seconds."""
     import time
 
-    from pgm.appearance.dbn import DBN, training_set
-    from pgm.appearance.features import PatchFeatures
+    from pgm.observation.appearance.dbn import DBN, training_set
+    from pgm.observation.appearance.features import PatchFeatures
 
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
@@ -110,8 +110,8 @@ def dbn_check(seq_dir: Path, path: Path, every: int = 5) -> str:
     (patch of the median detection size, as in tracking) and at random foot points."""
     from sklearn.metrics import roc_auc_score
 
-    from pgm.appearance.dbn import DBNLikelihood
-    from pgm.frame import FrameContext
+    from pgm.core.frame import FrameContext
+    from pgm.observation.appearance.dbn import DBNLikelihood
 
     f = DBNLikelihood("t", model=str(path), epsilon=0.0, stride=0.0)
     src = open_source(seq_dir)
@@ -156,7 +156,7 @@ def run(seq_dir: Path, module, detector, seed: int = 0, dbn: Path | None = None,
         params = dataclasses.replace(params, sigma=params.sigma * sigma_factor)
     graph = module.build_graph(params)
     if dbn is not None:
-        from pgm.appearance.dbn import DBNLikelihood
+        from pgm.observation.appearance.dbn import DBNLikelihood
 
         graph = graph.with_factors(DBNLikelihood("targets", model=str(dbn),
                                                  calibrate_with=dbn_calibrate,

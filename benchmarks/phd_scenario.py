@@ -28,10 +28,10 @@ from _common import print_table, single_thread  # noqa: E402
 
 single_thread()
 
-from pgm.frame import FrameContext  # noqa: E402
+from pgm.core.frame import FrameContext  # noqa: E402
+from pgm.evaluation.mot import ospa  # noqa: E402
 from pgm.inference import Engine  # noqa: E402
 from pgm.models import phd, vb_phd  # noqa: E402
-from pgm.mot_metrics import ospa  # noqa: E402
 
 STONE_SOUP = {1000: (9.1, 19.7, 46.5, 1.04), 5000: (24.5, 13.3, 30.4, 0.53),
               20000: (76.3, 12.75, 29.6, 0.51)}

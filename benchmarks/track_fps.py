@@ -21,11 +21,11 @@ from _common import SHARED_DATA, print_table, single_thread, time_engine  # noqa
 
 single_thread()
 
+from pgm.app.runner import init_box_from_gt  # noqa: E402
+from pgm.evaluation.single_object import single_object_metrics  # noqa: E402
 from pgm.inference import Engine  # noqa: E402
-from pgm.inference.runner import init_box_from_gt  # noqa: E402
 from pgm.io.annotations import load_mot, load_single_gt  # noqa: E402
 from pgm.io.video import open_source  # noqa: E402
-from pgm.metrics import single_object_metrics  # noqa: E402
 from pgm.models import colour_pf  # noqa: E402
 
 

@@ -32,7 +32,7 @@ Example
 -------
 >>> import numpy as np
 >>> from pgm.models import linear_gaussian
->>> from pgm.frame import FrameContext
+>>> from pgm.core.frame import FrameContext
 >>> from pgm.inference import Engine
 >>> graph = linear_gaussian.build_graph(linear_gaussian.Params())
 >>> engine = Engine(graph, rng=np.random.default_rng(0), num_particles=500)
@@ -50,11 +50,11 @@ from typing import Any
 
 import numpy as np
 
-from pgm.beliefs import Intensity, Particles
-from pgm.expfam import InverseGamma
+from pgm.core.beliefs import Intensity, Particles
+from pgm.core.expfam import InverseGamma
+from pgm.core.frame import FrameContext
+from pgm.core.graph import FactorGraph
 from pgm.factors import Factor
-from pgm.frame import FrameContext
-from pgm.graph import FactorGraph
 
 from .resampling import ess_triggered, get_resampler
 
@@ -67,7 +67,7 @@ OPERATIONS = ("prior", "transition", "likelihood", "coupling", "conjugate", "fus
 FUSIONS = ("mixture", "product")
 
 #: belief type the engine creates for each variable role (override per variable with
-#: ``options={"belief_types": {name: type}}``, e.g. :class:`~pgm.expfam.Gaussian` for an
+#: ``options={"belief_types": {name: type}}``, e.g. :class:`~pgm.core.expfam.Gaussian` for an
 #: exact Kalman / VB adaptive Kalman filter)
 BELIEF_FOR_ROLE: dict[str, type] = {"part": Particles, "state": Particles,
                                     "latent": Particles, "set": Intensity,

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pgm.core.graph import FactorGraph
 from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianTransition
-from pgm.graph import FactorGraph
 
 __all__ = ["KalmanResult", "kalman_filter", "linear_gaussian_matrices"]
 

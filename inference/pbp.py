@@ -39,8 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pgm.beliefs import Particles
-from pgm.numerics import log_normalize, logsumexp
+from pgm.core.beliefs import Particles
+from pgm.core.numerics import log_normalize, logsumexp
 
 from .engine import DEFAULT_RULES, Engine
 

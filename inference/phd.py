@@ -2,7 +2,7 @@ r"""The particle PHD filter as rules of the engine (SPEC §3a; Vo, Singh & Douce
 
 A ``set`` variable's belief is an :class:`~pgm.Intensity`. Its rules:
 
-* **prior** — the :class:`~pgm.multitarget.IntensityPrior` (empty by default);
+* **prior** — the :class:`~pgm.factors.multitarget.IntensityPrior` (empty by default);
 * **transition** — persistent and last frame's newborn particles move through the
   transition factor, weights × ``p_S``; all become persistent;
 * **likelihood** — the corrector, vectorised as an ``(N, |Z|)`` matrix:
@@ -31,8 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from pgm.beliefs import Intensity, Particles
-from pgm.multitarget import PHDLikelihood
+from pgm.core.beliefs import Intensity, Particles
+from pgm.factors.multitarget import PHDLikelihood
 
 from .engine import DEFAULT_RULES, Engine
 from .tracks import TrackManager

@@ -1,9 +1,9 @@
 r"""Mean-field variational Bayes as rules of the engine (SPEC §3b).
 
-Noise variables (role ``noise``) hold an :class:`~pgm.expfam.InverseGamma` belief:
-prior from :class:`~pgm.multitarget.InverseGammaPrior`, forgetting prediction
-(``α̂ = ρα, β̂ = ρβ``, floored) from :class:`~pgm.multitarget.NoiseForgetting`. A
-conjugate factor (:class:`~pgm.multitarget.VBNoise`) runs the fixed point between the
+Noise variables (role ``noise``) hold an :class:`~pgm.core.expfam.InverseGamma` belief:
+prior from :class:`~pgm.factors.multitarget.InverseGammaPrior`, forgetting prediction
+(``α̂ = ρα, β̂ = ρβ``, floored) from :class:`~pgm.factors.multitarget.NoiseForgetting`. A
+conjugate factor (:class:`~pgm.factors.multitarget.VBNoise`) runs the fixed point between the
 target's belief and the noise belief each frame, dispatched on the target's belief:
 
 * ``Gaussian`` — the VB adaptive Kalman filter (Särkkä & Nummenmaa 2009), the exact
@@ -28,9 +28,9 @@ from typing import Any
 
 import numpy as np
 
-from pgm.beliefs import Intensity
-from pgm.expfam import Gaussian, InverseGamma
-from pgm.multitarget import PHDLikelihood
+from pgm.core.beliefs import Intensity
+from pgm.core.expfam import Gaussian, InverseGamma
+from pgm.factors.multitarget import PHDLikelihood
 
 from .engine import DEFAULT_RULES, Engine
 from .phd import _finish, _update, phd_factor_of

@@ -21,7 +21,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from pgm.graph import FactorGraph
+from pgm.core.graph import FactorGraph
 
 from .part_graph import BOX_LABELS
 

@@ -18,9 +18,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pgm.core.graph import FactorGraph
+from pgm.core.variable import Variable
 from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianTransition
-from pgm.graph import FactorGraph
-from pgm.variable import Variable
 
 __all__ = ["Params", "build_graph", "simulate"]
 

@@ -28,7 +28,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pgm.appearance.likelihoods import (
+from pgm.core.graph import FactorGraph
+from pgm.core.numerics import check_finite_param
+from pgm.core.variable import Variable
+from pgm.factors import AR2Transition, GaussianPrior
+from pgm.factors.couplings import AffineCoupling, RelativeBoxCoupling
+from pgm.observation.appearance.likelihoods import (
     ColourContrastLikelihood,
     ColourHistogramLikelihood,
     FragmentsLikelihood,
@@ -37,11 +42,6 @@ from pgm.appearance.likelihoods import (
     RotationInvariantLikelihood,
     TemplateLikelihood,
 )
-from pgm.couplings import AffineCoupling, RelativeBoxCoupling
-from pgm.factors import AR2Transition, GaussianPrior
-from pgm.graph import FactorGraph
-from pgm.numerics import check_finite_param
-from pgm.variable import Variable
 
 __all__ = ["Params", "build_graph", "split_box", "part_names", "BOX_LABELS",
            "PAPER_PARTICLES"]
@@ -122,16 +122,16 @@ class Params:
         Each node's likelihood factors: cues from :data:`CUES` joined by ``+``, which
         multiply. ``"colour"`` (default): one colour histogram of the box (SPEC §1);
         ``"fragments"``: a grid of colour fragments combined by their median
-        (:class:`~pgm.appearance.likelihoods.FragmentsLikelihood`); ``"gradient"``: an
-        oriented-gradient factor (:class:`~pgm.appearance.likelihoods.GradientLikelihood`,
+        (:class:`~pgm.observation.appearance.likelihoods.FragmentsLikelihood`); ``"gradient"``: an
+        oriented-gradient factor (:class:`~pgm.observation.appearance.likelihoods.GradientLikelihood`,
         λ/2), a cue that can see scale (pair it with ``scale_noise > 0``); ``"gmm"``:
-        GMM-KL (:class:`~pgm.appearance.likelihoods.GMMKLLikelihood`); ``"rings"``: the
+        GMM-KL (:class:`~pgm.observation.appearance.likelihoods.GMMKLLikelihood`); ``"rings"``: the
         rotation-invariant model
-        (:class:`~pgm.appearance.likelihoods.RotationInvariantLikelihood`);
+        (:class:`~pgm.observation.appearance.likelihoods.RotationInvariantLikelihood`);
         ``"contrast"``: foreground/background colour log-odds
-        (:class:`~pgm.appearance.likelihoods.ColourContrastLikelihood`); ``"template"``:
+        (:class:`~pgm.observation.appearance.likelihoods.ColourContrastLikelihood`); ``"template"``:
         grey-level NCC template matching
-        (:class:`~pgm.appearance.likelihoods.TemplateLikelihood`, sees scale). E.g.
+        (:class:`~pgm.observation.appearance.likelihoods.TemplateLikelihood`, sees scale). E.g.
         ``"contrast+template"``.
     """
 

@@ -6,9 +6,9 @@ measurements are detection *foot points* (bottom-centre of a box) in pixels and 
 velocities are in pixels per frame; each reported box takes its size from the
 detections associated with the track (an exponential average), not from the state.
 
-Factors: an empty :class:`~pgm.multitarget.IntensityPrior` (targets are born from
+Factors: an empty :class:`~pgm.factors.multitarget.IntensityPrior` (targets are born from
 measurements), a nearly-constant-velocity :class:`~pgm.LinearGaussianTransition` with
-survival ``p_S``, and a :class:`~pgm.multitarget.PHDLikelihood` with detection
+survival ``p_S``, and a :class:`~pgm.factors.multitarget.PHDLikelihood` with detection
 probability, Poisson clutter and measurement-driven births.
 
 >>> from pgm.models import phd
@@ -23,11 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pgm.core.graph import FactorGraph
+from pgm.core.numerics import check_finite_param
+from pgm.core.variable import Variable
 from pgm.factors import LinearGaussianTransition
-from pgm.graph import FactorGraph
-from pgm.multitarget import IntensityPrior, PHDLikelihood, constant_velocity
-from pgm.numerics import check_finite_param
-from pgm.variable import Variable
+from pgm.factors.multitarget import IntensityPrior, PHDLikelihood, constant_velocity
 
 __all__ = ["Params", "build_graph", "video_params", "STATE_LABELS", "H_POSITION",
            "REFERENCE_HEIGHT"]

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from pgm.graph import FactorGraph
+from pgm.core.graph import FactorGraph
 
 from . import colour_pf
 

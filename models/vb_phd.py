@@ -2,9 +2,9 @@
 
 The PHD graph of :mod:`pgm.models.phd` plus a ``noise`` variable ``R`` with an
 inverse-Gamma belief per measurement component: an
-:class:`~pgm.multitarget.InverseGammaPrior` (``R̂ = σ_0²``, shape ``α_0``), a
-:class:`~pgm.multitarget.NoiseForgetting` transition (``ρ``, floor ``α_min``) and the
-conjugate :class:`~pgm.multitarget.VBNoise` factor that ties it to the PHD measurement
+:class:`~pgm.factors.multitarget.InverseGammaPrior` (``R̂ = σ_0²``, shape ``α_0``), a
+:class:`~pgm.factors.multitarget.NoiseForgetting` transition (``ρ``, floor ``α_min``) and the
+conjugate :class:`~pgm.factors.multitarget.VBNoise` factor that ties it to the PHD measurement
 likelihood, so the engine runs the mean-field fixed point between the intensity and
 the noise belief every frame.
 
@@ -22,9 +22,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from pgm.graph import FactorGraph
-from pgm.multitarget import InverseGammaPrior, NoiseForgetting, VBNoise
-from pgm.variable import Variable
+from pgm.core.graph import FactorGraph
+from pgm.core.variable import Variable
+from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, VBNoise
 
 from . import phd
 

@@ -4,9 +4,12 @@ Declare variables and factors, put them in a :class:`FactorGraph`, and run it wi
 :class:`pgm.inference.Engine`; ready-made trackers are in :mod:`pgm.models`.
 """
 
-from .beliefs import Intensity, Particles
-from .errors import DegenerateWeightsError, InputError
-from .factors import (
+from pgm.core.beliefs import Intensity, Particles
+from pgm.core.errors import DegenerateWeightsError, InputError
+from pgm.core.frame import FrameContext
+from pgm.core.graph import FactorGraph
+from pgm.core.variable import ROLES, Variable
+from pgm.factors import (
     AR2Transition,
     ConjugateFactor,
     CouplingFactor,
@@ -18,9 +21,6 @@ from .factors import (
     PriorFactor,
     TransitionFactor,
 )
-from .frame import FrameContext
-from .graph import FactorGraph
-from .variable import ROLES, Variable
 
 __version__ = "0.1.0"
 

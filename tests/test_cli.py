@@ -7,8 +7,8 @@ import sys
 import numpy as np
 import pytest
 
-from pgm.cli import main
-from pgm.inference.runner import track
+from pgm.app.cli import main
+from pgm.app.runner import track
 from pgm.io.annotations import load_single_gt, load_tracks
 from pgm.models import colour_pf
 from pgm.synthetic import demo_scene
@@ -186,7 +186,7 @@ def test_api_raises_value_error(scene_dir):
 
 def test_console_script_end_to_end(tmp_path):
     """The installed entry point: demo writes everything; a bad call is one line, exit 2."""
-    res = subprocess.run([sys.executable, "-m", "pgm.cli", "demo", "--out", str(tmp_path),
+    res = subprocess.run([sys.executable, "-m", "pgm.app.cli", "demo", "--out", str(tmp_path),
                           "--frames", "20", "--quiet"], capture_output=True, text=True,
                          timeout=300)
     assert res.returncode == 0, res.stderr
@@ -195,7 +195,7 @@ def test_console_script_end_to_end(tmp_path):
         assert (tmp_path / "part-graph" / name).stat().st_size > 0
         assert (tmp_path / "single-object" / name).stat().st_size > 0
     assert "part graph (two nodes)" in res.stdout and "single-object" in res.stdout
-    res = subprocess.run([sys.executable, "-m", "pgm.cli", "track", str(tmp_path / "nope"),
+    res = subprocess.run([sys.executable, "-m", "pgm.app.cli", "track", str(tmp_path / "nope"),
                           "--init", "1,1,2,2", "--out", str(tmp_path / "o")],
                          capture_output=True, text=True, timeout=300)
     assert res.returncode == 2 and "Traceback" not in res.stderr

@@ -8,8 +8,9 @@ import cv2
 import numpy as np
 import pytest
 
-from pgm.appearance import colour
-from pgm.appearance.colour import (
+from pgm.core.frame import FrameContext
+from pgm.observation.appearance import colour
+from pgm.observation.appearance.colour import (
     ColourHistogramScorer,
     _reference_box_histograms,
     bhattacharyya,
@@ -17,7 +18,6 @@ from pgm.appearance.colour import (
     colour_bin_count,
     quantize_colour,
 )
-from pgm.frame import FrameContext
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 

@@ -5,11 +5,11 @@ import json
 import numpy as np
 import pytest
 
-from pgm.appearance.dbn import DBN, DBNLikelihood, training_set
-from pgm.appearance.features import PatchFeatures, gradient_integrals
-from pgm.cli import main
-from pgm.errors import InputError
-from pgm.frame import FrameContext
+from pgm.app.cli import main
+from pgm.core.errors import InputError
+from pgm.core.frame import FrameContext
+from pgm.observation.appearance.dbn import DBN, DBNLikelihood, training_set
+from pgm.observation.appearance.features import PatchFeatures, gradient_integrals
 
 
 def test_gradient_features_equal_a_plain_loop():
@@ -176,8 +176,8 @@ def test_dbn_lattice_scores_each_cell_once(tiny_dbn, monkeypatch):
 
 def test_dbn_recalibrates_on_detections_without_labels(tiny_dbn, tmp_path):
     from pgm import FactorGraph, Variable
-    from pgm.detections import Detections
-    from pgm.multitarget import IntensityPrior
+    from pgm.factors.multitarget import IntensityPrior
+    from pgm.observation.detections import Detections
 
     rng = np.random.default_rng(3)
     img = rng.integers(0, 256, (240, 320, 3), dtype=np.uint8)

@@ -5,8 +5,11 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from pgm.boxes import iou_xywh
-from pgm.detections import (
+from pgm.core.boxes import iou_xywh
+from pgm.core.errors import InputError
+from pgm.io.annotations import load_mot
+from pgm.io.video import open_source
+from pgm.observation.detections import (
     Detections,
     DetectionSource,
     MatchCounts,
@@ -15,9 +18,6 @@ from pgm.detections import (
     make_detector,
     match_detections,
 )
-from pgm.errors import InputError
-from pgm.io.annotations import load_mot
-from pgm.io.video import open_source
 
 # 1-based MOT rows: frame, id, x, y, w, h, score, wx, wy, wz
 DET_ROWS = """\

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from pgm.appearance.colour import ColourHistogramScorer
-from pgm.appearance.likelihoods import ColourHistogramLikelihood, FragmentsLikelihood
-from pgm.frame import FrameContext
+from pgm.core.frame import FrameContext
+from pgm.observation.appearance.colour import ColourHistogramScorer
+from pgm.observation.appearance.likelihoods import ColourHistogramLikelihood, FragmentsLikelihood
 
 
 def textured_scene(rng):
@@ -89,7 +89,7 @@ def test_fragments_model_config_round_trips_and_runs(tmp_path):
 
 
 def test_gradient_likelihood_peaks_at_the_template_position_and_scale():
-    from pgm.appearance.likelihoods import GradientLikelihood
+    from pgm.observation.appearance.likelihoods import GradientLikelihood
 
     rng = np.random.default_rng(3)
     img, box = textured_scene(rng)
@@ -135,7 +135,7 @@ def test_adaptive_template_follows_a_slow_appearance_change():
 def test_rotation_invariant_model_peaks_and_ignores_rotation():
     import cv2
 
-    from pgm.appearance.likelihoods import RotationInvariantLikelihood
+    from pgm.observation.appearance.likelihoods import RotationInvariantLikelihood
 
     rng = np.random.default_rng(5)
     img = rng.integers(60, 120, (160, 160, 3), dtype=np.uint8)
@@ -157,7 +157,7 @@ def test_rotation_invariant_model_peaks_and_ignores_rotation():
 
 
 def test_rotation_invariant_ring_stats_equal_a_plain_loop():
-    from pgm.appearance.likelihoods import RotationInvariantLikelihood
+    from pgm.observation.appearance.likelihoods import RotationInvariantLikelihood
 
     rng = np.random.default_rng(6)
     img = rng.integers(0, 256, (90, 120, 3), dtype=np.uint8)
@@ -183,7 +183,7 @@ def test_rotation_invariant_ring_stats_equal_a_plain_loop():
 
 
 def test_template_ncc_peaks_at_position_and_scale_and_ignores_gain():
-    from pgm.appearance.likelihoods import TemplateLikelihood
+    from pgm.observation.appearance.likelihoods import TemplateLikelihood
 
     rng = np.random.default_rng(8)
     img, box = textured_scene(rng)
@@ -202,7 +202,7 @@ def test_template_samples_equal_a_plain_loop_and_round_trip(tmp_path):
     import cv2
 
     from pgm import FactorGraph, GaussianPrior, Variable
-    from pgm.appearance.likelihoods import TemplateLikelihood
+    from pgm.observation.appearance.likelihoods import TemplateLikelihood
 
     rng = np.random.default_rng(9)
     img = rng.integers(0, 256, (70, 90, 3), dtype=np.uint8)

@@ -6,15 +6,15 @@ import pytest
 from scipy.special import logsumexp
 from scipy.stats import spearmanr
 
-from pgm.appearance.gmm import (
+from pgm.core.frame import FrameContext
+from pgm.observation.appearance.gmm import (
     MixtureTemplate,
     SharedComponentKL,
     box_pixels,
     fit_template,
     literal_kl,
 )
-from pgm.appearance.likelihoods import GMMKLLikelihood
-from pgm.frame import FrameContext
+from pgm.observation.appearance.likelihoods import GMMKLLikelihood
 
 
 def two_colour_person(rng):
@@ -131,7 +131,10 @@ def test_gmm_bad_parameters():
 
 # -- the colour-contrast (foreground/background log-odds) cue ---------------------------
 def test_contrast_cue_peaks_at_the_object_position_and_size():
-    from pgm.appearance.likelihoods import ColourContrastLikelihood, ColourHistogramLikelihood
+    from pgm.observation.appearance.likelihoods import (
+        ColourContrastLikelihood,
+        ColourHistogramLikelihood,
+    )
 
     img, box = two_colour_person(np.random.default_rng(6))
     f = ColourContrastLikelihood("object")
@@ -152,7 +155,7 @@ def test_contrast_cue_peaks_at_the_object_position_and_size():
 
 def test_contrast_box_sums_equal_a_plain_loop_and_round_trip(tmp_path):
     from pgm import FactorGraph, GaussianPrior, Variable
-    from pgm.appearance.likelihoods import ColourContrastLikelihood
+    from pgm.observation.appearance.likelihoods import ColourContrastLikelihood
 
     rng = np.random.default_rng(7)
     img, box = two_colour_person(rng)
@@ -163,7 +166,7 @@ def test_contrast_box_sums_equal_a_plain_loop_and_round_trip(tmp_path):
                          rng.uniform(2, 50, 30), rng.uniform(2, 50, 30)])
     got = f.box_sums(x, FrameContext(2, img))
     bins = f.scorer.bins(FrameContext(3, img))
-    from pgm.appearance.colour import pixel_bounds
+    from pgm.observation.appearance.colour import pixel_bounds
 
     for b, s in zip(x, got, strict=True):
         x0, x1, y0, y1 = (int(v[0]) for v in pixel_bounds(b, *img.shape[:2]))

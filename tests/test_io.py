@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from pgm.errors import InputError
+from pgm.core.errors import InputError
 from pgm.io.annotations import (
     MotTable,
     MotWriter,

@@ -1,4 +1,4 @@
-"""Tests for pgm.metrics (OTB single-object metrics)."""
+"""Tests for pgm.evaluation.single_object (OTB single-object metrics)."""
 
 from __future__ import annotations
 
@@ -10,16 +10,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from pgm.boxes import iou_xywh
-from pgm.errors import InputError
-from pgm.io.annotations import SingleTrack
-from pgm.metrics import (
+from pgm.core.boxes import iou_xywh
+from pgm.core.errors import InputError
+from pgm.evaluation.single_object import (
     PRECISION_THRESHOLDS,
     SUCCESS_THRESHOLDS,
     precision_at,
     single_object_metrics,
     success_auc,
 )
+from pgm.io.annotations import SingleTrack
 
 
 def _gt(n: int = 5) -> SingleTrack:

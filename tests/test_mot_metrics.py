@@ -1,4 +1,4 @@
-"""Tests for pgm.mot_metrics (OSPA, OSPA(2), cardinality, CLEAR / Identity / HOTA)."""
+"""Tests for pgm.evaluation.mot (OSPA, OSPA(2), cardinality, CLEAR / Identity / HOTA)."""
 
 from __future__ import annotations
 
@@ -11,9 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pgm.errors import InputError
-from pgm.io.annotations import MotTable, load_mot
-from pgm.mot_metrics import (
+from pgm.core.errors import InputError
+from pgm.evaluation.mot import (
     apply_ignore_regions,
     cardinality_error,
     evaluate_mot,
@@ -24,6 +23,7 @@ from pgm.mot_metrics import (
     ospa2,
     ospa_components,
 )
+from pgm.io.annotations import MotTable, load_mot
 
 # --------------------------------------------------------------------------- OSPA
 

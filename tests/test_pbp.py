@@ -13,7 +13,7 @@ from pgm import (
     LinearGaussianLikelihood,
     Variable,
 )
-from pgm.couplings import AffineCoupling, RelativeBoxCoupling
+from pgm.factors.couplings import AffineCoupling, RelativeBoxCoupling
 from pgm.inference import Engine, message_order
 from pgm.models import colour_pf, part_graph
 from pgm.models.part_graph import split_box
@@ -274,7 +274,7 @@ def test_part_graph_keeps_an_occluded_part_where_one_node_drifts():
 def test_batched_colour_scoring_equals_factor_by_factor(monkeypatch):
     """The weight stage scores the parts' colour factors in one pass (equal batch_key);
     the result equals scoring them one by one, and so does a whole seeded run."""
-    from pgm.appearance.likelihoods import ColourHistogramLikelihood
+    from pgm.observation.appearance.likelihoods import ColourHistogramLikelihood
     from pgm.synthetic import part_occlusion_scene
 
     seq = part_occlusion_scene(seed=0, n_frames=25, n_bands=3)

@@ -11,10 +11,8 @@ from pgm import (
     LinearGaussianTransition,
     Variable,
 )
-from pgm.expfam import Gaussian, InverseGamma
-from pgm.inference import Engine
-from pgm.models import phd, vb_phd
-from pgm.multitarget import (
+from pgm.core.expfam import Gaussian, InverseGamma
+from pgm.factors.multitarget import (
     IntensityPrior,
     InverseGammaPrior,
     NoiseForgetting,
@@ -22,6 +20,8 @@ from pgm.multitarget import (
     VBNoise,
     constant_velocity,
 )
+from pgm.inference import Engine
+from pgm.models import phd, vb_phd
 
 F, Q = constant_velocity(1.0, 0.5, "pv")
 H = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0]])
@@ -229,7 +229,7 @@ def test_vb_phd_noise_follows_a_drifting_sigma_and_beats_fixed_sigma():
     the PHD with the fixed initial σ = 2 loses the target on 48-60 % of the frames,
     VB-PHD on 0-2 %; OSPA(20, 1) of the raw extraction drops accordingly.
     """
-    from pgm.mot_metrics import ospa
+    from pgm.evaluation.mot import ospa
 
     rels, ospas = [], {"phd": [], "vb-phd": []}
     for seed in (4, 5, 6):

@@ -11,7 +11,7 @@ import json
 
 import pytest
 
-from pgm.cli import main
+from pgm.app.cli import main
 
 pytestmark = pytest.mark.data
 

@@ -6,10 +6,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from pgm.beliefs import Particles
-from pgm.errors import DegenerateWeightsError
+from pgm.core.beliefs import Particles
+from pgm.core.errors import DegenerateWeightsError
+from pgm.core.numerics import log_normalize
 from pgm.inference.resampling import RESAMPLERS, ess_triggered, get_resampler, systematic
-from pgm.numerics import log_normalize
 
 SCHEMES = sorted(RESAMPLERS)
 

@@ -29,12 +29,12 @@ from pathlib import Path
 import numpy as np
 
 import pgm
-from pgm.appearance.likelihoods import ColourHistogramLikelihood
+from pgm.app.runner import track
 from pgm.inference import Engine
-from pgm.inference.runner import track
 from pgm.io.annotations import load_single_gt
 from pgm.io.video import open_source
 from pgm.models import colour_pf
+from pgm.observation.appearance.likelihoods import ColourHistogramLikelihood
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n")[1])
 parser.add_argument("--source", help="a video or sequence folder (default: synthetic scene)")
@@ -90,7 +90,7 @@ print(f"frame {record.frame}: box centre ({cx:.1f}, {cy:.1f}), ESS per frame "
 
 import cv2  # noqa: E402
 
-from pgm.viz import annotate  # noqa: E402
+from pgm.plotting.annotate import annotate  # noqa: E402
 
 belief = record.beliefs["object"]
 cv2.imwrite(str(out / "frame_particles.png"),

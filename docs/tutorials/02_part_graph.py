@@ -23,12 +23,12 @@ import cv2
 import numpy as np
 
 import pgm
+from pgm.app.runner import track
 from pgm.inference import Engine
-from pgm.inference.runner import track
 from pgm.io.annotations import load_single_gt
 from pgm.io.video import open_source
 from pgm.models import colour_pf, part_graph
-from pgm.viz import annotate
+from pgm.plotting.annotate import annotate
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n")[1])
 parser.add_argument("--out", default="tutorial_out")

@@ -23,10 +23,10 @@ import cv2
 import numpy as np
 
 import pgm
-from pgm.appearance.likelihoods import ColourHistogramLikelihood
-from pgm.inference.runner import track
+from pgm.app.runner import track
 from pgm.io.annotations import load_single_gt
 from pgm.io.video import open_source
+from pgm.observation.appearance.likelihoods import ColourHistogramLikelihood
 
 
 class StackedParts(pgm.CouplingFactor):

@@ -26,12 +26,12 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import pgm  # noqa: E402
-from pgm.detections import Detections  # noqa: E402
+from pgm.evaluation.mot import evaluate_mot  # noqa: E402
 from pgm.inference import Engine  # noqa: E402
 from pgm.io.annotations import MotTable, load_mot  # noqa: E402
 from pgm.io.video import open_source  # noqa: E402
 from pgm.models import phd, vb_phd  # noqa: E402
-from pgm.mot_metrics import evaluate_mot  # noqa: E402
+from pgm.observation.detections import Detections  # noqa: E402
 from pgm.synthetic import multi_target_scene  # noqa: E402
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n")[1])

@@ -23,9 +23,13 @@ from pathlib import Path
 import numpy as np
 
 import pgm
-from pgm.appearance.dbn import DBN, DBNLikelihood, training_set
-from pgm.appearance.features import PatchFeatures
-from pgm.appearance.likelihoods import (
+from pgm.app.runner import track, track_multi
+from pgm.io.annotations import load_mot, load_single_gt
+from pgm.io.video import open_source
+from pgm.models import phd
+from pgm.observation.appearance.dbn import DBN, DBNLikelihood, training_set
+from pgm.observation.appearance.features import PatchFeatures
+from pgm.observation.appearance.likelihoods import (
     ColourContrastLikelihood,
     ColourHistogramLikelihood,
     FragmentsLikelihood,
@@ -34,11 +38,7 @@ from pgm.appearance.likelihoods import (
     RotationInvariantLikelihood,
     TemplateLikelihood,
 )
-from pgm.detections import PublicDetections
-from pgm.inference.runner import track, track_multi
-from pgm.io.annotations import load_mot, load_single_gt
-from pgm.io.video import open_source
-from pgm.models import phd
+from pgm.observation.detections import PublicDetections
 from pgm.synthetic import demo_scene, multi_target_scene
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n")[1])

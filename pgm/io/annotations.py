@@ -2,7 +2,7 @@
 
 Every box returned here is top-left ``(x, y, w, h)`` in the toolkit's 0-based pixel
 coordinates (pixel ``(row i, column j)`` covers ``[j, j+1) x [i, i+1)``); use
-:func:`pgm.boxes.xywh_to_cxcywh` for centre form. Files keep their own conventions and
+:func:`pgm.core.boxes.xywh_to_cxcywh` for centre form. Files keep their own conventions and
 are converted at the boundary:
 
 * **OTB** ``groundtruth_rect.txt`` and **MOTChallenge** ``gt.txt``/``det.txt``/results:
@@ -21,7 +21,7 @@ from typing import IO
 
 import numpy as np
 
-from ..errors import InputError
+from pgm.core.errors import InputError
 
 __all__ = [
     "SingleTrack",

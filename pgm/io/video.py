@@ -40,7 +40,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ..errors import InputError
+from pgm.core.errors import InputError
 
 __all__ = [
     "IMAGE_EXTENSIONS",

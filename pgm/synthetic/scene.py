@@ -5,7 +5,7 @@ bands (a person is a red top over a blue bottom, a face three bands), drawn over
 smooth low-contrast background, with rectangular *occluders* ("magazines": light grey
 pages with dark text lines) drawn on top of every object. Rendering is exact in the
 area sense: a pixel ``(row i, column j)`` covers ``[j, j+1) x [i, i+1)`` (see
-:mod:`pgm.boxes`) and a partly covered pixel blends the object's colour by the covered
+:mod:`pgm.core.boxes`) and a partly covered pixel blends the object's colour by the covered
 fraction, so the ground-truth boxes are exact and the visible fraction of any
 horizontal band of an object is computed geometrically (:meth:`Scene.band_visibility`).
 
@@ -35,8 +35,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ._rng import as_generator
-from .errors import InputError
+from pgm.core.errors import InputError
+from pgm.core.rng import as_generator
 
 __all__ = [
     "ObjectSpec",

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from pgm.core.errors import InputError
 
 __all__ = ["main", "build_parser", "parse_box"]
 
@@ -82,7 +82,7 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``pgm``."""
-    from .models import MODELS
+    from pgm.models import MODELS
 
     p = _Parser(
         prog="pgm", description="Visual trackers declared as factor graphs, run by one engine.")
@@ -177,8 +177,8 @@ def _load_model_graph(model: str, init_box_cxcywh: np.ndarray, num_particles: in
                       args: argparse.Namespace | None = None):
     import dataclasses
 
-    from .graph import FactorGraph
-    from .models import get_model
+    from pgm.core.graph import FactorGraph
+    from pgm.models import get_model
 
     if model.endswith(".json"):
         return FactorGraph.load(model)
@@ -225,12 +225,12 @@ MULTI_TARGET_MODELS = ("phd", "vb-phd")
 
 
 def cmd_track_multi(args, source) -> int:
-    from ._rng import as_generator
-    from .detections import PublicDetections, make_detector
-    from .inference.runner import track_multi
-    from .io.annotations import load_mot
-    from .models import get_model
-    from .models.phd import video_params
+    from pgm.app.runner import track_multi
+    from pgm.core.rng import as_generator
+    from pgm.io.annotations import load_mot
+    from pgm.models import get_model
+    from pgm.models.phd import video_params
+    from pgm.observation.detections import PublicDetections, make_detector
 
     if args.init is not None:
         raise InputError(f"--init does not apply to the multi-target model {args.model!r}")
@@ -257,7 +257,7 @@ def cmd_track_multi(args, source) -> int:
     graph = module.build_graph(video_params(module.Params, width, height, source.fps,
                                             **kwargs))
     if args.dbn is not None:
-        from .appearance.dbn import DBNLikelihood
+        from pgm.observation.appearance.dbn import DBNLikelihood
 
         graph = graph.with_factors(DBNLikelihood("targets", model=args.dbn,
                                                  name="appearance:dbn"),
@@ -289,14 +289,14 @@ def _print_mot_metrics(m: dict, stream=None) -> None:
 
 
 def cmd_track(args) -> int:
-    from ._rng import as_generator
-    from .inference.runner import init_box_from_gt, track
-    from .io.annotations import load_single_gt
-    from .io.video import open_source
+    from pgm.app.runner import init_box_from_gt, track
+    from pgm.core.rng import as_generator
+    from pgm.io.annotations import load_single_gt
+    from pgm.io.video import open_source
 
     source = open_source(args.source)
     if args.model is None:
-        from .models import DEFAULT_SINGLE_OBJECT
+        from pgm.models import DEFAULT_SINGLE_OBJECT
 
         multi = args.detections is not None or args.detector is not None
         args.model = "vb-phd" if multi else DEFAULT_SINGLE_OBJECT
@@ -337,14 +337,14 @@ def cmd_track(args) -> int:
 
 
 def cmd_eval(args) -> int:
-    from .io.annotations import detect_gt_format, load_mot, load_single_gt, load_tracks
-    from .metrics import single_object_metrics
+    from pgm.evaluation.single_object import single_object_metrics
+    from pgm.io.annotations import detect_gt_format, load_mot, load_single_gt, load_tracks
 
     pred = load_tracks(args.pred)
     if detect_gt_format(args.gt) == "mot":
         gt_table = load_mot(args.gt, kind="gt")
         if np.unique(gt_table.ids).size > 1 or np.unique(pred.ids).size > 1:
-            from .mot_metrics import evaluate_mot_files
+            from pgm.evaluation.mot import evaluate_mot_files
 
             metrics = evaluate_mot_files(args.gt, args.pred)
             if args.json:
@@ -377,12 +377,12 @@ def cmd_graph(args) -> int:
 
 
 def cmd_demo(args) -> int:
-    from ._rng import as_generator
-    from .inference.runner import track
-    from .io.annotations import load_single_gt
-    from .io.video import open_source
-    from .models import colour_pf, part_graph, single_object
-    from .synthetic import demo_scene
+    from pgm.app.runner import track
+    from pgm.core.rng import as_generator
+    from pgm.io.annotations import load_single_gt
+    from pgm.io.video import open_source
+    from pgm.models import colour_pf, part_graph, single_object
+    from pgm.synthetic import demo_scene
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -421,9 +421,9 @@ def cmd_demo(args) -> int:
 
 
 def cmd_learn(args) -> int:
-    from ._rng import as_generator
-    from .appearance.dbn import DBN, training_set
-    from .appearance.features import PatchFeatures
+    from pgm.core.rng import as_generator
+    from pgm.observation.appearance.dbn import DBN, training_set
+    from pgm.observation.appearance.features import PatchFeatures
 
     rng = as_generator(args.seed)
     feats = PatchFeatures()

@@ -19,7 +19,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .numerics import log_normalize, logsumexp
+from pgm.core.numerics import log_normalize, logsumexp
 
 __all__ = ["Particles", "Intensity"]
 

@@ -60,9 +60,9 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from scipy.spatial.distance import cdist
 
-from .boxes import iou_xywh
-from .errors import InputError
-from .io.annotations import MotTable, load_mot, load_tracks
+from pgm.core.boxes import iou_xywh
+from pgm.core.errors import InputError
+from pgm.io.annotations import MotTable, load_mot, load_tracks
 
 __all__ = [
     "OspaComponents",

@@ -30,7 +30,7 @@ class FrameContext:
     measurements : ndarray, shape (M, k), or dict, optional
         Point measurements (for set-valued variables), or per-variable measurements.
     detections : object, optional
-        Detector output for the frame (``pgm.detections.Detections``: boxes, scores,
+        Detector output for the frame (``pgm.observation.detections.Detections``: boxes, scores,
         foot points); measurement factors read their points from it when
         ``measurements`` is not given, and track layers take box sizes from it.
     """

@@ -2,16 +2,16 @@
 
 The input of the deep-belief-network likelihood (SPEC §3c). Both parts are computed
 for all ``N`` boxes of a frame in one vectorised pass from per-frame integral images,
-cached on the :class:`~pgm.frame.FrameContext` and shared by every factor that scores
+cached on the :class:`~pgm.core.frame.FrameContext` and shared by every factor that scores
 that frame:
 
-* colour: the Pérez histogram of :mod:`pgm.appearance.colour` (80 bins by default);
+* colour: the Pérez histogram of :mod:`pgm.observation.appearance.colour` (80 bins by default);
 * gradients: ``n_orient`` unsigned orientation bins of the Sobel gradient magnitude,
   one integral image per bin, summed over a ``cells_x × cells_y`` grid of cells in the
   box (a HOG without block overlap), each box's vector L2-normalised.
 
 >>> import numpy as np
->>> from pgm.appearance.features import PatchFeatures
+>>> from pgm.observation.appearance.features import PatchFeatures
 >>> img = np.random.default_rng(0).integers(0, 256, (60, 80, 3), dtype=np.uint8)
 >>> PatchFeatures().compute(img, np.array([[40.0, 30.0, 16.0, 32.0]])).shape
 (1, 152)
@@ -22,8 +22,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ..frame import FrameContext
-from .colour import ColourHistogramScorer
+from pgm.core.frame import FrameContext
+from pgm.observation.appearance.colour import ColourHistogramScorer
 
 __all__ = ["PatchFeatures", "gradient_integrals"]
 

@@ -1,7 +1,7 @@
 r"""A deep-belief-network person likelihood (seed 000, §II-C; SPEC §3c).
 
 Input: colour histogram + oriented-gradient features of the patch at a particle
-(:class:`~pgm.appearance.features.PatchFeatures`), in [0, 1]. Two Bernoulli RBM
+(:class:`~pgm.observation.appearance.features.PatchFeatures`), in [0, 1]. Two Bernoulli RBM
 layers are pre-trained greedily by one-step contrastive divergence (CD-1), then the
 stack plus one logistic output unit is fine-tuned by back-propagation (torch), and the
 output is calibrated by Platt scaling on a held-out split. Its calibrated output
@@ -11,7 +11,7 @@ output is calibrated by Platt scaling on a held-out split. Its calibrated output
     \ell(x) = \frac{s(x)}{1 - s(x)} \cdot \frac{1 - \pi}{\pi}
 
 (``π`` the training prior of the person class), tempered by ``γ``
-(:class:`~pgm.multitarget.PHDLikelihood`'s ``appearance_temper``), on the detection
+(:class:`~pgm.factors.multitarget.PHDLikelihood`'s ``appearance_temper``), on the detection
 terms only: declare a :class:`DBNLikelihood` on the set variable.
 
 A trained network is saved as ``.npz`` (arrays plus a JSON header) and loaded with
@@ -26,11 +26,11 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
-from ..factors import LikelihoodFactor
-from ..frame import FrameContext
-from ..numerics import check_finite_param
-from .features import PatchFeatures
+from pgm.core.errors import InputError
+from pgm.core.frame import FrameContext
+from pgm.core.numerics import check_finite_param
+from pgm.factors import LikelihoodFactor
+from pgm.observation.appearance.features import PatchFeatures
 
 __all__ = ["DBN", "DBNLikelihood", "training_set"]
 
@@ -213,7 +213,7 @@ def _boxes_from_state(x: np.ndarray, size: np.ndarray, pos: tuple[int, int]) -> 
 class DBNLikelihood(LikelihoodFactor):
     """Appearance factor: the DBN's log likelihood ratio of the patch at each particle.
 
-    Declared on a ``set`` variable next to its :class:`~pgm.multitarget.PHDLikelihood`,
+    Declared on a ``set`` variable next to its :class:`~pgm.factors.multitarget.PHDLikelihood`,
     it multiplies the detection terms (tempered by ``appearance_temper``). Particles
     are foot points: the patch is a box of the frame's median detection size standing
     on the particle's foot point (``box_size`` when the frame has no detections).
@@ -362,9 +362,9 @@ def training_set(sequences, rng: np.random.Generator, *, every: int = 5,
     uniformly at random, plus one copy of the positive shifted by 0.6–1.0 of its size,
     all kept only if their IoU with every ground-truth box is below 0.2.
     """
-    from ..boxes import iou_xywh
-    from ..io.annotations import load_mot
-    from ..io.video import open_source
+    from pgm.core.boxes import iou_xywh
+    from pgm.io.annotations import load_mot
+    from pgm.io.video import open_source
 
     feats = features or PatchFeatures()
     X, y = [], []

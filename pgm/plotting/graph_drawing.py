@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 if TYPE_CHECKING:
-    from .graph import FactorGraph
+    from pgm.core.graph import FactorGraph
 
 __all__ = ["to_dot", "draw", "layout", "ROLE_COLOURS", "KIND_COLOURS"]
 

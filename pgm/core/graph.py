@@ -8,7 +8,7 @@ structure the engine derives its schedule from, not a picture of it.
 It validates on construction — a factor naming an unknown variable, a dimension
 mismatch, a coupling between a variable and itself, a ``noise`` variable with no
 conjugate factor, a particle variable with no prior — each a ``ValueError`` naming the
-offending node. It draws itself in factor-graph notation (:mod:`pgm.drawing`) and
+offending node. It draws itself in factor-graph notation (:mod:`pgm.plotting.graph_drawing`) and
 saves to / loads from JSON without executing code.
 
 Example
@@ -30,8 +30,8 @@ from typing import Any
 
 import networkx as nx
 
-from .factors import Factor, factor_from_dict
-from .variable import Variable
+from pgm.core.factor import Factor, factor_from_dict
+from pgm.core.variable import Variable
 
 __all__ = ["FactorGraph"]
 
@@ -207,12 +207,12 @@ class FactorGraph:
     # -- drawing -----------------------------------------------------------------------
     def to_dot(self) -> str:
         """Graphviz DOT text in factor-graph notation."""
-        from .drawing import to_dot
+        from pgm.plotting.graph_drawing import to_dot
 
         return to_dot(self)
 
     def draw(self, path: str | Path | None = None, ax=None, **kwargs: Any):
         """Draw the graph with matplotlib; write PNG/SVG/PDF (or DOT) when ``path`` is given."""
-        from .drawing import draw
+        from pgm.plotting.graph_drawing import draw
 
         return draw(self, path=path, ax=ax, **kwargs)

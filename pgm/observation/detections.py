@@ -58,9 +58,9 @@ import cv2
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from .boxes import iou_xywh
-from .errors import InputError
-from .io.annotations import MotTable, load_mot
+from pgm.core.boxes import iou_xywh
+from pgm.core.errors import InputError
+from pgm.io.annotations import MotTable, load_mot
 
 __all__ = [
     "Detections",

@@ -21,17 +21,11 @@ from typing import Any
 
 import numpy as np
 
-from .factors import (
-    ConjugateFactor,
-    LikelihoodFactor,
-    PriorFactor,
-    TransitionFactor,
-    _as_cov,
-    _sqrt_psd,
-)
-from .frame import FrameContext
-from .numerics import check_finite_param, scratch
-from .variable import Variable
+from pgm.core.frame import FrameContext
+from pgm.core.numerics import check_finite_param, scratch
+from pgm.core.variable import Variable
+from pgm.factors.gaussian import _as_cov, _sqrt_psd
+from pgm.factors.kinds import ConjugateFactor, LikelihoodFactor, PriorFactor, TransitionFactor
 
 __all__ = ["IntensityPrior", "PHDLikelihood", "InverseGammaPrior", "NoiseForgetting",
            "VBNoise", "constant_velocity"]
@@ -217,7 +211,7 @@ class PHDLikelihood(LikelihoodFactor):
         # stored (M, N), returned as its (N, M) transpose: reductions over particles run
         # along contiguous rows (about 2x faster than (N, M) with few measurements)
         out = np.empty((z.shape[0], x.shape[0])).T
-        tmp = scratch(self, "_log_g_tmp", out.T.shape).T  # reused, see pgm.numerics.scratch
+        tmp = scratch(self, "_log_g_tmp", out.T.shape).T  # reused, see pgm.core.numerics.scratch
         pred = x @ self.H.T if sq is None else None  # (N, k)
         for i in range(z.shape[1]):  # k is 2: a loop over components, not particles
             buf = out if i == 0 else tmp
@@ -270,8 +264,8 @@ class InverseGammaPrior(PriorFactor):
         self._check_dim(variables, self.variables[0], self.sigma.size, "sigma")
 
     def belief(self):
-        """The initial :class:`~pgm.expfam.InverseGamma` belief."""
-        from .expfam import InverseGamma
+        """The initial :class:`~pgm.core.expfam.InverseGamma` belief."""
+        from pgm.core.expfam import InverseGamma
 
         return InverseGamma.from_sigma(self.sigma, self.alpha)
 

@@ -10,7 +10,7 @@ Scored over the annotated ground-truth frames only:
 * **precision@20** = the fraction of frames whose centre error is ``<= 20`` px.
 
 Boxes are top-left ``(x, y, w, h)`` in the same coordinates for ground truth and
-prediction (0-based internally; see :mod:`pgm.boxes`).
+prediction (0-based internally; see :mod:`pgm.core.boxes`).
 """
 
 from __future__ import annotations
@@ -19,9 +19,9 @@ from typing import Any
 
 import numpy as np
 
-from .boxes import centre_xywh, iou_xywh
-from .errors import InputError
-from .io.annotations import SingleTrack
+from pgm.core.boxes import centre_xywh, iou_xywh
+from pgm.core.errors import InputError
+from pgm.io.annotations import SingleTrack
 
 __all__ = [
     "SUCCESS_THRESHOLDS",

@@ -22,7 +22,7 @@ evaluated exactly on a fixed sample of template pixels, ``S`` per particle. No m
 is fitted after the first frame.
 
 >>> import numpy as np
->>> from pgm.appearance.gmm import fit_template, SharedComponentKL
+>>> from pgm.observation.appearance.gmm import fit_template, SharedComponentKL
 >>> rng = np.random.default_rng(0)
 >>> img = rng.integers(0, 40, (60, 80, 3)).astype(np.uint8)
 >>> img[20:40, 30:50] = (200, 30, 30)
@@ -40,7 +40,7 @@ import cv2
 import numpy as np
 from scipy.special import logsumexp
 
-from .colour import pixel_bounds
+from pgm.observation.appearance.colour import pixel_bounds
 
 __all__ = ["MixtureTemplate", "fit_template", "component_logpdf", "box_pixels",
            "SharedComponentKL", "literal_kl"]
@@ -252,8 +252,8 @@ class SharedComponentKL:
 
     def divergence(self, image_or_ctx, boxes: np.ndarray) -> np.ndarray:
         """``D`` ``(N,)`` of boxes ``(N, 4)`` ``(cx, cy, w, h)``; the per-pixel work is
-        done once over the boxes' union (cached on a :class:`~pgm.frame.FrameContext`)."""
-        from ..frame import FrameContext
+        done once over the boxes' union (cached on a :class:`~pgm.core.frame.FrameContext`)."""
+        from pgm.core.frame import FrameContext
 
         ctx = image_or_ctx if isinstance(image_or_ctx, FrameContext) else FrameContext(
             0, image_or_ctx)

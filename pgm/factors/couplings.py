@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from .factors import CouplingFactor
-from .numerics import check_finite_param
-from .variable import Variable
+from pgm.core.numerics import check_finite_param
+from pgm.core.variable import Variable
+from pgm.factors.kinds import CouplingFactor
 
 __all__ = ["AffineCoupling", "RelativeBoxCoupling"]
 

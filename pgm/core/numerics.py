@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from .errors import DegenerateWeightsError
+from pgm.core.errors import DegenerateWeightsError
 
 __all__ = ["scratch", "logsumexp", "log_normalize", "normalized_weights", "ess_from_log_weights",
            "check_finite_param"]

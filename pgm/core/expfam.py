@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import digamma, gammaln
 
-from .numerics import check_finite_param
+from pgm.core.numerics import check_finite_param
 
 __all__ = ["InverseGamma", "Gaussian"]
 

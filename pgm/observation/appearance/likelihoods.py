@@ -8,7 +8,7 @@ Bhattacharyya coefficient ``ρ``:
     \\log p(z \\mid X) = -\\lambda\\,(1 - \\rho(X)) + \\mathrm{const}
 
 All particles of a frame are scored in one vectorised pass
-(:mod:`pgm.appearance.colour`); the colour quantisation is cached on the frame and
+(:mod:`pgm.observation.appearance.colour`); the colour quantisation is cached on the frame and
 shared with every other factor using the same bin layout.
 """
 
@@ -19,12 +19,12 @@ from typing import Any
 import cv2
 import numpy as np
 
-from ..factors import LikelihoodFactor
-from ..frame import FrameContext
-from ..numerics import check_finite_param
-from ..variable import Variable
-from .colour import ColourHistogramScorer, pixel_bounds
-from .gmm import MixtureTemplate, SharedComponentKL, fit_template, literal_kl
+from pgm.core.frame import FrameContext
+from pgm.core.numerics import check_finite_param
+from pgm.core.variable import Variable
+from pgm.factors import LikelihoodFactor
+from pgm.observation.appearance.colour import ColourHistogramScorer, pixel_bounds
+from pgm.observation.appearance.gmm import MixtureTemplate, SharedComponentKL, fit_template, literal_kl
 
 __all__ = ["ColourHistogramLikelihood", "FragmentsLikelihood", "GradientLikelihood",
            "RotationInvariantLikelihood", "GMMKLLikelihood", "ColourContrastLikelihood",
@@ -269,7 +269,7 @@ class GradientLikelihood(LikelihoodFactor):
     def __init__(self, variable: str, *, lam: float = 20.0, n_orient: int = 9, cells=(3, 3),
                  template=None, box_indices=(0, 1, 2, 3), name: str | None = None):
         super().__init__(variable, name=name)
-        from .features import PatchFeatures
+        from pgm.observation.appearance.features import PatchFeatures
 
         self.lam = float(check_finite_param(f"{self.name}.lam", lam, positive=True))
         self.n_orient = int(n_orient)
@@ -409,8 +409,8 @@ class GMMKLLikelihood(LikelihoodFactor):
     particle: the candidate's mixture keeps the template's components plus a uniform
     outlier component and re-estimates only the weights, by one EM step whose per-pixel
     responsibilities are computed once per frame and summed per box through integral
-    images (:class:`pgm.appearance.gmm.SharedComponentKL`). ``method="literal"`` fits
-    a mixture to every box (:func:`pgm.appearance.gmm.literal_kl`): the slow reference,
+    images (:class:`pgm.observation.appearance.gmm.SharedComponentKL`). ``method="literal"`` fits
+    a mixture to every box (:func:`pgm.observation.appearance.gmm.literal_kl`): the slow reference,
     for small cases. On a synthetic scan across an object the two rank candidates with
     Spearman correlation ≥ 0.9 and share the minimum (a test checks this).
 

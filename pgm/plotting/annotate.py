@@ -1,22 +1,19 @@
-"""Annotated video: boxes, identities, particles and message particles on each frame.
+"""Draw on a frame: boxes, identities, particles and message particles.
 
-:class:`AnnotatedVideoWriter` writes an MP4 (``mp4v``) frame by frame, so an
-interrupted run keeps the frames written so far; :func:`annotate` draws on one image
-and is what a notebook or a tutorial calls to look at frame ``t``.
+:func:`annotate` draws on one image and is what a notebook or a tutorial calls to look
+at frame ``t``; :class:`pgm.io.annotated_video.AnnotatedVideoWriter` writes the frames.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from pathlib import Path
 
 import cv2
 import numpy as np
 
-from .boxes import cxcywh_to_xywh
-from .errors import InputError
+from pgm.core.boxes import cxcywh_to_xywh
 
-__all__ = ["AnnotatedVideoWriter", "annotate", "colour_for_id"]
+__all__ = ["annotate", "colour_for_id"]
 
 _PALETTE = [(56, 56, 255), (151, 157, 255), (31, 112, 255), (29, 178, 255), (49, 210, 207),
             (10, 249, 72), (23, 204, 146), (134, 219, 61), (52, 147, 26), (187, 212, 0),
@@ -96,44 +93,3 @@ def annotate(image: np.ndarray, *, boxes: Sequence | np.ndarray | None = None,
         cv2.putText(img, text, (6, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (255, 255, 255), 1,
                     cv2.LINE_AA)
     return img
-
-
-class AnnotatedVideoWriter:
-    """Write frames to an MP4 file as they come (opened on the first frame).
-
-    Use as a context manager; every :meth:`write` is one frame.
-    """
-
-    def __init__(self, path: str | Path, fps: float = 25.0):
-        self.path = Path(path)
-        self.fps = float(fps) if fps and np.isfinite(fps) and fps > 0 else 25.0
-        self._writer: cv2.VideoWriter | None = None
-        self._size: tuple[int, int] | None = None
-        self.frames_written = 0
-
-    def write(self, image: np.ndarray) -> None:
-        """Append one BGR frame (all frames must have the first frame's size)."""
-        h, w = image.shape[:2]
-        if self._writer is None:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._writer = cv2.VideoWriter(str(self.path), cv2.VideoWriter_fourcc(*"mp4v"),
-                                           self.fps, (w, h))
-            if not self._writer.isOpened():
-                raise InputError(f"cannot open video writer for {self.path}")
-            self._size = (w, h)
-        elif (w, h) != self._size:
-            image = cv2.resize(image, self._size)
-        self._writer.write(np.ascontiguousarray(image))
-        self.frames_written += 1
-
-    def close(self) -> None:
-        """Finish the file."""
-        if self._writer is not None:
-            self._writer.release()
-            self._writer = None
-
-    def __enter__(self) -> AnnotatedVideoWriter:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()

@@ -12,7 +12,7 @@ computation, with no Python loop over boxes:
    0 and its value is the grey level. :class:`ColourHistogramScorer` quantises
    *lazily*: only the union rectangle of the boxes it scores (clipped to the image,
    plus a ``_ROI_MARGIN`` of 4 px), into a full-size bin buffer cached in the
-   :class:`~pgm.frame.FrameContext` under ``("colour-bins", layout, n_h, n_s, n_v)``
+   :class:`~pgm.core.frame.FrameContext` under ``("colour-bins", layout, n_h, n_s, n_v)``
    (a ``_FrameBins``: the buffer plus the rectangle quantised so far). Every factor
    that shares a layout shares it: a request inside the rectangle costs nothing,
    otherwise only the strips that grow it to the bounding rectangle are quantised,
@@ -79,8 +79,8 @@ from typing import Any
 import cv2
 import numpy as np
 
-from ..errors import InputError
-from ..frame import FrameContext
+from pgm.core.errors import InputError
+from pgm.core.frame import FrameContext
 
 __all__ = ["quantize_colour", "colour_bin_count", "box_histograms", "bhattacharyya",
            "pixel_bounds", "ColourHistogramScorer", "LAYOUTS", "KERNELS"]
@@ -753,7 +753,7 @@ class _FrameBins:
     """One frame's bin image for one layout, quantised lazily, region by region.
 
     This is what :class:`ColourHistogramScorer` caches in the
-    :class:`~pgm.frame.FrameContext` under ``("colour-bins", layout, a, b, c)``.
+    :class:`~pgm.core.frame.FrameContext` under ``("colour-bins", layout, a, b, c)``.
     ``bins`` is a full-size ``(H, W)`` buffer of which only the rectangle ``rect`` =
     ``(x0, x1, y0, y1)`` holds bins (the rest is uninitialised memory).
     :meth:`ensure` grows ``rect`` to cover a requested rectangle: a request inside it

@@ -19,16 +19,16 @@ from typing import Any
 
 import numpy as np
 
-from pgm.boxes import cxcywh_to_xywh
-from pgm.errors import InputError
-from pgm.frame import FrameContext
-from pgm.graph import FactorGraph
+from pgm.core.boxes import cxcywh_to_xywh
+from pgm.core.errors import InputError
+from pgm.core.frame import FrameContext
+from pgm.core.graph import FactorGraph
+from pgm.evaluation.single_object import single_object_metrics
+from pgm.inference.engine import Engine, StepRecord
+from pgm.io.annotated_video import AnnotatedVideoWriter
 from pgm.io.annotations import MotWriter, SingleTrack, load_single_gt
 from pgm.io.video import FrameSource, open_source
-from pgm.metrics import single_object_metrics
-from pgm.viz import AnnotatedVideoWriter, annotate
-
-from .engine import Engine, StepRecord
+from pgm.plotting.annotate import annotate
 
 __all__ = ["TrackResult", "track", "output_box", "init_box_from_gt", "MultiTrackResult",
            "track_multi"]
@@ -252,8 +252,8 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
     identities, flushed per frame), ``annotated.mp4`` and, given ground truth (a
     :class:`~pgm.io.annotations.MotTable` or a ``gt.txt`` path), ``metrics.json``.
     """
+    from pgm.evaluation.mot import evaluate_mot
     from pgm.io.annotations import MotTable, load_mot
-    from pgm.mot_metrics import evaluate_mot
 
     if isinstance(gt, (str, Path)):
         gt = load_mot(gt, kind="gt")

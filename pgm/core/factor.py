@@ -1,0 +1,164 @@
+"""Factors: the pieces a tracker is declared from.
+
+A factor has a *scope* (the names of the variables it links) and a *kind* that tells
+the engine how inference uses it:
+
+=============== ======================================================================
+kind            role in inference
+=============== ======================================================================
+``prior``       initial belief of a variable (the belief in the first frame)
+``transition``  links a variable to its own past values (order 1 or 2)
+``likelihood``  links a variable to the current frame / measurements
+``coupling``    links two variables in the same frame (parts of one object)
+``conjugate``   links a ``noise`` variable to a likelihood it parameterises (VB)
+=============== ======================================================================
+
+Each factor is a small object with the few vectorised methods the algorithms need
+(``sample``, ``log_prob``, ``log_likelihood``, ...); its parameters live on it and are
+listed by :meth:`Factor.params`, which is what a saved model declaration stores.
+Every concrete factor class registers itself by name when it is defined, so a JSON
+declaration is loaded by looking names up in that registry: loading never executes
+code. A user's own factor class is registered as soon as its module is imported.
+
+Arrays: particles have a leading particle axis, ``x`` of shape ``(N, d)``.
+
+This module holds the root :class:`Factor` and the registry; the kind base classes and
+the generic factors are in :mod:`pgm.factors`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC
+from typing import Any, ClassVar
+
+import numpy as np
+
+from pgm.core.frame import FrameContext
+from pgm.core.variable import Variable
+
+__all__ = ["Factor", "factor_from_dict", "registered_factor_types", "KINDS"]
+
+KINDS = ("prior", "transition", "likelihood", "coupling", "conjugate")
+_REGISTRY: dict[str, type[Factor]] = {}
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    return value
+
+
+class Factor(ABC):  # noqa: B024 - kind base classes declare the abstract methods
+    """Base class of all factors.
+
+    Subclasses set the class attribute ``kind`` (via one of the kind base classes),
+    take their scope's variable names as the first positional arguments and their
+    parameters as keyword arguments, and return those keyword arguments from
+    :meth:`params` so that ``type(f)(*f.variables, name=f.name, **f.params())``
+    rebuilds an equal factor.
+    """
+
+    kind: ClassVar[str] = ""
+    #: number of variables in the scope (None: any)
+    arity: ClassVar[int | None] = 1
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.__dict__.get("abstract", False):
+            return
+        if cls.kind not in KINDS:
+            return
+        name = cls.__name__
+        other = _REGISTRY.get(name)
+        if other is not None and other.__module__ != cls.__module__:
+            raise ValueError(
+                f"factor type {name!r} is defined twice ({other.__module__} and {cls.__module__})")
+        _REGISTRY[name] = cls
+
+    def __init__(self, *variables: str, name: str | None = None) -> None:
+        if self.arity is not None and len(variables) != self.arity:
+            raise ValueError(
+                f"{type(self).__name__} links {self.arity} variable(s), got {len(variables)}: "
+                f"{variables}")
+        for v in variables:
+            if isinstance(v, Variable):
+                raise ValueError(f"{type(self).__name__}: give variable names, not objects "
+                                 f"(use {v.name!r})")
+            if not isinstance(v, str) or not v:
+                raise ValueError(f"{type(self).__name__}: variable names must be strings, got {v!r}")
+        self.variables: tuple[str, ...] = tuple(variables)
+        #: True when the name was made up here (a graph may then disambiguate it)
+        self.auto_named = name is None
+        self.name = name if name is not None else f"{self.kind}:{'-'.join(variables)}"
+
+    # -- declaration -----------------------------------------------------------------
+    def params(self) -> dict[str, Any]:
+        """Keyword arguments that rebuild this factor (JSON-ready after conversion)."""
+        return {}
+
+    def check(self, variables: dict[str, Variable]) -> None:  # noqa: B027 - optional hook
+        """Validate against the graph's variables; raise ``ValueError`` naming the factor."""
+
+    def _check_dim(self, variables: dict[str, Variable], var: str, expected: int, what: str):
+        if variables[var].dim != expected:
+            raise ValueError(f"factor {self.name!r}: {what} has dimension {expected} but variable "
+                             f"{var!r} has dim {variables[var].dim}")
+
+    @property
+    def learns(self) -> bool:
+        """Whether :meth:`update` does anything (the engine skips the scores otherwise)."""
+        return type(self).update is not Factor.update
+
+    def update(self, estimates: dict[str, np.ndarray], scores: dict[str, float],  # noqa: B027
+               frame: FrameContext | None = None) -> None:
+        """Learn after a frame (adaptive offsets, templates, ...); default: nothing.
+
+        ``estimates`` are the frame's per-variable estimates; ``scores`` the summed
+        log-likelihood of each variable's likelihood factors at its estimate; ``frame``
+        the frame itself. The engine calls it only for factors whose :attr:`learns` is
+        true.
+        """
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready declaration ``{"type", "name", "kind", "variables", "params"}``."""
+        return {"type": type(self).__name__, "name": self.name, "kind": self.kind,
+                "variables": list(self.variables), "params": _jsonable(self.params())}
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({', '.join(self.variables)}, name={self.name!r})"
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Factor):
+            return NotImplemented
+        return self.to_dict() == other.to_dict()
+
+    __hash__ = object.__hash__
+
+
+def factor_from_dict(d: dict[str, Any]) -> Factor:
+    """Rebuild a factor from :meth:`Factor.to_dict` output (a registry lookup, no code)."""
+    try:
+        type_name = d["type"]
+        variables = d["variables"]
+    except (KeyError, TypeError) as exc:
+        raise ValueError(f"malformed factor declaration {d!r}: missing {exc}") from None
+    cls = _REGISTRY.get(type_name)
+    if cls is None:
+        raise ValueError(
+            f"unknown factor type {type_name!r}: import the module that defines it before "
+            f"loading (known: {sorted(_REGISTRY)})")
+    try:
+        return cls(*variables, name=d.get("name"), **d.get("params", {}))
+    except TypeError as exc:
+        raise ValueError(f"factor {d.get('name')!r} of type {type_name}: {exc}") from None
+
+
+def registered_factor_types() -> dict[str, type[Factor]]:
+    """Name → class of every registered factor type."""
+    return dict(_REGISTRY)

@@ -1,0 +1,2 @@
+"""Evaluation: single-object OTB metrics, set distances (OSPA, OSPA²) and
+multi-object CLEAR / identity / HOTA metrics."""

@@ -1,0 +1,25 @@
+"""Factors: the kind base classes, generic Gaussian factors, couplings between parts and
+the multi-target factors (PHD measurement model, noise priors, VB conjugate factor).
+
+The root :class:`~pgm.core.factor.Factor` and the by-name registry live in
+:mod:`pgm.core.factor`; everything here is a subclass of it.
+"""
+
+from pgm.core.factor import KINDS, Factor, factor_from_dict, registered_factor_types
+from pgm.factors.gaussian import (
+    AR2Transition,
+    GaussianPrior,
+    LinearGaussianLikelihood,
+    LinearGaussianTransition,
+)
+from pgm.factors.kinds import (
+    ConjugateFactor,
+    CouplingFactor,
+    LikelihoodFactor,
+    PriorFactor,
+    TransitionFactor,
+)
+
+__all__ = ["Factor", "PriorFactor", "TransitionFactor", "LikelihoodFactor", "CouplingFactor",
+           "ConjugateFactor", "GaussianPrior", "LinearGaussianTransition", "AR2Transition",
+           "LinearGaussianLikelihood", "factor_from_dict", "registered_factor_types", "KINDS"]

@@ -1,0 +1,154 @@
+"""The kind base classes of factors: prior, transition, likelihood, coupling, conjugate.
+
+Subclass one of them to declare a new factor; :class:`~pgm.core.factor.Factor` (the
+root) registers every concrete subclass by name so that saved graphs load without code.
+"""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+from typing import Any
+
+import numpy as np
+
+from pgm.core.factor import Factor
+from pgm.core.frame import FrameContext
+from pgm.core.variable import Variable
+
+__all__ = ["PriorFactor", "TransitionFactor", "LikelihoodFactor", "CouplingFactor",
+           "ConjugateFactor"]
+
+
+# ------------------------------------------------------------------------------------
+# kind base classes
+# ------------------------------------------------------------------------------------
+class PriorFactor(Factor):
+    """Initial belief of one variable: the belief in the first frame, before its evidence."""
+
+    kind = "prior"
+    abstract = True
+
+    @abstractmethod
+    def sample(self, rng: np.random.Generator, num: int) -> np.ndarray:
+        """Draw ``num`` values, shape ``(num, d)``."""
+
+    @abstractmethod
+    def mean(self) -> np.ndarray:
+        """Mean value, shape ``(d,)`` (used to initialise templates)."""
+
+
+class TransitionFactor(Factor):
+    """``p(x_t | x_{t-1}, ..., x_{t-order})`` for one variable."""
+
+    kind = "transition"
+    abstract = True
+    order: int = 1
+
+    @abstractmethod
+    def sample(self, rng: np.random.Generator, *past: np.ndarray) -> np.ndarray:
+        """Propagate particles. ``past[0]`` is ``x_{t-1}``, ``past[1]`` is ``x_{t-2}``."""
+
+    def log_prob(self, x: np.ndarray, *past: np.ndarray) -> np.ndarray:
+        """``log p(x_t | past)``, shape ``(N,)`` (optional: needed by some proposals)."""
+        raise ValueError(f"{type(self).__name__} does not define log_prob()")
+
+
+class LikelihoodFactor(Factor):
+    """``p(z_t | x_t)``: scores all particles of a variable against the current frame."""
+
+    kind = "likelihood"
+    abstract = True
+
+    @abstractmethod
+    def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
+        """Log-likelihood of every particle, shape ``(N,)``, vectorised."""
+
+    #: factors with the same non-None key may be scored together by
+    #: ``type(f).log_likelihood_batch`` (one vectorised pass for several variables)
+    batch_key = None
+
+    @classmethod
+    def log_likelihood_batch(cls, factors: list[LikelihoodFactor], xs: list[np.ndarray],
+                             ctx: FrameContext) -> list[np.ndarray]:
+        """Score several factors of this class (equal ``batch_key``) in one pass.
+
+        The default scores them one by one; subclasses override it when a joint pass
+        is cheaper (e.g. colour histograms of all parts of an object in one frame).
+        """
+        return [f.log_likelihood(x, ctx) for f, x in zip(factors, xs, strict=True)]
+
+    def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:  # noqa: B027
+        """Learn what the factor needs from the first frame (e.g. a template at ``value``).
+
+        Called once by the engine before the first frame is weighted; the default does
+        nothing.
+        """
+
+
+class CouplingFactor(Factor):
+    """Links two variables of the same frame (parts of one object); used by particle BP.
+
+    Subclasses implement :meth:`map` (deterministic image of particles at the other
+    end) and :meth:`log_prob` (the potential, broadcasting); :meth:`propagate` adds
+    the factor's noise to :meth:`map` (the default adds none). See
+    :mod:`pgm.factors.couplings`.
+    """
+
+    kind = "coupling"
+    abstract = True
+    arity = 2
+
+    def check(self, variables: dict[str, Variable]) -> None:
+        if self.variables[0] == self.variables[1]:
+            raise ValueError(f"factor {self.name!r}: a coupling links variable "
+                             f"{self.variables[0]!r} to itself")
+
+    def other(self, variable: str) -> str:
+        """The variable at the other end."""
+        a, b = self.variables
+        if variable == a:
+            return b
+        if variable == b:
+            return a
+        raise ValueError(f"factor {self.name!r} does not link {variable!r}")
+
+    @abstractmethod
+    def map(self, x_src: np.ndarray, src: str) -> np.ndarray:
+        """Deterministic image ``(N, d_dst)`` of particles ``x_src`` of variable ``src``."""
+
+    @abstractmethod
+    def log_prob(self, x_a: np.ndarray, x_b: np.ndarray) -> np.ndarray:
+        """``log ψ(x_a, x_b)`` broadcasting over leading axes (``x_a`` is ``variables[0]``)."""
+
+    def propagate(self, rng: np.random.Generator, x_src: np.ndarray, src: str) -> np.ndarray:
+        """Message particles from ``src`` to the other end (default: :meth:`map`)."""
+        return self.map(x_src, src)
+
+
+class ConjugateFactor(Factor):
+    """Links a ``noise`` variable to the likelihood it parameterises (mean-field VB).
+
+    Scope: ``(noise_variable, target_variable)``. The likelihood factor it
+    parameterises (``likelihood``: its name; default every likelihood factor of the
+    target) is then updated inside the VB fixed point, not in the weight stage.
+    """
+
+    kind = "conjugate"
+    abstract = True
+    arity = 2
+
+    def __init__(self, noise: str, target: str, *, likelihood: str | None = None,
+                 name: str | None = None):
+        super().__init__(noise, target, name=name)
+        self.likelihood = likelihood
+
+    def params(self) -> dict[str, Any]:
+        return {} if self.likelihood is None else {"likelihood": self.likelihood}
+
+    def check(self, variables: dict[str, Variable]) -> None:
+        noise, target = self.variables
+        if variables[noise].role != "noise":
+            raise ValueError(f"factor {self.name!r}: first variable {noise!r} must have role "
+                             f"'noise', has {variables[noise].role!r}")
+        if noise == target:
+            raise ValueError(f"factor {self.name!r}: links variable {noise!r} to itself")

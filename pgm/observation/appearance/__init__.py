@@ -1,0 +1,1 @@
+"""Appearance likelihood factors and the per-frame image work they share."""

@@ -1,0 +1,1 @@
+"""Pictures: factor-graph drawings and annotated frames."""
