@@ -21,12 +21,24 @@ The first frame replaces *predict* by *prior*: each variable's belief is drawn f
 prior factor and likelihood factors may learn from the frame (e.g. a colour template at
 the prior mean) before it is weighted.
 
-Every stage dispatches through a :class:`RuleTable` keyed by ``(operation, belief
-type)`` — ``operation`` is a factor kind (``prior``, ``transition``, ``likelihood``,
-``coupling``, ``conjugate``) or a belief operation (``resample``, ``estimate``) — and
-the lookup walks the belief type's MRO, so a subclass (e.g. :class:`~pgm.Intensity`)
-inherits rules it does not override. The engine never knows which model it runs:
-particle BP, VB and the PHD corrector are rules registered in this table.
+Every stage dispatches through a :class:`RuleTable` keyed by *(factor class, belief
+type)* — as ReactiveMP keys rules by node and edge — each resolved along its MRO (the
+factor's first, then the belief's), so ``rules.register(MyLikelihood, Particles)``
+gives a user's factor its own rule and a subclass (e.g. :class:`~pgm.Intensity`)
+inherits rules it does not override. Belief operations (``fuse``, ``resample``,
+``estimate``) are keyed by *(operation, belief type)*. The engine never knows which
+model it runs: particle BP, VB and the PHD corrector are rules registered in this table.
+
+**The weight-stage contract.** On a belief that likelihoods reweight
+(``belief_type.likelihood_reweights``, true for :class:`~pgm.Particles`), a likelihood
+rule *returns* its log-likelihood increment per particle, shape ``(N,)``, and never
+touches ``engine.beliefs``: the engine applies the increment and keeps it as the
+variable's local evidence (``engine.evidence``), which particle-BP messages read. A
+rule that replaces the belief (e.g. resamples or reorders particles) is a
+:class:`RuleContractError` naming it. On other beliefs (an intensity's PHD corrector, a
+Gaussian's Kalman update) the rule updates the belief itself and returns diagnostics.
+:func:`pgm.inference.conformance.checked` wraps a rule table so that every rule call
+is checked against its contract.
 
 Example
 -------
@@ -51,23 +63,26 @@ from typing import Any
 import numpy as np
 
 from pgm.core.beliefs import Intensity, Particles
+from pgm.core.errors import RuleContractError
 from pgm.core.expfam import InverseGamma
+from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
-from pgm.factors import Factor
+from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
 
 from .resampling import ess_triggered, get_resampler
+from .settings import FUSIONS, EngineSettings
 
 __all__ = ["Engine", "RuleTable", "DEFAULT_RULES", "StepRecord", "Schedule", "derive_schedule",
-           "STAGES", "BELIEF_FOR_ROLE"]
+           "STAGES", "BELIEF_FOR_ROLE", "BELIEF_OPERATIONS", "RuleContractError",
+           "likelihood_reweights"]
 
 STAGES = ("prior", "predict", "weight", "inframe", "fuse", "estimate", "resample")
-OPERATIONS = ("prior", "transition", "likelihood", "coupling", "conjugate", "fuse", "resample",
-              "estimate")
-FUSIONS = ("mixture", "product")
+#: operations on one variable's belief (rules keyed by name, not by a factor class)
+BELIEF_OPERATIONS = ("fuse", "resample", "estimate")
 
 #: belief type the engine creates for each variable role (override per variable with
-#: ``options={"belief_types": {name: type}}``, e.g. :class:`~pgm.core.expfam.Gaussian` for an
+#: ``Engine(..., belief_types={name: type})``, e.g. :class:`~pgm.core.expfam.Gaussian` for an
 #: exact Kalman / VB adaptive Kalman filter)
 BELIEF_FOR_ROLE: dict[str, type] = {"part": Particles, "state": Particles,
                                     "latent": Particles, "set": Intensity,
@@ -76,60 +91,104 @@ BELIEF_FOR_ROLE: dict[str, type] = {"part": Particles, "state": Particles,
 Rule = Callable[..., Any]
 
 
-class RuleTable:
-    """Inference rules keyed by ``(operation, belief type)``, looked up along the MRO.
+def likelihood_reweights(belief_type: type) -> bool:
+    """Whether likelihood factors act on ``belief_type`` by reweighting (the contract)."""
+    return bool(getattr(belief_type, "likelihood_reweights", False))
 
-    Factor rules are called as ``rule(engine, factor, frame)`` and update
-    ``engine.beliefs``; coupling rules as ``rule(engine, factor, frame, src, dst)`` (one
-    directed message); belief rules (``fuse``, ``resample``, ``estimate``) as
-    ``rule(engine, variable_name, frame)``. A rule may return a dict of diagnostics,
-    stored in the step record under the factor's (or variable's) name.
+
+def _key_name(key: type | str) -> str:
+    return key if isinstance(key, str) else key.__name__
+
+
+class RuleTable:
+    """Inference rules keyed by ``(factor class, belief type)`` or ``(operation, belief type)``.
+
+    Factor rules are looked up along the factor class's MRO first, then the belief
+    type's: ``register(PHDLikelihood, Intensity)`` wins over ``register(LikelihoodFactor,
+    Intensity)`` for a PHD factor, and both over ``(LikelihoodFactor, Particles)``.
+
+    Calling conventions
+    -------------------
+    * prior, transition, conjugate factors: ``rule(engine, factor, frame)``; updates
+      ``engine.beliefs``; may return a dict of diagnostics;
+    * likelihood factors on a belief that likelihoods reweight (:class:`~pgm.Particles`):
+      ``rule(engine, factor, frame) -> log_lik`` of shape ``(N,)``, touching no belief;
+      on other beliefs, as a prior rule;
+    * coupling factors: ``rule(engine, factor, frame, src, dst)`` (one directed message);
+    * belief operations (``fuse``, ``resample``, ``estimate``):
+      ``rule(engine, variable_name, frame)``.
+
+    Diagnostics are stored in the step record under the factor's (or variable's) name.
     """
 
-    def __init__(self, rules: dict[tuple[str, type], Rule] | None = None):
-        self._rules: dict[tuple[str, type], Rule] = dict(rules or {})
-        self._resolved: dict[tuple[str, type], Rule] = {}
+    def __init__(self, rules: dict[tuple[type | str, type], Rule] | None = None):
+        self._rules: dict[tuple[type | str, type], Rule] = dict(rules or {})
+        self._resolved: dict[tuple[type | str, type], Rule] = {}
 
-    def register(self, operation: str, belief_type: type) -> Callable[[Rule], Rule]:
-        """Decorator registering ``rule`` for ``(operation, belief_type)``."""
-        if operation not in OPERATIONS:
-            raise ValueError(f"unknown operation {operation!r} (expected one of {OPERATIONS})")
+    @staticmethod
+    def _check_key(key: type | str, belief_type: type) -> None:
+        if isinstance(key, str):
+            if key not in BELIEF_OPERATIONS:
+                raise ValueError(f"unknown operation {key!r}: register a factor class, or one "
+                                 f"of {BELIEF_OPERATIONS}")
+        elif not (isinstance(key, type) and issubclass(key, Factor)):
+            raise ValueError(f"rule key must be a Factor subclass or one of "
+                             f"{BELIEF_OPERATIONS}, got {key!r}")
+        if not isinstance(belief_type, type):
+            raise ValueError(f"belief type must be a class, got {belief_type!r}")
+
+    def register(self, key: type | str, belief_type: type) -> Callable[[Rule], Rule]:
+        """Decorator registering a rule for ``(factor class | operation, belief type)``."""
+        self._check_key(key, belief_type)
 
         def deco(rule: Rule) -> Rule:
-            self._rules[(operation, belief_type)] = rule
+            self._rules[(key, belief_type)] = rule
             self._resolved.clear()
             return rule
 
         return deco
 
-    def lookup(self, operation: str, belief_type: type) -> Rule:
-        """The rule for ``operation`` on the nearest registered base of ``belief_type``."""
-        hit = self._resolved.get((operation, belief_type))
+    def _find(self, key: type | str, belief_type: type) -> Rule | None:
+        keys = [key] if isinstance(key, str) else [
+            k for k in key.__mro__ if isinstance(k, type) and issubclass(k, Factor)]
+        for k in keys:
+            for b in belief_type.__mro__:
+                rule = self._rules.get((k, b))
+                if rule is not None:
+                    return rule
+        return None
+
+    def lookup(self, key: type | str, belief_type: type) -> Rule:
+        """The rule for ``key`` (a factor class or a belief operation) on ``belief_type``."""
+        hit = self._resolved.get((key, belief_type))
         if hit is not None:
             return hit
-        for t in belief_type.__mro__:
-            rule = self._rules.get((operation, t))
-            if rule is not None:
-                self._resolved[(operation, belief_type)] = rule
-                return rule
-        raise ValueError(f"no inference rule for ({operation!r}, {belief_type.__name__}): "
-                         f"register one with RuleTable.register")
+        rule = self._find(key, belief_type)
+        if rule is None:
+            raise ValueError(f"no inference rule for ({_key_name(key)}, {belief_type.__name__}):"
+                             f" register one with RuleTable.register")
+        self._resolved[(key, belief_type)] = rule
+        return rule
 
-    def has(self, operation: str, belief_type: type) -> bool:
+    def has(self, key: type | str, belief_type: type) -> bool:
         """Whether :meth:`lookup` would succeed."""
-        return any((operation, t) in self._rules for t in belief_type.__mro__)
+        return self._find(key, belief_type) is not None
 
-    def remove(self, operation: str, belief_type: type) -> None:
-        """Drop the rule registered exactly for ``(operation, belief_type)``."""
-        self._rules.pop((operation, belief_type), None)
+    def remove(self, key: type | str, belief_type: type) -> None:
+        """Drop the rule registered exactly for ``(key, belief_type)``."""
+        self._rules.pop((key, belief_type), None)
         self._resolved.clear()
+
+    def items(self) -> list[tuple[tuple[type | str, type], Rule]]:
+        """Every registered ``((key, belief type), rule)`` pair."""
+        return list(self._rules.items())
 
     def copy(self) -> RuleTable:
         """An independent copy (to add rules for one engine only)."""
         return RuleTable(self._rules)
 
     def __repr__(self) -> str:
-        keys = ", ".join(f"({op}, {t.__name__})" for op, t in self._rules)
+        keys = ", ".join(f"({_key_name(k)}, {t.__name__})" for k, t in self._rules)
         return f"RuleTable([{keys}])"
 
 
@@ -267,30 +326,33 @@ class Engine:
         ``engine.graph``.
     rng : numpy.random.Generator
         The only source of randomness.
+    settings : EngineSettings, optional
+        Default: ``EngineSettings.from_dict(graph.meta["engine"])`` (what the model
+        config asked for). The keyword arguments below override single fields.
     num_particles : int or dict, optional
-        Particles per variable (one int for all, or name → int). Default:
-        ``graph.meta["engine"]["num_particles"]``, else 100.
-    resampling : str or callable
+        Particles per variable (one int for all, or name → int).
+    resampling : str or callable, optional
         ``"systematic"`` (default), ``"multinomial"``, ``"stratified"``, ``"residual"``.
-    ess_threshold : float
+    ess_threshold : float, optional
         Resample when ESS < ``ess_threshold`` × N (0.5 default; 1 = every frame).
-    inframe_iterations : int
+    inframe_iterations : int, optional
         Flooding rounds of the in-frame phase on loopy graphs (trees need one sweep).
     fusion : {"mixture", "product"}, optional
-        Particle-BP fusion rule (:mod:`pgm.inference.pbp`); default
-        ``graph.meta["engine"]["fusion"]``, else ``"mixture"``.
+        Particle-BP fusion rule (:mod:`pgm.inference.pbp`).
     rules : RuleTable, optional
         Defaults to :data:`DEFAULT_RULES`.
-    options : dict, optional
-        Extra settings read by rules (e.g. particle-BP fusion), merged over
-        ``graph.meta["engine"]``.
+    belief_types : dict, optional
+        Variable name → belief class, overriding :data:`BELIEF_FOR_ROLE` (e.g.
+        :class:`~pgm.core.expfam.Gaussian` for an exact Kalman filter).
     """
 
     def __init__(self, graph: FactorGraph, rng: np.random.Generator, *,
+                 settings: EngineSettings | None = None,
                  num_particles: int | dict[str, int] | None = None,
-                 resampling: str | Callable = "systematic", ess_threshold: float = 0.5,
+                 resampling: str | Callable | None = None, ess_threshold: float | None = None,
                  inframe_iterations: int | None = None, fusion: str | None = None,
-                 rules: RuleTable | None = None, options: dict[str, Any] | None = None):
+                 rules: RuleTable | None = None,
+                 belief_types: dict[str, type] | None = None):
         if not isinstance(graph, FactorGraph):
             raise ValueError(f"Engine needs a FactorGraph, got {type(graph).__name__}")
         if not isinstance(rng, np.random.Generator):
@@ -298,22 +360,25 @@ class Engine:
                              "numpy.random.default_rng(seed))")
         self.graph = copy.deepcopy(graph)
         self.rng = rng
-        defaults = dict(self.graph.meta.get("engine", {}))
-        self.options: dict[str, Any] = {**defaults, **(options or {})}
-        if num_particles is None:
-            num_particles = self.options.get("num_particles", 100)
-        self.num_particles = self._particle_counts(num_particles)
-        self.resampler = get_resampler(resampling)
-        if not np.isfinite(ess_threshold) or not 0.0 <= ess_threshold <= 1.0:
-            raise ValueError(f"ess_threshold must be in [0, 1], got {ess_threshold}")
-        self.ess_threshold = float(ess_threshold)
+        if settings is None:
+            settings = EngineSettings.from_dict(self.graph.meta.get("engine"))
+        elif not isinstance(settings, EngineSettings):
+            raise ValueError(f"settings must be an EngineSettings, got {type(settings).__name__}")
+        #: the typed settings this engine runs with
+        self.settings = settings.replace(
+            num_particles=num_particles, resampling=resampling, ess_threshold=ess_threshold,
+            inframe_iterations=inframe_iterations, fusion=fusion)
+        self.graph.meta["engine"] = self.settings.to_dict(full=True)  # saved with the run
+        self.num_particles = self._particle_counts(self.settings.num_particles)
+        self.resampler = get_resampler(self.settings.resampling)
+        self.ess_threshold = self.settings.ess_threshold
         self.rules = rules if rules is not None else DEFAULT_RULES
-        if fusion is not None:
-            self.options["fusion"] = fusion
-        self.options.setdefault("fusion", "mixture")
-        if inframe_iterations is None:
-            inframe_iterations = int(self.options.get("inframe_iterations", 1))
-        self.schedule = derive_schedule(self.graph, inframe_iterations, self.options["fusion"])
+        self.belief_types = dict(belief_types or {})
+        unknown = sorted(set(self.belief_types) - set(self.graph.variables))
+        if unknown:
+            raise ValueError(f"belief_types names unknown variables {unknown}")
+        self.schedule = derive_schedule(self.graph, self.settings.inframe_iterations,
+                                        self.settings.fusion)
         self.beliefs: dict[str, Any] = {}
         #: per variable, this frame's ``(prior_log_weights, log_likelihood)`` (weight stage)
         self.evidence: dict[str, tuple[np.ndarray, np.ndarray]] = {}
@@ -335,8 +400,7 @@ class Engine:
             unknown = set(num_particles) - set(names)
             if unknown:
                 raise ValueError(f"num_particles names unknown variables {sorted(unknown)}")
-            counts = {n: num_particles.get(n, self.options.get("num_particles", 100))
-                      for n in names}
+            counts = {n: num_particles.get(n, EngineSettings.num_particles) for n in names}
         else:
             counts = {n: num_particles for n in names}
         for n, c in counts.items():
@@ -348,17 +412,22 @@ class Engine:
     def belief_type(self, variable: str) -> type:
         """Belief class of a variable (from its role)."""
         role = self.graph.variables[variable].role
-        bt = self.options.get("belief_types", {}).get(variable) or BELIEF_FOR_ROLE.get(role)
+        bt = self.belief_types.get(variable) or BELIEF_FOR_ROLE.get(role)
         if bt is None:
             raise ValueError(f"variable {variable!r}: no belief type for role {role!r} in this "
                              f"engine")
         return bt
 
-    def _factor_belief_type(self, factor: Factor) -> type:
+    def factor_belief_type(self, factor: Factor) -> type:
+        """The belief type a factor's rule is dispatched on (its first non-noise variable's)."""
         for v in factor.variables:
             if self.graph.variables[v].role != "noise":
                 return self.belief_type(v)
         return self.belief_type(factor.variables[0])
+
+    def rule_for(self, factor: Factor) -> Rule:
+        """The rule this engine applies to ``factor``."""
+        return self.rules.lookup(type(factor), self.factor_belief_type(factor))
 
     def _check_rules(self) -> None:
         """Fail at construction, naming the factor, if some stage has no rule."""
@@ -368,10 +437,11 @@ class Engine:
                 for item in items:
                     if stage in factor_stages:
                         f = self.graph.factors[item[0] if isinstance(item, tuple) else item]
-                        bt = self._factor_belief_type(f)
-                        if not self.rules.has(f.kind, bt):
+                        bt = self.factor_belief_type(f)
+                        if not self.rules.has(type(f), bt):
                             raise ValueError(f"factor {f.name!r}: no inference rule for "
-                                             f"({f.kind!r}, {bt.__name__}) in this engine")
+                                             f"({type(f).__name__}, {bt.__name__}) in this "
+                                             f"engine")
                     else:
                         bt = self.belief_type(item)
                         if not self.rules.has(stage, bt):
@@ -411,8 +481,7 @@ class Engine:
     # -- stages ------------------------------------------------------------------------
     def _apply_factor(self, name: str, frame: FrameContext, record: StepRecord) -> None:
         f = self.graph.factors[name]
-        rule = self.rules.lookup(f.kind, self._factor_belief_type(f))
-        info = rule(self, f, frame)
+        info = self.rule_for(f)(self, f, frame)
         if info:
             record.info[name] = info
 
@@ -433,7 +502,7 @@ class Engine:
             if isinstance(item, tuple):
                 name, src, dst = item
                 f = self.graph.factors[name]
-                rule = self.rules.lookup(f.kind, self.belief_type(dst))
+                rule = self.rules.lookup(type(f), self.belief_type(dst))
                 info = rule(self, f, frame, src, dst)
                 if info:
                     record.info.setdefault(name, {})[(src, dst)] = info
@@ -468,41 +537,56 @@ class Engine:
         return groups
 
     def _stage_weight(self, items, frame, record) -> None:
-        before = {v: self.beliefs[v] for v in self.beliefs
-                  if isinstance(self.beliefs[v], Particles)}
-        weighted: list[str] = []
+        """Apply the likelihood factors (the weight-stage contract: module docstring)."""
+        before: dict[str, Particles] = {}  # reweighted beliefs as they entered the stage
+        log_lik: dict[str, np.ndarray] = {}
         for group in self._weight_groups(items):
             fs = [self.graph.factors[n] for n in group]
             vs = [f.variables[0] for f in fs]
-            batchable = len(fs) > 1 and all(
-                self.rules.lookup("likelihood", type(self.beliefs[v])) is _weight_particles
-                for v in vs)
-            if batchable:
+            rules = [self.rule_for(f) for f in fs]
+            if len(fs) > 1 and all(r is _weight_particles for r in rules):
                 lls = type(fs[0]).log_likelihood_batch(fs, [self.beliefs[v].x for v in vs],
                                                        frame)
-                for f, v, ll in zip(fs, vs, lls, strict=True):
-                    _check_ll(f, ll, self.beliefs[v].num)
-                    self.beliefs[v] = self.beliefs[v].reweight(ll)
             else:
-                for name in group:
-                    self._apply_factor(name, frame, record)
-            for f in fs:
-                for v in f.variables:
-                    if v in before and v not in weighted:
-                        weighted.append(v)
-        for v in weighted:
-            b, b0 = self.beliefs[v], before[v]
-            if isinstance(b, Intensity):
-                continue  # a set's update is not a reweighting: no evidence/ESS here
-            log_lik = b.log_weights - b0.log_weights
-            if not b0.log_weights.min() > -np.inf:  # a zero-weight prior particle
-                with np.errstate(invalid="ignore"):
-                    log_lik = np.where(np.isfinite(b0.log_weights), log_lik, -np.inf)
-            self.evidence[v] = (b0.log_weights, log_lik)
+                lls = [self._likelihood_increment(f, r, frame, record)
+                       for f, r in zip(fs, rules, strict=True)]
+            for f, v, ll in zip(fs, vs, lls, strict=True):
+                if ll is None:  # a belief the rule updated itself
+                    continue
+                b = self.beliefs[v]
+                ll = _check_ll(f, ll, b.num)
+                before.setdefault(v, b)
+                log_lik[v] = log_lik[v] + ll if v in log_lik else ll
+                self.beliefs[v] = b.reweight(ll)
+        for v, b0 in before.items():
+            b = self.beliefs[v]
+            self.evidence[v] = (b0.log_weights, log_lik[v])
             record.log_evidence[v] = b.log_mass - b0.log_mass
             record.ess[v] = b.ess
-            if not isinstance(b, Intensity):
-                self.beliefs[v] = b.normalized()
+            self.beliefs[v] = b.normalized()
+
+    def _likelihood_increment(self, factor: Factor, rule: Rule, frame: FrameContext,
+                              record: StepRecord) -> np.ndarray | None:
+        """Call one likelihood rule; its increment, or None where it updated the belief."""
+        v = factor.variables[0]
+        b = self.beliefs[v]
+        out = rule(self, factor, frame)
+        if not likelihood_reweights(type(b)):
+            if out:
+                record.info[factor.name] = out
+            return None
+        if self.beliefs[v] is not b:
+            raise RuleContractError(
+                f"likelihood rule {getattr(rule, '__qualname__', rule)!r} for factor "
+                f"{factor.name!r} replaced the belief of {v!r}: on {type(b).__name__} a "
+                f"likelihood rule returns its log-likelihood increment (N,) and never moves, "
+                f"reorders or resamples particles")
+        if not isinstance(out, np.ndarray):
+            raise RuleContractError(
+                f"likelihood rule {getattr(rule, '__qualname__', rule)!r} for factor "
+                f"{factor.name!r} returned {type(out).__name__}, not its log-likelihood "
+                f"increment (an array of shape ({b.num},))")
+        return out
 
     def _stage_resample(self, items, frame, record) -> None:
         for v in items:
@@ -544,7 +628,7 @@ def _history_len(engine: Engine, variable: str) -> int:
     return max(0, getattr(trans[0], "order", 1) - 1) if trans else 0
 
 
-@DEFAULT_RULES.register("prior", Particles)
+@DEFAULT_RULES.register(PriorFactor, Particles)
 def _prior_particles(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     n = engine.num_particles[var]
@@ -553,7 +637,7 @@ def _prior_particles(engine: Engine, factor, frame) -> None:
     engine.beliefs[var] = cls.uniform(x, mass=1.0, history_len=_history_len(engine, var))
 
 
-@DEFAULT_RULES.register("transition", Particles)
+@DEFAULT_RULES.register(TransitionFactor, Particles)
 def _predict_particles(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     b: Particles = engine.beliefs[var]
@@ -569,14 +653,15 @@ def _check_ll(factor, ll, n: int) -> np.ndarray:
     if ll.shape != (n,):
         raise ValueError(f"factor {factor.name!r}: log_likelihood returned shape {ll.shape}, "
                          f"expected ({n},)")
+    if np.isnan(ll).any():  # NaN evidence is no evidence: -inf, as Particles.reweight does
+        ll = np.where(np.isnan(ll), -np.inf, ll)
     return ll
 
 
-@DEFAULT_RULES.register("likelihood", Particles)
-def _weight_particles(engine: Engine, factor, frame) -> None:
-    var = factor.variables[0]
-    b: Particles = engine.beliefs[var]
-    engine.beliefs[var] = b.reweight(_check_ll(factor, factor.log_likelihood(b.x, frame), b.num))
+@DEFAULT_RULES.register(LikelihoodFactor, Particles)
+def _weight_particles(engine: Engine, factor, frame) -> np.ndarray:
+    """The factor's log-likelihood at every particle: the increment the engine applies."""
+    return factor.log_likelihood(engine.beliefs[factor.variables[0]].x, frame)
 
 
 @DEFAULT_RULES.register("resample", Particles)

@@ -18,7 +18,7 @@ import numpy as np
 from pgm.core.graph import FactorGraph
 from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianTransition
 
-__all__ = ["KalmanResult", "kalman_filter", "linear_gaussian_matrices"]
+__all__ = ["KalmanResult", "kalman_filter", "kalman_update", "linear_gaussian_matrices"]
 
 
 @dataclass(frozen=True)
@@ -51,6 +51,23 @@ def linear_gaussian_matrices(graph: FactorGraph, variable: str) -> dict[str, np.
             "R": lik.R}
 
 
+def kalman_update(m: np.ndarray, P: np.ndarray, H: np.ndarray, R: np.ndarray,
+                  y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """One measurement update: posterior mean, covariance and ``log N(y; H m, S)``.
+
+    The one Kalman update of the package: :func:`kalman_filter` and the exact Gaussian
+    rules of :mod:`pgm.inference.vb` (including the VB adaptive Kalman filter) use it.
+    """
+    S = H @ P @ H.T + R
+    r = y - H @ m
+    K = np.linalg.solve(S, H @ P).T
+    m = m + K @ r
+    P = P - K @ S @ K.T
+    P = 0.5 * (P + P.T)
+    _, logdet = np.linalg.slogdet(2 * np.pi * S)
+    return m, P, float(-0.5 * (logdet + r @ np.linalg.solve(S, r)))
+
+
 def kalman_filter(m0, P0, F, Q, H, R, ys) -> KalmanResult:
     """Filter ``ys`` (shape ``(T, k)``; a row of NaN is a missing measurement)."""
     m = np.asarray(m0, dtype=float)
@@ -65,13 +82,6 @@ def kalman_filter(m0, P0, F, Q, H, R, ys) -> KalmanResult:
             P = F @ P @ F.T + Q
         y = ys[t]
         if np.all(np.isfinite(y)):
-            S = H @ P @ H.T + R
-            r = y - H @ m
-            K = np.linalg.solve(S, H @ P).T
-            m = m + K @ r
-            P = P - K @ S @ K.T
-            P = 0.5 * (P + P.T)
-            _, logdet = np.linalg.slogdet(2 * np.pi * S)
-            lls[t] = -0.5 * (logdet + r @ np.linalg.solve(S, r))
+            m, P, lls[t] = kalman_update(m, P, H, R, y)
         means[t], covs[t] = m, P
     return KalmanResult(means, covs, lls)

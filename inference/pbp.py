@@ -28,9 +28,9 @@ Two fusion rules, chosen by the engine option ``fusion``:
     leaves-to-root and a root-to-leaves sweep; loopy graphs use flooding rounds
     (:func:`pgm.inference.engine.message_order`).
 
-Options read from ``engine.options``: ``fusion``, ``message_weight`` (``"source"`` |
-``"target"``), ``message_particles`` (``M``; default ``N_β``: one message particle per
-predicted particle).
+Settings read from ``engine.settings`` (:class:`~pgm.inference.settings.EngineSettings`):
+``fusion``, ``message_weight`` (``"source"`` | ``"target"``), ``message_particles``
+(``M``; default ``N_β``: one message particle per predicted particle).
 """
 
 from __future__ import annotations
@@ -41,6 +41,7 @@ import numpy as np
 
 from pgm.core.beliefs import Particles
 from pgm.core.numerics import log_normalize, logsumexp
+from pgm.factors import CouplingFactor
 
 from .engine import DEFAULT_RULES, Engine
 
@@ -77,20 +78,17 @@ def _subsample(engine: Engine, log_weights: np.ndarray) -> tuple[np.ndarray | No
     """Indices of ``M`` message particles (``None``: all of them) and their prior
     log-weights (mass 1)."""
     n = log_weights.size
-    m = engine.options.get("message_particles") or n
-    if int(m) == n:
+    m = engine.settings.message_particles or n
+    if m == n:
         return None, log_weights  # all particles; prior weights are the normalised posterior
-    m = int(m)
-    if m < 1:
-        raise ValueError(f"message_particles must be positive, got {m}")
     idx = engine.resampler(engine.rng, np.exp(log_normalize(log_weights)), m)
     return idx, np.full(m, -np.log(m))
 
 
-@DEFAULT_RULES.register("coupling", Particles)
+@DEFAULT_RULES.register(CouplingFactor, Particles)
 def coupling_message(engine: Engine, factor, frame, src: str, dst: str) -> dict | None:
     """Compute the message ``src → dst`` of a coupling factor (mixture or product)."""
-    fusion = engine.options.get("fusion", "mixture")
+    fusion = engine.settings.fusion
     b_src: Particles = engine.beliefs[src]
     prior_lw, log_lik = _evidence(engine, src)
     if fusion == "mixture":
@@ -101,7 +99,7 @@ def coupling_message(engine: Engine, factor, frame, src: str, dst: str) -> dict 
         hist = [np.asarray(factor.map(pick(h), src), dtype=float)
                 for h in b_src.history[:n_hist]]
         hist += [x_msg.copy() for _ in range(n_hist - len(hist))]
-        mode = engine.options.get("message_weight", "source")
+        mode = engine.settings.message_weight
         if mode == "source":
             lw = lw_prior + pick(log_lik)
         elif mode == "target":
@@ -137,7 +135,7 @@ def fuse(engine: Engine, variable: str, frame) -> dict:
     b: Particles = engine.beliefs[variable]
     prior_lw, log_lik = _evidence(engine, variable)
     incoming = [msg for (_, dst), msg in engine.messages.items() if dst == variable]
-    if engine.options.get("fusion", "mixture") == "product":
+    if engine.settings.fusion == "product":
         lw = prior_lw + log_lik
         for msg in incoming:
             lw = lw + msg.log_values

@@ -20,7 +20,8 @@ A ``set`` variable's belief is an :class:`~pgm.Intensity`. Its rules:
   expected target here);
 * **estimate** — per-measurement extraction (Ristic, Clark & Vo 2010): report the
   weighted mean of measurement ``z``'s share of the persistent intensity when
-  ``W_z > 0.5``, merge estimates closer than ``merge_gate`` σ, then the track layer
+  ``W_z > 0.5``, merge estimates closer than the factor's ``merge_gate`` σ, then the
+  track layer (settings: the factor's ``tracks``)
   (:mod:`pgm.inference.tracks`) gives identities, confirmation, coasting and an
   existence score.
 """
@@ -32,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from pgm.core.beliefs import Intensity, Particles
+from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
 from pgm.factors.multitarget import PHDLikelihood
 
 from .engine import DEFAULT_RULES, Engine
@@ -85,14 +87,13 @@ def _install_tracks(engine: Engine, variable: str) -> None:
     trans = engine.graph.factors_of(variable, "transition")
     d = engine.graph.variables[variable].dim
     F = getattr(trans[0], "F", np.eye(d)) if trans else np.eye(d)
-    opts = engine.options
+    s = f.tracks
     engine.aux.setdefault(variable, {})["tracks"] = TrackManager(
-        F, f.H, np.sqrt(f.R), gate=opts.get("track_gate", 5.0),
-        confirm_hits=opts.get("confirm_hits", 3), max_coast=opts.get("max_coast", 2),
-        max_lost=opts.get("max_lost"))
+        F, f.H, np.sqrt(f.R), gate=s.gate, confirm_hits=s.confirm_hits,
+        max_coast=s.max_coast, max_lost=s.max_lost)
 
 
-@DEFAULT_RULES.register("prior", Intensity)
+@DEFAULT_RULES.register(PriorFactor, Intensity)
 def _prior_intensity(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     d = engine.graph.variables[var].dim
@@ -106,7 +107,7 @@ def _prior_intensity(engine: Engine, factor, frame) -> None:
     _install_tracks(engine, var)
 
 
-@DEFAULT_RULES.register("transition", Intensity)
+@DEFAULT_RULES.register(TransitionFactor, Intensity)
 def _predict_intensity(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     b: Intensity = engine.beliefs[var]
@@ -161,10 +162,14 @@ def _finish(engine: Engine, var: str, factor: PHDLikelihood, res: dict[str, Any]
     aux["last"] = res
 
 
-@DEFAULT_RULES.register("likelihood", Intensity)
+@DEFAULT_RULES.register(LikelihoodFactor, Intensity)
+def _appearance_on_intensity(engine: Engine, factor, frame) -> None:
+    """An appearance factor on a set: it enters inside the PHD corrector, not here."""
+    return None
+
+
+@DEFAULT_RULES.register(PHDLikelihood, Intensity)
 def _correct_intensity(engine: Engine, factor, frame) -> None:
-    if not isinstance(factor, PHDLikelihood):
-        return  # an appearance factor: it enters inside the PHD corrector
     var = factor.variables[0]
     res = _update(engine, var, factor, frame)
     _finish(engine, var, factor, res, factor.R)
@@ -176,7 +181,7 @@ def _resample_intensity(engine: Engine, variable: str, frame) -> dict[str, Any]:
     if b.num == 0:
         return {"resampled": False}
     mass = b.mass
-    budget = max(int(engine.options.get("min_particles", 200)),
+    budget = max(phd_factor_of(engine, variable).min_particles,
                  int(round(engine.num_particles[variable] * mass)))
     idx = engine.resampler(engine.rng, b.weights, budget)
     out = Intensity._trusted_set(b.x[idx], np.full(budget, np.log(mass / budget)),
@@ -220,7 +225,7 @@ def _estimate_intensity(engine: Engine, variable: str, frame) -> dict[str, Any]:
     if res is None:
         states, zi = np.zeros((0, d)), np.zeros(0, int)
     else:
-        states, zi = extract(res, engine.options.get("merge_gate", 2.0), gate_sigma)
+        states, zi = extract(res, factor.merge_gate, gate_sigma)
     sizes = None
     dets = getattr(frame, "detections", None)
     if dets is not None and len(zi):

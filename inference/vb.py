@@ -30,21 +30,23 @@ import numpy as np
 
 from pgm.core.beliefs import Intensity
 from pgm.core.expfam import Gaussian, InverseGamma
-from pgm.factors.multitarget import PHDLikelihood
+from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianTransition
+from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, PHDLikelihood, VBNoise
 
 from .engine import DEFAULT_RULES, Engine
+from .kalman import kalman_update
 from .phd import _finish, _update, phd_factor_of
 
 __all__ = ["vb_akf_update", "gaussian_elbo_terms"]
 
 
 # -- noise beliefs -------------------------------------------------------------------------
-@DEFAULT_RULES.register("prior", InverseGamma)
+@DEFAULT_RULES.register(InverseGammaPrior, InverseGamma)
 def _prior_noise(engine: Engine, factor, frame) -> None:
     engine.beliefs[factor.variables[0]] = factor.belief()
 
 
-@DEFAULT_RULES.register("transition", InverseGamma)
+@DEFAULT_RULES.register(NoiseForgetting, InverseGamma)
 def _forget_noise(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     engine.beliefs[var] = engine.beliefs[var].forget(factor.rho, factor.alpha_min)
@@ -55,18 +57,13 @@ def _estimate_noise(engine: Engine, variable: str, frame) -> np.ndarray:
     return engine.beliefs[variable].r_hat()
 
 
-@DEFAULT_RULES.register("resample", InverseGamma)
-def _no_resample(engine: Engine, variable: str, frame) -> None:
-    return None
-
-
 # -- exact Gaussian rules (Kalman) ------------------------------------------------------------
-@DEFAULT_RULES.register("prior", Gaussian)
+@DEFAULT_RULES.register(GaussianPrior, Gaussian)
 def _prior_gaussian(engine: Engine, factor, frame) -> None:
     engine.beliefs[factor.variables[0]] = Gaussian(factor.mean(), factor.cov)
 
 
-@DEFAULT_RULES.register("transition", Gaussian)
+@DEFAULT_RULES.register(LinearGaussianTransition, Gaussian)
 def _predict_gaussian(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     g: Gaussian = engine.beliefs[var]
@@ -81,14 +78,11 @@ def _measurement(factor, frame):
 
 
 def _kalman_update(g: Gaussian, H: np.ndarray, R: np.ndarray, z: np.ndarray) -> Gaussian:
-    S = H @ g.cov @ H.T + R
-    K = np.linalg.solve(S, H @ g.cov).T
-    m = g.mean + K @ (z - H @ g.mean)
-    P = g.cov - K @ S @ K.T
-    return Gaussian(m, 0.5 * (P + P.T))
+    m, P, _ = kalman_update(g.mean, g.cov, H, R, z)
+    return Gaussian(m, P)
 
 
-@DEFAULT_RULES.register("likelihood", Gaussian)
+@DEFAULT_RULES.register(LinearGaussianLikelihood, Gaussian)
 def _update_gaussian(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     z = _measurement(factor, frame)
@@ -141,7 +135,7 @@ def vb_akf_update(prior: Gaussian, q_pred: InverseGamma, H: np.ndarray, z: np.nd
     return g, q, {"iterations": it, "elbo": elbo, "r_hat": q.r_hat()}
 
 
-@DEFAULT_RULES.register("conjugate", Gaussian)
+@DEFAULT_RULES.register(VBNoise, Gaussian)
 def _vb_gaussian(engine: Engine, factor, frame) -> dict[str, Any] | None:
     noise, target = factor.variables
     liks = [f for f in engine.graph.factors_of(target, "likelihood")
@@ -265,7 +259,7 @@ def _vb_phd_per_track(engine: Engine, factor, frame) -> dict[str, Any]:
             "r_hat_by_label": {lab: r_hat[g] for g, lab in enumerate(uniq.tolist())}}
 
 
-@DEFAULT_RULES.register("conjugate", Intensity)
+@DEFAULT_RULES.register(VBNoise, Intensity)
 def _vb_phd(engine: Engine, factor, frame) -> dict[str, Any]:
     if getattr(factor, "per_track", False):
         return _vb_phd_per_track(engine, factor, frame)

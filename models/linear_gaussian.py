@@ -21,6 +21,7 @@ import numpy as np
 from pgm.core.graph import FactorGraph
 from pgm.core.variable import Variable
 from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianTransition
+from pgm.inference.settings import EngineSettings
 
 __all__ = ["Params", "build_graph", "simulate"]
 
@@ -55,7 +56,7 @@ def build_graph(params: Params, num_particles: int = 1000) -> FactorGraph:
          LinearGaussianTransition("x", F=params.F, Q=params.Q),
          LinearGaussianLikelihood("x", H=params.H, R=params.R)],
         name="linear-gaussian",
-        meta={"output": "x", "engine": {"num_particles": num_particles}},
+        meta={"output": "x", "engine": EngineSettings(num_particles=num_particles).to_dict()},
     )
 
 

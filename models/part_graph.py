@@ -30,9 +30,11 @@ import numpy as np
 
 from pgm.core.graph import FactorGraph
 from pgm.core.numerics import check_finite_param
+from pgm.core.readout import Targets, cxcywh_target, register_readout
 from pgm.core.variable import Variable
 from pgm.factors import AR2Transition, GaussianPrior
 from pgm.factors.couplings import AffineCoupling, RelativeBoxCoupling
+from pgm.inference.settings import EngineSettings
 from pgm.observation.appearance.likelihoods import (
     ColourContrastLikelihood,
     ColourHistogramLikelihood,
@@ -44,7 +46,7 @@ from pgm.observation.appearance.likelihoods import (
 )
 
 __all__ = ["Params", "build_graph", "split_box", "part_names", "BOX_LABELS",
-           "PAPER_PARTICLES"]
+           "PAPER_PARTICLES", "object_box"]
 
 BOX_LABELS = ("cx", "cy", "w", "h")
 #: particles per node (and per message) in seed 002's experiments
@@ -255,12 +257,23 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
                 names[i], names[j], rel_offset=(a[:2] - b[:2]) / b[2:], rel_size=a[2:] / b[2:],
                 std=std, jitter_std=jitter))
     n_particles = params.num_particles or PAPER_PARTICLES.get(n, 10)
-    engine = {"num_particles": int(n_particles)}
+    engine = EngineSettings(num_particles=int(n_particles))
     if n > 1:
-        engine.update(fusion=params.fusion, message_weight=params.message_weight,
-                      message_particles=int(params.message_particles or n_particles))
-    meta = {"output": names if n > 1 else names[0], "engine": engine}
+        engine = engine.replace(fusion=params.fusion, message_weight=params.message_weight,
+                                message_particles=int(params.message_particles or n_particles))
+    meta = {"output": names if n > 1 else names[0], "engine": engine.to_dict()}
     if n > 1:
+        meta["readout"] = "part-offsets"
         meta["part_offsets"] = {nm: (box - pb).tolist()
                                 for nm, pb in zip(names, parts, strict=True)}
     return FactorGraph(variables, factors, name=name, meta=meta)
+
+
+@register_readout("part-offsets")
+def object_box(graph: FactorGraph, record) -> Targets:
+    """The object box: the mean of the boxes its parts imply through their offsets
+    ``graph.meta["part_offsets"][part]`` (object box − part box at the start)."""
+    offsets = graph.meta.get("part_offsets", {})
+    implied = [np.asarray(record.estimates[n], dtype=float)[:4]
+               + np.asarray(offsets.get(n, np.zeros(4)), dtype=float) for n in graph.output]
+    return cxcywh_target(np.mean(implied, axis=0))

@@ -25,12 +25,19 @@ import numpy as np
 
 from pgm.core.graph import FactorGraph
 from pgm.core.numerics import check_finite_param
+from pgm.core.readout import Targets, register_readout
 from pgm.core.variable import Variable
 from pgm.factors import LinearGaussianTransition
-from pgm.factors.multitarget import IntensityPrior, PHDLikelihood, constant_velocity
+from pgm.factors.multitarget import (
+    IntensityPrior,
+    PHDLikelihood,
+    TrackSettings,
+    constant_velocity,
+)
+from pgm.inference.settings import EngineSettings
 
-__all__ = ["Params", "build_graph", "video_params", "STATE_LABELS", "H_POSITION",
-           "REFERENCE_HEIGHT"]
+__all__ = ["Params", "build_graph", "video_params", "foot_point_boxes", "STATE_LABELS",
+           "H_POSITION", "REFERENCE_HEIGHT"]
 
 STATE_LABELS = ("px", "vx", "py", "vy")
 H_POSITION = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]])
@@ -142,14 +149,28 @@ def build_graph(params: Params, name: str = "phd") -> FactorGraph:
         PHDLikelihood("targets", H=H_POSITION, R=[params.sigma**2] * 2,
                       p_detect=params.p_detect, clutter_rate=params.clutter_rate,
                       area=params.area, birth_rate=params.birth_rate, n_birth=params.n_birth,
-                      birth_velocity_std=params.birth_velocity_std, velocity_indices=(1, 3)),
+                      birth_velocity_std=params.birth_velocity_std, velocity_indices=(1, 3),
+                      min_particles=int(params.min_particles),
+                      merge_gate=float(check_finite_param("merge_gate", params.merge_gate,
+                                                          positive=True)),
+                      tracks=TrackSettings(
+                          confirm_hits=int(params.confirm_hits), max_coast=int(params.max_coast),
+                          max_lost=None if params.max_lost is None else int(params.max_lost))),
     ]
-    engine = {"num_particles": int(params.particles_per_target),
-              "min_particles": int(params.min_particles),
-              "confirm_hits": int(params.confirm_hits), "max_coast": int(params.max_coast)}
-    if params.max_lost is not None:
-        engine["max_lost"] = int(params.max_lost)
-    engine["merge_gate"] = float(check_finite_param("merge_gate", params.merge_gate,
-                                                    positive=True))
+    engine = EngineSettings(num_particles=int(params.particles_per_target))
     return FactorGraph([targets], factors, name=name,
-                       meta={"output": "targets", "engine": engine, "multi_target": True})
+                       meta={"output": "targets", "engine": engine.to_dict(),
+                             "readout": "phd-foot-points"})
+
+
+@register_readout("phd-foot-points")
+def foot_point_boxes(graph: FactorGraph, record) -> Targets:
+    """Reported tracks as boxes: the state ``[px, vx, py, vy]`` is a foot point
+    (bottom-centre) and the size comes from the track's associated detections; tracks
+    with no size yet are not reported."""
+    est = record.estimates[graph.output[0]]
+    ok = np.all(np.isfinite(est["sizes"]), axis=1)
+    ids, states, sizes = est["ids"][ok], est["states"][ok], est["sizes"][ok]
+    boxes = (np.column_stack([states[:, 0] - sizes[:, 0] / 2, states[:, 2] - sizes[:, 1], sizes])
+             if len(ids) else np.zeros((0, 4)))
+    return Targets(ids, boxes, est["existence"][ok], text=f"E[N]={est['expected_count']:.1f}")

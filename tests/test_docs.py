@@ -8,6 +8,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 TUTORIALS = sorted((ROOT / "docs" / "tutorials").glob("[0-9][0-9]_*.py"))
+SKELETONS = sorted((ROOT / "docs" / "skeletons").glob("*.py"))
 
 
 def test_there_are_tutorials():
@@ -22,6 +23,15 @@ def test_tutorial_runs(script, tmp_path):
     assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-4000:]
     assert "success AUC" in res.stdout or "frames" in res.stdout
     assert any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("script", SKELETONS, ids=lambda p: p.name)
+def test_skeleton_runs(script, tmp_path):
+    """The copy-me skeletons run as they are (their own asserts check the contract)."""
+    res = subprocess.run([sys.executable, str(script), "--out", str(tmp_path)],
+                         capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    assert res.returncode == 0, res.stdout[-2000:] + res.stderr[-4000:]
+    assert "rule calls checked" in res.stdout
 
 
 def test_readme_example_runs(shared_data, tmp_path, monkeypatch):

@@ -117,7 +117,7 @@ class MyParticles(Particles):
 def test_dispatch_walks_the_mro_and_missing_rules_fail_early(lg_problem):
     graph, ys, _ = lg_problem
     eng = Engine(graph, np.random.default_rng(0), num_particles=20,
-                 options={"belief_types": {"x": MyParticles}})
+                 belief_types={"x": MyParticles})
     rec = eng.step(_frames(ys)[0])
     assert type(rec.beliefs["x"]) is MyParticles
 
@@ -132,12 +132,12 @@ def test_dispatch_walks_the_mro_and_missing_rules_fail_early(lg_problem):
                      [GaussianPrior("a", mean=[0.0]), GaussianPrior("b", mean=[0.0]),
                       Stiff("a", "b")])
     rules = DEFAULT_RULES.copy()
-    rules.remove("coupling", Particles)
+    rules.remove(CouplingFactor, Particles)
     with pytest.raises(ValueError, match="factor 'coupling:a-b': no inference rule for "
-                                         r"\('coupling', Particles\)"):
+                                         r"\(Stiff, Particles\)"):
         Engine(g2, np.random.default_rng(0), rules=rules)
     calls = []
-    rules.register("coupling", Particles)(
+    rules.register(Stiff, Particles)(
         lambda eng, f, frame, src, dst: calls.append((f.name, src, dst)))
     eng2 = Engine(g2, np.random.default_rng(0), rules=rules, fusion="product",
                   inframe_iterations=2)
@@ -147,7 +147,7 @@ def test_dispatch_walks_the_mro_and_missing_rules_fail_early(lg_problem):
     # the default table is untouched
     from pgm.inference.pbp import coupling_message
 
-    assert DEFAULT_RULES.lookup("coupling", Particles) is coupling_message
+    assert DEFAULT_RULES.lookup(Stiff, Particles) is coupling_message
 
 
 def test_second_order_transition_starts_with_zero_velocity():

@@ -15,6 +15,7 @@ from pgm import (
 )
 from pgm.factors.couplings import AffineCoupling, RelativeBoxCoupling
 from pgm.inference import Engine, message_order
+from pgm.inference.settings import EngineSettings
 from pgm.models import colour_pf, part_graph
 from pgm.models.part_graph import split_box
 
@@ -129,7 +130,7 @@ def test_message_weight_target_uses_the_target_likelihood():
     frame = FrameContext(1, measurements={"a": np.array([0.0]), "b": np.array([0.0])})
     src = Engine(separation_graph(), np.random.default_rng(0), num_particles=50)
     tgt = Engine(separation_graph(), np.random.default_rng(0), num_particles=50,
-                 options={"message_weight": "target"})
+                 settings=EngineSettings(message_weight="target"))
     src.step(frame)
     tgt.step(frame)
     m_src, m_tgt = src.messages[("b", "a")], tgt.messages[("b", "a")]

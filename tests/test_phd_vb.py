@@ -82,7 +82,7 @@ def test_vb_engine_reproduces_the_vb_akf_to_1e10():
     ref = vb_akf_reference(m0, P0, np.full(2, alpha0), alpha0 * sigma0**2, ys, rho, alpha_min,
                            n_iter)
     eng = Engine(vb_akf_graph(m0, P0, sigma0, alpha0, rho, alpha_min, n_iter),
-                 np.random.default_rng(1), options={"belief_types": {"x": Gaussian}})
+                 np.random.default_rng(1), belief_types={"x": Gaussian})
     for t, z in enumerate(ys):
         rec = eng.step(FrameContext(t + 1, measurements=z))
         m, P, a, b = ref[t]
@@ -106,7 +106,7 @@ def test_vb_akf_follows_a_drifting_measurement_variance():
     _, ys = simulate_cv(rng, 400, sig)
     eng = Engine(vb_akf_graph(np.zeros(4), np.diag([4.0, 1.0, 4.0, 1.0]), np.ones(2), 10.0,
                               0.9, 2.0, 10),
-                 np.random.default_rng(1), options={"belief_types": {"x": Gaussian}})
+                 np.random.default_rng(1), belief_types={"x": Gaussian})
     est = np.array([np.sqrt(eng.step(FrameContext(t + 1, measurements=z)).estimates["noise"])
                     for t, z in enumerate(ys)])
     truth = np.array([sig(t) for t in range(400)])
@@ -120,14 +120,14 @@ def one_target_graph(m0, P0, p_detect=1.0, clutter=0.0, birth=0.0, vb=False, sig
          LinearGaussianTransition("targets", F=F, Q=Q, p_survive=1.0),
          PHDLikelihood("targets", H=H, R=[sigma**2] * 2, p_detect=p_detect,
                        clutter_rate=clutter, area=1e6, birth_rate=birth, n_birth=10,
-                       velocity_indices=(1, 3))]
+                       velocity_indices=(1, 3), min_particles=0)]
     v = [Variable("targets", 4, role="set")]
     if vb:
         v.append(Variable("noise", 2, role="noise"))
         f += [InverseGammaPrior("noise", sigma=[sigma] * 2, alpha=10.0),
               NoiseForgetting("noise", rho=0.8), VBNoise("noise", "targets", tol=tol,
                                                          max_iter=n_iter)]
-    return FactorGraph(v, f, meta={"engine": {"min_particles": 0}})
+    return FactorGraph(v, f)
 
 
 def test_phd_with_one_target_pd1_no_clutter_no_birth_is_the_bootstrap_filter():

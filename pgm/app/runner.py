@@ -19,10 +19,10 @@ from typing import Any
 
 import numpy as np
 
-from pgm.core.boxes import cxcywh_to_xywh
 from pgm.core.errors import InputError
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
+from pgm.core.readout import readout
 from pgm.evaluation.single_object import single_object_metrics
 from pgm.inference.engine import Engine, StepRecord
 from pgm.io.annotated_video import AnnotatedVideoWriter
@@ -65,19 +65,22 @@ class TrackResult:
 
 
 def output_box(graph: FactorGraph, record: StepRecord) -> np.ndarray:
-    """The object's ``(cx, cy, w, h)`` in one step record.
+    """The object's top-left ``(x, y, w, h)`` in one step record, from the graph's readout
+    (:mod:`pgm.core.readout`; the model config decides what its estimates mean)."""
+    targets = readout(graph, record)
+    if len(targets) != 1:
+        raise ValueError(f"model {graph.name!r} reported {len(targets)} targets; a "
+                         f"single-object run needs exactly one")
+    return targets.boxes[0]
 
-    ``graph.meta["output"]`` names the variable(s); with several (the parts of a part
-    graph), the object box is the mean of the boxes that each implies through its
-    offset ``graph.meta["part_offsets"][name]`` (object box − part box at start).
-    """
-    names = graph.output
-    if len(names) == 1:
-        return np.asarray(record.estimates[names[0]], dtype=float)[:4]
-    offsets = graph.meta.get("part_offsets", {})
-    implied = [np.asarray(record.estimates[n], dtype=float)[:4]
-               + np.asarray(offsets.get(n, np.zeros(4)), dtype=float) for n in names]
-    return np.mean(implied, axis=0)
+
+def _xy_columns(graph: FactorGraph, variable: str) -> list[int]:
+    """Columns of ``variable`` that hold an image position (by its labels)."""
+    labels = graph.variables[variable].labels or ()
+    for pair in (("cx", "cy"), ("px", "py"), ("x", "y")):
+        if all(name in labels for name in pair):
+            return [labels.index(pair[0]), labels.index(pair[1])]
+    return [0, 1]
 
 
 def init_box_from_gt(gt: SingleTrack, first_frame: int = 1) -> np.ndarray:
@@ -158,7 +161,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
             t0 = time.perf_counter()
             record = engine.step(ctx)
             seconds += time.perf_counter() - t0
-            box = cxcywh_to_xywh(output_box(engine.graph, record))
+            box = output_box(engine.graph, record)
             frames_done.append(int(number))
             boxes_done.append(box)
             if keep_records:
@@ -206,7 +209,7 @@ def _annotated_frame(engine: Engine, record: StepRecord, image: np.ndarray, box:
     particles = weights = parts = messages = None
     names = engine.graph.output
     if show_particles:
-        particles = {n: record.beliefs[n].x for n in names}
+        particles = {n: record.beliefs[n].x[:, _xy_columns(engine.graph, n)] for n in names}
         weights = {n: record.beliefs[n].weights for n in names}
         messages = {f"{s}->{d}": m.x for (s, d), m in record.messages.items()}
     if len(names) > 1:
@@ -261,6 +264,7 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
         source = open_source(source)
     var = graph.output[0]
     engine = Engine(graph, rng, **(engine_kwargs or {}))
+    noise = [v for v in engine.graph.variables.values() if v.role == "noise"]
     out = Path(out_dir) if out_dir is not None else None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
@@ -289,15 +293,10 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
             record = engine.step(ctx)
             secs += time.perf_counter() - t0
             n += 1
-            est = record.estimates[var]
-            noise = [v for v in engine.graph.variables.values() if v.role == "noise"]
             if noise:
                 sigmas.append(float(np.sqrt(np.mean(record.estimates[noise[0].name]))))
-            ok = np.all(np.isfinite(est["sizes"]), axis=1)
-            ids, states, sizes = est["ids"][ok], est["states"][ok], est["sizes"][ok]
-            boxes = np.column_stack([states[:, 0] - sizes[:, 0] / 2, states[:, 2] - sizes[:, 1],
-                                     sizes]) if len(ids) else np.zeros((0, 4))
-            conf = est["existence"][ok]
+            targets = readout(engine.graph, record)
+            ids, boxes, conf = targets.ids, targets.boxes, targets.scores
             rows_f += [number] * len(ids)
             rows_i += ids.tolist()
             rows_b += boxes.tolist()
@@ -308,14 +307,14 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
                 particles = None
                 if show_particles:
                     b = record.beliefs[var]
-                    particles = {var: b.x[:, [0, 2]]} if b.num else None
+                    particles = ({var: b.x[:, _xy_columns(engine.graph, var)]}
+                                 if b.num else None)
                 gt_boxes = None
                 if gt is not None:
                     gt_boxes = gt.at(number)[1]
                 video.write(annotate(image, boxes=boxes, ids=ids.tolist(), gt_boxes=gt_boxes,
                                      particles=particles,
-                                     text=f"{graph.name} frame {number} "
-                                          f"E[N]={est['expected_count']:.1f}"))
+                                     text=f"{graph.name} frame {number} {targets.text}"))
             if bar is not None:
                 bar.update(1)
     finally:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import ClassVar
 
 import numpy as np
 
@@ -42,6 +43,9 @@ class Particles:
     x: np.ndarray
     log_weights: np.ndarray
     history: tuple[np.ndarray, ...] = field(default=())
+    #: likelihood factors act on this belief by reweighting its particles (the engine's
+    #: weight-stage contract: a likelihood rule returns the increment, never moves them)
+    likelihood_reweights: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
         x = np.asarray(self.x, dtype=float)
@@ -198,6 +202,8 @@ class Intensity(Particles):
 
     newborn: Particles | None = None
     labels: np.ndarray | None = None
+    #: the PHD corrector is not a reweighting: its rule updates the intensity itself
+    likelihood_reweights: ClassVar[bool] = False
 
     @property
     def expected_count(self) -> float:

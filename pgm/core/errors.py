@@ -7,7 +7,7 @@ naming the problem. The CLI turns it into ``pgm: error: <message>`` and exit cod
 
 from __future__ import annotations
 
-__all__ = ["InputError", "DegenerateWeightsError"]
+__all__ = ["InputError", "DegenerateWeightsError", "RuleContractError"]
 
 
 class InputError(ValueError):
@@ -16,3 +16,10 @@ class InputError(ValueError):
 
 class DegenerateWeightsError(ValueError):
     """Every particle weight is zero (all log-weights are -inf or NaN)."""
+
+
+class RuleContractError(RuntimeError):
+    """An inference rule broke its contract (e.g. a likelihood rule moved particles).
+
+    A programming error in a rule, not bad input: it names the rule and the factor.
+    """

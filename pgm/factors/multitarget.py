@@ -17,6 +17,8 @@ r"""Factors for many targets (PHD filters) and for adaptive measurement noise (V
 
 from __future__ import annotations
 
+import dataclasses
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -27,8 +29,8 @@ from pgm.core.variable import Variable
 from pgm.factors.gaussian import _as_cov, _sqrt_psd
 from pgm.factors.kinds import ConjugateFactor, LikelihoodFactor, PriorFactor, TransitionFactor
 
-__all__ = ["IntensityPrior", "PHDLikelihood", "InverseGammaPrior", "NoiseForgetting",
-           "VBNoise", "constant_velocity"]
+__all__ = ["IntensityPrior", "PHDLikelihood", "TrackSettings", "InverseGammaPrior",
+           "NoiseForgetting", "VBNoise", "constant_velocity"]
 
 LOG_G_FLOOR = -300.0  # SPEC §3b numerics: below -708 numpy's exp goes subnormal and slow
 
@@ -76,6 +78,53 @@ class IntensityPrior(PriorFactor):
         return self.mean_.copy()
 
 
+@dataclass(frozen=True)
+class TrackSettings:
+    """The track layer on top of PHD extraction (:mod:`pgm.inference.tracks`).
+
+    Attributes
+    ----------
+    gate : float
+        Assignment gate in measurement σ.
+    confirm_hits : int
+        Hits before a track is confirmed (and given an identity).
+    max_coast : int
+        Frames a confirmed track is predicted and reported without a hit.
+    max_lost : int, optional
+        Frames a confirmed track is kept (unreported) for re-identification after
+        coasting (None: no lost stage).
+    """
+
+    gate: float = 5.0
+    confirm_hits: int = 3
+    max_coast: int = 2
+    max_lost: int | None = None
+
+    def __post_init__(self) -> None:
+        check_finite_param("tracks.gate", self.gate, positive=True)
+        for name in ("confirm_hits", "max_coast", "max_lost"):
+            v = getattr(self, name)
+            if v is None and name == "max_lost":
+                continue
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 0:
+                raise ValueError(f"tracks.{name} must be a non-negative integer, got {v!r}")
+
+    @classmethod
+    def coerce(cls, value: TrackSettings | dict[str, Any] | None, what: str) -> TrackSettings:
+        """``value`` as settings (a dict from a saved graph is checked key by key)."""
+        if value is None:
+            return cls()
+        if isinstance(value, cls):
+            return value
+        if not isinstance(value, dict):
+            raise ValueError(f"{what} must be TrackSettings or a dict, got {value!r}")
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(value) - names)
+        if unknown:
+            raise ValueError(f"{what}: unknown setting(s) {unknown} (known: {sorted(names)})")
+        return cls(**value)
+
+
 class PHDLikelihood(LikelihoodFactor):
     r"""Point measurements of a random finite set (particle PHD corrector, SPEC §3a).
 
@@ -104,12 +153,21 @@ class PHDLikelihood(LikelihoodFactor):
         State components drawn from ``N(0, birth_velocity_std²)`` at birth.
     appearance_temper : float
         ``γ``: exponent of the appearance terms (other likelihood factors on the set).
+    min_particles : int
+        Floor of the intensity's resampling budget
+        ``max(min_particles, round(num_particles · mass))``.
+    merge_gate : float
+        Extraction: estimates closer than this many σ are one target.
+    tracks : TrackSettings or dict
+        The track layer on top of extraction (identities, confirmation, coasting).
     """
 
     def __init__(self, variable: str, *, H, R, p_detect: float = 0.9,
                  clutter_rate: float = 1.0, area: float = 1.0, birth_rate: float = 0.1,
                  n_birth: int = 100, birth_velocity_std: float = 1.0,
                  velocity_indices=(), appearance_temper: float = 1.0,
+                 min_particles: int = 200, merge_gate: float = 2.0,
+                 tracks: TrackSettings | dict[str, Any] | None = None,
                  name: str | None = None):
         super().__init__(variable, name=name)
         self.H = np.atleast_2d(np.asarray(H, dtype=float))
@@ -138,6 +196,14 @@ class PHDLikelihood(LikelihoodFactor):
         self.velocity_indices = tuple(int(i) for i in velocity_indices)
         self.appearance_temper = float(check_finite_param(
             f"{self.name}.appearance_temper", appearance_temper, nonneg=True))
+        self.min_particles = int(min_particles)
+        if isinstance(min_particles, bool) or self.min_particles != min_particles \
+                or self.min_particles < 0:
+            raise ValueError(f"factor {self.name!r}: min_particles must be a non-negative "
+                             f"integer, got {min_particles!r}")
+        self.merge_gate = float(check_finite_param(f"{self.name}.merge_gate", merge_gate,
+                                                   positive=True))
+        self.tracks = TrackSettings.coerce(tracks, f"factor {self.name!r}: tracks")
         # rows of H that pick one component with coefficient 1 -> births invert them
         self._pos_index = [int(np.argmax(np.abs(row))) for row in self.H]
 
@@ -147,7 +213,9 @@ class PHDLikelihood(LikelihoodFactor):
                 "birth_rate": self.birth_rate, "n_birth": self.n_birth,
                 "birth_velocity_std": self.birth_velocity_std,
                 "velocity_indices": list(self.velocity_indices),
-                "appearance_temper": self.appearance_temper}
+                "appearance_temper": self.appearance_temper,
+                "min_particles": self.min_particles, "merge_gate": self.merge_gate,
+                "tracks": dataclasses.asdict(self.tracks)}
 
     def check(self, variables: dict[str, Variable]) -> None:
         v = variables[self.variables[0]]
