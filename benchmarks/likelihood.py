@@ -46,14 +46,13 @@ import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 
 from pgm.core.frame import FrameContext  # noqa: E402
-from pgm.observation.appearance.colour import (  # noqa: E402
+from pgm.observation.appearance.colour import ColourHistogramScorer, quantize_colour  # noqa: E402
+from pgm.observation.appearance.colour.cache import _FrameBins  # noqa: E402
+from pgm.observation.appearance.colour.integral import (  # noqa: E402
     _ROI_MARGIN,
-    ColourHistogramScorer,
     _bounds,
     _clear_scratch,
-    _FrameBins,
     _union_of,
-    quantize_colour,
 )
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "PETS09-S2L1"

@@ -29,7 +29,7 @@ from _common import print_table, single_thread  # noqa: E402
 single_thread()
 
 from pgm.core.frame import FrameContext  # noqa: E402
-from pgm.evaluation.mot import ospa  # noqa: E402
+from pgm.evaluation.set_distances import ospa  # noqa: E402
 from pgm.inference import Engine  # noqa: E402
 from pgm.models import phd, vb_phd  # noqa: E402
 

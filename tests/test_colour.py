@@ -7,17 +7,18 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from reference import reference_box_histograms
 
 from pgm.core.frame import FrameContext
-from pgm.observation.appearance import colour
 from pgm.observation.appearance.colour import (
     ColourHistogramScorer,
-    _reference_box_histograms,
     bhattacharyya,
     box_histograms,
     colour_bin_count,
     quantize_colour,
 )
+from pgm.observation.appearance.colour import cache as colour_cache
+from pgm.observation.appearance.colour import integral as colour_integral
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 
@@ -118,7 +119,7 @@ def test_box_histograms_equal_loop_reference(layout):
     boxes[:5] = [[-30, 40, 20, 20], [200, 40, 20, 20], [60, -70, 10, 10],  # outside
                  [0, 0, 40, 40], [130.5, 96.5, 3, 3]]                     # corners
     hist, in_frac = box_histograms(bins, n_bins, boxes)
-    counts, ref_frac = _reference_box_histograms(bins, n_bins, boxes)
+    counts, ref_frac = reference_box_histograms(bins, n_bins, boxes)
     assert hist.shape == (400, n_bins) and hist.dtype == np.float64
     np.testing.assert_array_equal(in_frac, ref_frac)
     inside = counts.sum(axis=1)
@@ -140,13 +141,13 @@ def test_all_integral_paths_equal_reference(monkeypatch, n_boxes, layout):
     img = rng.integers(0, 256, (80, 90, 3), dtype=np.uint8)
     bins, n_bins = quantize_colour(img, layout)
     boxes = _random_boxes(rng, n_boxes, 90, 80)
-    counts, _ = _reference_box_histograms(bins, n_bins, boxes)
+    counts, _ = reference_box_histograms(bins, n_bins, boxes)
     ref = counts / np.maximum(counts.sum(axis=1), 1)[:, None]
     for bias, block, onehot in [(0.0, 1, 1 << 40), (0.0, 50_000, 1 << 40),
                                 (0.0, 50_000, 1), (0.0, 1, 1), (1e9, 1 << 20, 1 << 40)]:
-        monkeypatch.setattr(colour, "_COMPRESS_BIAS", bias)
-        monkeypatch.setattr(colour, "_BLOCK_BYTES", block)
-        monkeypatch.setattr(colour, "_ONEHOT_BYTES", onehot)
+        monkeypatch.setattr(colour_integral, "_COMPRESS_BIAS", bias)
+        monkeypatch.setattr(colour_integral, "_BLOCK_BYTES", block)
+        monkeypatch.setattr(colour_integral, "_ONEHOT_BYTES", onehot)
         hist, _ = box_histograms(bins, n_bins, boxes)
         np.testing.assert_allclose(hist, ref, rtol=0, atol=1e-12)
 
@@ -161,10 +162,10 @@ def test_counts_paths_on_clustered_boxes(method):
         for n in (5, 30, 200):
             boxes = np.column_stack([centre + 12 * rng.standard_normal((n, 2)),
                                      np.full(n, 40.0), np.full(n, 80.0)])
-            xa, xb, ya, yb, _, _ = colour._pixel_bounds(boxes, *bins.shape)
-            counts = colour._corner_counts(bins, xa, xb, ya, yb, np.arange(n_bins),
+            xa, xb, ya, yb, _, _ = colour_integral._pixel_bounds(boxes, *bins.shape)
+            counts = colour_integral._corner_counts(bins, xa, xb, ya, yb, np.arange(n_bins),
                                            n_bins, method)
-            ref, _ = _reference_box_histograms(bins, n_bins, boxes)
+            ref, _ = reference_box_histograms(bins, n_bins, boxes)
             np.testing.assert_array_equal(counts.T, ref)
 
 
@@ -203,7 +204,7 @@ def test_rho_equals_reference(layout):
     q = scorer.template(ctx, (50, 40, 40, 40))
     assert q.shape == (scorer.n_bins,) and q.sum() == pytest.approx(1.0)
     boxes = _random_boxes(rng, 300, 120, 90)
-    counts, frac = _reference_box_histograms(scorer.bins(ctx), scorer.n_bins, boxes)
+    counts, frac = reference_box_histograms(scorer.bins(ctx), scorer.n_bins, boxes)
     p = counts / np.maximum(counts.sum(axis=1), 1)[:, None]
     expected = np.sqrt(p) @ np.sqrt(q) * frac
     np.testing.assert_allclose(scorer.rho(ctx, boxes), expected, rtol=0, atol=1e-12)
@@ -289,13 +290,13 @@ def test_grid_kernels_approximate_and_normalise():
 def _count_quantisation(monkeypatch):
     """Record ``(layout, (h, w))`` of every region quantisation."""
     calls = []
-    real = colour._quantize_bgr
+    real = colour_cache._quantize_bgr
 
     def counting(img, canon):
         calls.append((canon[0], img.shape[:2]))
         return real(img, canon)
 
-    monkeypatch.setattr(colour, "_quantize_bgr", counting)
+    monkeypatch.setattr(colour_cache, "_quantize_bgr", counting)
     return calls
 
 
@@ -330,7 +331,7 @@ def test_only_the_boxes_union_is_quantised(monkeypatch):
     ctx = FrameContext(1, img)
     scorer = ColourHistogramScorer()
     scorer.template(ctx, box)                          # 30x50 box at (70, 60)
-    m = colour._ROI_MARGIN
+    m = colour_integral._ROI_MARGIN
     assert calls == [("perez", (50 + 2 * m, 30 + 2 * m))]
     frame = ctx._cache[scorer.cache_key]
     assert frame.rect == (55 - m, 85 + m, 35 - m, 85 + m)
@@ -367,7 +368,7 @@ def test_scorers_sharing_a_layout_quantise_overlaps_once(monkeypatch, call_pixel
     # three band scorers of one face (a part graph) on one frame: the first
     # quantises its band's boxes, the others only the strips they add (or, when a
     # call costs more than re-quantising the old rectangle, the new bounding box)
-    monkeypatch.setattr(colour, "_CALL_PIXELS", call_pixels)
+    monkeypatch.setattr(colour_cache, "_CALL_PIXELS", call_pixels)
     rng = np.random.default_rng(64)
     img = rng.integers(0, 256, (120, 160, 3), dtype=np.uint8)
     full_bins = quantize_colour(img)[0]
@@ -382,12 +383,12 @@ def test_scorers_sharing_a_layout_quantise_overlaps_once(monkeypatch, call_pixel
     for s, band in zip(scorers, bands, strict=True):
         boxes = band + np.column_stack([rng.normal(0, 1.5, (10, 2)), np.zeros((10, 2))])
         rhos.append(s.rho(ctx, boxes))
-        counts, frac = _reference_box_histograms(full_bins, s.n_bins, boxes)
+        counts, frac = reference_box_histograms(full_bins, s.n_bins, boxes)
         p = counts / np.maximum(counts.sum(axis=1), 1)[:, None]
         np.testing.assert_allclose(rhos[-1], np.sqrt(p) @ np.sqrt(s.q) * frac, atol=1e-12)
     frame = ctx._cache[scorers[0].cache_key]
     x0, x1, y0, y1 = frame.rect
-    slack = colour._ROI_MARGIN + 8                     # margin + jitter
+    slack = colour_integral._ROI_MARGIN + 8                     # margin + jitter
     assert (x0 >= 60 - slack and x1 <= 100 + slack and y0 >= 30 - slack
             and y1 <= 90 + slack)                      # the face (60..100, 30..90)
     assert frame.pixels == sum(h * w for _, (h, w) in calls)
@@ -426,7 +427,7 @@ def test_request_after_full_frame_bins_costs_nothing(monkeypatch):
 @pytest.mark.parametrize("kernel,bias", [("uniform", 0.0), ("uniform", 1e9),
                                          ("epanechnikov", 1.0), ("grid-uniform", 1.0)])
 def test_lazy_scoring_of_boxes_partly_outside_matches_reference(monkeypatch, kernel, bias):
-    monkeypatch.setattr(colour, "_COMPRESS_BIAS", bias)   # dense / compressed counts
+    monkeypatch.setattr(colour_integral, "_COMPRESS_BIAS", bias)   # dense / compressed counts
     rng = np.random.default_rng(66)
     img = rng.integers(0, 256, (70, 100, 3), dtype=np.uint8)
     boxes = _random_boxes(rng, 60, 100, 70)
@@ -445,7 +446,7 @@ def test_lazy_scoring_of_boxes_partly_outside_matches_reference(monkeypatch, ker
         np.testing.assert_array_equal(hist, ref_hist)
         np.testing.assert_array_equal(frac, ref_frac)
         if kernel == "uniform":
-            counts, ref = _reference_box_histograms(quantize_colour(img)[0], lazy.n_bins,
+            counts, ref = reference_box_histograms(quantize_colour(img)[0], lazy.n_bins,
                                                     boxes[:n])
             np.testing.assert_array_equal(frac, ref)
             inside = counts.sum(axis=1)

@@ -14,15 +14,12 @@ from hypothesis import strategies as st
 from pgm.core.errors import InputError
 from pgm.evaluation.mot import (
     apply_ignore_regions,
-    cardinality_error,
     evaluate_mot,
     evaluate_mot_files,
     foot_points,
     format_mot_table,
-    ospa,
-    ospa2,
-    ospa_components,
 )
+from pgm.evaluation.set_distances import cardinality_error, ospa, ospa2, ospa_components
 from pgm.io.annotations import MotTable, load_mot
 
 # --------------------------------------------------------------------------- OSPA

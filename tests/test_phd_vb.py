@@ -229,7 +229,7 @@ def test_vb_phd_noise_follows_a_drifting_sigma_and_beats_fixed_sigma():
     the PHD with the fixed initial σ = 2 loses the target on 48-60 % of the frames,
     VB-PHD on 0-2 %; OSPA(20, 1) of the raw extraction drops accordingly.
     """
-    from pgm.evaluation.mot import ospa
+    from pgm.evaluation.set_distances import ospa
 
     rels, ospas = [], {"phd": [], "vb-phd": []}
     for seed in (4, 5, 6):

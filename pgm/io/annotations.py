@@ -27,6 +27,8 @@ __all__ = [
     "SingleTrack",
     "MotTable",
     "MotWriter",
+    "write_otb_groundtruth",
+    "format_numbers",
     "load_single_gt",
     "load_mot",
     "load_tracks",
@@ -381,13 +383,29 @@ def load_tracks(path: str | Path) -> MotTable:
     return table
 
 
-def _fmt(values: np.ndarray) -> list[str]:
-    """Numbers with up to 3 decimals, trailing zeros dropped (``71.0`` -> ``71``)."""
+def format_numbers(values: np.ndarray, decimals: int = 3) -> list[str]:
+    """Numbers with up to ``decimals`` decimals, trailing zeros dropped (``71.0`` -> ``71``)."""
     out = []
-    for v in np.round(values, 3).tolist():
-        s = f"{v:.3f}".rstrip("0").rstrip(".")
+    for v in np.round(np.asarray(values, dtype=float), decimals).reshape(-1).tolist():
+        s = f"{v:.{decimals}f}".rstrip("0").rstrip(".")
         out.append("0" if s in ("-0", "") else s)
     return out
+
+
+def write_otb_groundtruth(path: str | Path, boxes_xywh0: np.ndarray, decimals: int = 6) -> Path:
+    """Write an OTB ``groundtruth_rect.txt``: one ``x,y,w,h`` line per frame (1-based
+    top-left), ``NaN,NaN,NaN,NaN`` for a row of NaN (the object is not in the image)."""
+    path = Path(path)
+    boxes = np.asarray(boxes_xywh0, dtype=float).reshape(-1, 4)
+    lines = []
+    for b in boxes:
+        if not np.all(np.isfinite(b)):
+            lines.append("NaN,NaN,NaN,NaN")
+        else:
+            lines.append(",".join(format_numbers(b + [1.0, 1.0, 0.0, 0.0], decimals)))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\n".join(lines) + "\n")
+    return path
 
 
 class MotWriter:
@@ -402,6 +420,8 @@ class MotWriter:
     ----------
     path : str or Path
         Output file.
+    decimals : int
+        Decimals written (3 for tracker output; ground truth keeps more).
 
     Examples
     --------
@@ -409,8 +429,9 @@ class MotWriter:
     ...     w.write(1, [3], [[10.0, 20.0, 30.0, 60.0]], [0.9])
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, decimals: int = 3) -> None:
         self.path = Path(path)
+        self.decimals = int(decimals)
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._fh: IO[str] | None = open(self.path, "w", encoding="utf-8", newline="\n")
@@ -452,7 +473,8 @@ class MotWriter:
             raise InputError(f"non-finite box or confidence in frame {frame} of {self.path}")
         out = boxes.copy()
         out[:, :2] += 1.0
-        cols = [_fmt(out[:, j]) for j in range(4)] + [_fmt(conf)]
+        cols = [format_numbers(out[:, j], self.decimals) for j in range(4)] + \
+            [format_numbers(conf, self.decimals)]
         ids_i = ids_a.astype(np.int64).tolist()
         f = int(frame)
         text = "".join(f"{f},{i},{x},{y},{w},{h},{c},-1,-1,-1\n"
@@ -460,6 +482,21 @@ class MotWriter:
         self._fh.write(text)
         self._fh.flush()
         self.rows_written += n
+
+    def write_rows(self, frames: np.ndarray, ids: np.ndarray, boxes_xywh0: np.ndarray,
+                   confs: np.ndarray | None = None) -> None:
+        """Append many rows at once, frame by frame in the order given (a whole table)."""
+        frames = np.asarray(frames).reshape(-1)
+        ids = np.asarray(ids).reshape(-1)
+        boxes = np.asarray(boxes_xywh0, dtype=float).reshape(-1, 4)
+        conf = np.ones(len(frames)) if confs is None else np.asarray(confs, float).reshape(-1)
+        if not len(frames) == len(ids) == len(boxes) == len(conf):
+            raise InputError(f"{len(frames)} frames, {len(ids)} ids, {len(boxes)} boxes and "
+                             f"{len(conf)} confidences for {self.path}")
+        cut = np.flatnonzero(np.diff(frames) != 0) + 1
+        for lo, hi in zip(np.r_[0, cut], np.r_[cut, len(frames)], strict=True):
+            if hi > lo:
+                self.write(frames[lo], ids[lo:hi], boxes[lo:hi], conf[lo:hi])
 
     def close(self) -> None:
         """Close the file (idempotent)."""

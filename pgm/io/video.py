@@ -41,6 +41,7 @@ import cv2
 import numpy as np
 
 from pgm.core.errors import InputError
+from pgm.io.annotations import format_numbers
 
 __all__ = [
     "IMAGE_EXTENSIONS",
@@ -50,6 +51,8 @@ __all__ = [
     "VideoSource",
     "open_source",
     "natural_key",
+    "write_image_sequence",
+    "write_seqinfo",
 ]
 
 IMAGE_EXTENSIONS: frozenset[str] = frozenset({".jpg", ".jpeg", ".png", ".bmp", ".tif", ".tiff"})
@@ -490,3 +493,29 @@ def open_source(path: str | Path) -> FrameSource:
     return VideoSource(p, name=p.stem, layout="video",
                        gt_path=gt if in_mot and gt.is_file() else None, gt_format="mot",
                        det_path=det if in_mot and det.is_file() else None)
+
+
+# -- writing --------------------------------------------------------------------------
+def write_image_sequence(folder: str | Path, frames, pattern: str = "{:06d}.png",
+                         start: int = 1) -> Path:
+    """Write BGR ``frames`` as numbered images ``folder/pattern.format(k)`` from ``start``
+    (PNG at fast compression). Returns the folder."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    for k, img in enumerate(frames, start=start):
+        path = folder / pattern.format(k)
+        if not cv2.imwrite(str(path), img, [cv2.IMWRITE_PNG_COMPRESSION, 1]):
+            raise InputError(f"could not write image {path}")
+    return folder
+
+
+def write_seqinfo(folder: str | Path, *, name: str, fps: float, length: int, width: int,
+                  height: int, im_dir: str = "img1", im_ext: str = ".png") -> Path:
+    """Write a MOTChallenge ``seqinfo.ini`` (what :func:`open_source` reads back)."""
+    path = Path(folder) / "seqinfo.ini"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("[Sequence]\n"
+                    f"name={name}\nimDir={im_dir}\nframeRate={format_numbers([fps], 6)[0]}\n"
+                    f"seqLength={int(length)}\nimWidth={int(width)}\nimHeight={int(height)}\n"
+                    f"imExt={im_ext}\n")
+    return path

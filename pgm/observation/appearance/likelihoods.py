@@ -14,7 +14,8 @@ shared with every other factor using the same bin layout.
 
 from __future__ import annotations
 
-from typing import Any
+from abc import abstractmethod
+from typing import Any, ClassVar
 
 import cv2
 import numpy as np
@@ -26,30 +27,80 @@ from pgm.factors import LikelihoodFactor
 from pgm.observation.appearance.colour import ColourHistogramScorer, pixel_bounds
 from pgm.observation.appearance.gmm import MixtureTemplate, SharedComponentKL, fit_template, literal_kl
 
-__all__ = ["ColourHistogramLikelihood", "FragmentsLikelihood", "GradientLikelihood",
-           "RotationInvariantLikelihood", "GMMKLLikelihood", "ColourContrastLikelihood",
-           "TemplateLikelihood"]
+__all__ = ["BoxAppearanceLikelihood", "ColourHistogramLikelihood", "FragmentsLikelihood",
+           "GradientLikelihood", "RotationInvariantLikelihood", "GMMKLLikelihood",
+           "ColourContrastLikelihood", "TemplateLikelihood"]
 
 
 
-def _adapt_rate(factor: LikelihoodFactor, value: float) -> float:
-    """A validated adaptation rate in [0, 1] (0: the factor does not learn)."""
-    rate = float(check_finite_param(f"{factor.name}.adapt_rate", value, nonneg=True))
-    if rate > 1:
-        raise ValueError(f"factor {factor.name!r}: adapt_rate must be in [0, 1]")
-    return rate
+class BoxAppearanceLikelihood(LikelihoodFactor):
+    """Base of the appearance factors: a box ``(cx, cy, w, h)`` inside a variable's state
+    scored against an appearance model learned in the first frame.
 
+    It holds what every appearance cue shares: ``lam`` (the likelihood's sharpness),
+    ``box_indices`` (where ``cx, cy, w, h`` sit in the state), :meth:`boxes`, the check
+    that the indices fit the variable, ``adapt_rate`` (in [0, 1]; the factor learns
+    after each frame only when it is positive) and the first-frame protocol:
+    :meth:`initialize` calls the subclass's :meth:`learn` at the prior mean unless the
+    model (the attribute named by ``model_attr``) was given, and :meth:`require_model`
+    refuses to score without one.
+    """
 
-class _Adaptive:
-    """Mixin: a factor that learns (has :meth:`update` called) when ``adapt_rate > 0``."""
+    abstract = True
+    #: the attribute holding the appearance model (None until given or learned)
+    model_attr: ClassVar[str] = "template"
 
-    adapt_rate: float = 0.0
+    def __init__(self, variable: str, *, lam: float, box_indices=(0, 1, 2, 3),
+                 adapt_rate: float = 0.0, name: str | None = None):
+        super().__init__(variable, name=name)
+        self.lam = float(check_finite_param(f"{self.name}.lam", lam, positive=True))
+        self.box_indices = tuple(int(i) for i in box_indices)
+        if len(self.box_indices) != 4:
+            raise ValueError(f"factor {self.name!r}: box_indices must have 4 entries")
+        self.adapt_rate = float(check_finite_param(f"{self.name}.adapt_rate", adapt_rate,
+                                                   nonneg=True))
+        if self.adapt_rate > 1:
+            raise ValueError(f"factor {self.name!r}: adapt_rate must be in [0, 1]")
 
     @property
     def learns(self) -> bool:
+        """Whether :meth:`update` runs after each frame (``adapt_rate > 0``)."""
         return self.adapt_rate > 0
 
-class ColourHistogramLikelihood(_Adaptive, LikelihoodFactor):
+    @property
+    def has_model(self) -> bool:
+        """Whether the appearance model is there (given, or learned in the first frame)."""
+        return getattr(self, self.model_attr, None) is not None
+
+    def require_model(self) -> None:
+        """Raise a ``ValueError`` naming the factor when there is no model to score with."""
+        if not self.has_model:
+            raise ValueError(f"factor {self.name!r} has no {self.model_attr}: give one or run "
+                             f"it from the first frame")
+
+    def check(self, variables: dict[str, Variable]) -> None:
+        dim = variables[self.variables[0]].dim
+        if max(self.box_indices) >= dim:
+            raise ValueError(f"factor {self.name!r}: box_indices {self.box_indices} do not fit "
+                             f"variable {self.variables[0]!r} of dim {dim}")
+
+    def boxes(self, x: np.ndarray) -> np.ndarray:
+        """Boxes ``(N, 4)`` ``(cx, cy, w, h)`` of particles ``x``."""
+        i = self.box_indices
+        if i == (i[0], i[0] + 1, i[0] + 2, i[0] + 3):
+            return x[:, i[0]:i[0] + 4]  # a view: no copy on the hot path
+        return x[:, list(i)]
+
+    def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:
+        """Learn the model from the first frame at the state ``value`` (unless given)."""
+        if not self.has_model:
+            self.learn(ctx, np.asarray(value, dtype=float))
+
+    @abstractmethod
+    def learn(self, ctx: FrameContext, value: np.ndarray) -> None:
+        """Set the appearance model from frame ``ctx`` at the state ``value`` ``(d,)``."""
+
+class ColourHistogramLikelihood(BoxAppearanceLikelihood):
     """Colour-histogram likelihood of a box variable ``(cx, cy, w, h, ...)``.
 
     Parameters
@@ -83,17 +134,13 @@ class ColourHistogramLikelihood(_Adaptive, LikelihoodFactor):
                  n_h: int = 16, n_s: int = 4, n_v: int | None = None, kernel: str = "uniform",
                  template=None, box_indices=(0, 1, 2, 3), adapt_rate: float = 0.0,
                  adapt_threshold: float = 0.8, name: str | None = None):
-        super().__init__(variable, name=name)
-        self.adapt_rate = _adapt_rate(self, adapt_rate)
+        super().__init__(variable, lam=lam, box_indices=box_indices, adapt_rate=adapt_rate,
+                         name=name)
         self.adapt_threshold = float(check_finite_param(f"{self.name}.adapt_threshold",
                                                         adapt_threshold))
-        self.lam = float(check_finite_param(f"{self.name}.lam", lam, positive=True))
         self.layout, self.kernel = layout, kernel
         self.n_h, self.n_s = int(n_h), int(n_s)
         self.n_v = None if n_v is None else int(n_v)
-        self.box_indices = tuple(int(i) for i in box_indices)
-        if len(self.box_indices) != 4:
-            raise ValueError(f"factor {self.name!r}: box_indices must have 4 entries")
         self.scorer = ColourHistogramScorer(layout=layout, n_h=self.n_h, n_s=self.n_s,
                                             n_v=self.n_v, kernel=kernel)
         self.template = None if template is None else np.asarray(template, dtype=float)
@@ -123,30 +170,14 @@ class ColourHistogramLikelihood(_Adaptive, LikelihoodFactor):
         current = np.asarray(self.scorer.template(frame, box), dtype=float)
         self.template = (1 - self.adapt_rate) * self.template + self.adapt_rate * current
 
-    def check(self, variables: dict[str, Variable]) -> None:
-        dim = variables[self.variables[0]].dim
-        if max(self.box_indices) >= dim:
-            raise ValueError(f"factor {self.name!r}: box_indices {self.box_indices} do not fit "
-                             f"variable {self.variables[0]!r} of dim {dim}")
-
-    def boxes(self, x: np.ndarray) -> np.ndarray:
-        """Boxes ``(N, 4)`` ``(cx, cy, w, h)`` of particles ``x``."""
-        i = self.box_indices
-        if i == (i[0], i[0] + 1, i[0] + 2, i[0] + 3):
-            return x[:, i[0]:i[0] + 4]  # a view: no copy on the hot path
-        return x[:, list(i)]
-
-    def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:
-        """Take the template from the first frame at the box ``value`` (if not given)."""
-        if self.template is None:
-            box = np.asarray(value, dtype=float)[list(self.box_indices)]
-            self.template = np.asarray(self.scorer.template(ctx, box), dtype=float)
+    def learn(self, ctx: FrameContext, value: np.ndarray) -> None:
+        """The template: the colour histogram of the first frame's box."""
+        box = value[list(self.box_indices)]
+        self.template = np.asarray(self.scorer.template(ctx, box), dtype=float)
 
     def rho(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         """Bhattacharyya coefficients ``(N,)`` (× in-image fraction of each box)."""
-        if self.template is None:
-            raise ValueError(f"factor {self.name!r} has no template: give one or run it from "
-                             f"the first frame")
+        self.require_model()
         return self.scorer.rho(ctx, self.boxes(x), self.template)
 
     def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
@@ -171,7 +202,7 @@ class ColourHistogramLikelihood(_Adaptive, LikelihoodFactor):
         return np.split(out, np.cumsum([len(x) for x in xs])[:-1])
 
 
-class FragmentsLikelihood(LikelihoodFactor):
+class FragmentsLikelihood(BoxAppearanceLikelihood):
     """Fragment-based colour likelihood (Adam, Rivlin & Shimshoni 2006, "FragTrack").
 
     The box is cut into a ``grid = (columns, rows)`` of sub-regions, each scored
@@ -188,11 +219,12 @@ class FragmentsLikelihood(LikelihoodFactor):
         \\log p(z \\mid X) = -\\lambda\\,(1 - Q_q\\{\\rho_f(X)\\}_f)
     """
 
+    model_attr = "templates"
+
     def __init__(self, variable: str, *, lam: float = 20.0, grid=(3, 3), quantile: float = 0.5,
                  layout: str = "perez", n_h: int = 16, n_s: int = 4, n_v: int | None = None,
                  templates=None, box_indices=(0, 1, 2, 3), name: str | None = None):
-        super().__init__(variable, name=name)
-        self.lam = float(check_finite_param(f"{self.name}.lam", lam, positive=True))
+        super().__init__(variable, lam=lam, box_indices=box_indices, name=name)
         self.grid = (int(grid[0]), int(grid[1]))
         if min(self.grid) < 1:
             raise ValueError(f"factor {self.name!r}: grid must be positive, got {grid!r}")
@@ -201,7 +233,6 @@ class FragmentsLikelihood(LikelihoodFactor):
             raise ValueError(f"factor {self.name!r}: quantile must be in [0, 1]")
         self.layout, self.n_h, self.n_s = layout, int(n_h), int(n_s)
         self.n_v = None if n_v is None else int(n_v)
-        self.box_indices = tuple(int(i) for i in box_indices)
         self.scorer = ColourHistogramScorer(layout=layout, n_h=self.n_h, n_s=self.n_s,
                                             n_v=self.n_v)
         self.templates = None if templates is None else np.asarray(templates, dtype=float)
@@ -228,21 +259,19 @@ class FragmentsLikelihood(LikelihoodFactor):
         return np.column_stack([(b[:, 0:1] + ox).ravel(), (b[:, 1:2] + oy).ravel(),
                                 np.repeat(fw, f), np.repeat(fh, f)])
 
-    def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:
-        if self.templates is None:
-            box = np.asarray(value, dtype=float)[list(self.box_indices)][None]
-            hist, in_frac = self.scorer.histograms(ctx, self.fragments(box))
-            if np.any(in_frac <= 0):
-                raise ValueError(f"factor {self.name!r}: a fragment of the initial box lies "
-                                 f"outside the image")
-            self.templates = hist / hist.sum(axis=1, keepdims=True)
+    def learn(self, ctx: FrameContext, value: np.ndarray) -> None:
+        """One template histogram per fragment of the first frame's box."""
+        box = value[list(self.box_indices)][None]
+        hist, in_frac = self.scorer.histograms(ctx, self.fragments(box))
+        if np.any(in_frac <= 0):
+            raise ValueError(f"factor {self.name!r}: a fragment of the initial box lies "
+                             f"outside the image")
+        self.templates = hist / hist.sum(axis=1, keepdims=True)
 
     def fragment_rho(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         """``(N, F)`` Bhattacharyya coefficient of every fragment of every particle."""
-        if self.templates is None:
-            raise ValueError(f"factor {self.name!r} has no templates: run it from the first "
-                             f"frame")
-        boxes = x[:, list(self.box_indices)]
+        self.require_model()
+        boxes = self.boxes(x)
         f = self.grid[0] * self.grid[1]
         owner = np.tile(np.arange(f), len(boxes))
         rho = self.scorer.rho_many(ctx, self.fragments(boxes), self.templates, owner)
@@ -253,7 +282,7 @@ class FragmentsLikelihood(LikelihoodFactor):
         return -self.lam * (1.0 - np.quantile(rho, self.quantile, axis=1))
 
 
-class GradientLikelihood(LikelihoodFactor):
+class GradientLikelihood(BoxAppearanceLikelihood):
     """Oriented-gradient likelihood: the box's cell histograms of gradient orientation
     (integral images of gradient magnitude per orientation bin, computed once per frame
     and shared through the frame cache) against a template taken in the first frame.
@@ -268,15 +297,13 @@ class GradientLikelihood(LikelihoodFactor):
 
     def __init__(self, variable: str, *, lam: float = 20.0, n_orient: int = 9, cells=(3, 3),
                  template=None, box_indices=(0, 1, 2, 3), name: str | None = None):
-        super().__init__(variable, name=name)
+        super().__init__(variable, lam=lam, box_indices=box_indices, name=name)
         from pgm.observation.appearance.features import PatchFeatures
 
-        self.lam = float(check_finite_param(f"{self.name}.lam", lam, positive=True))
         self.n_orient = int(n_orient)
         self.cells = (int(cells[0]), int(cells[1]))
         if self.n_orient < 2 or min(self.cells) < 1:
             raise ValueError(f"factor {self.name!r}: need n_orient >= 2 and positive cells")
-        self.box_indices = tuple(int(i) for i in box_indices)
         self._features = PatchFeatures(n_orient=self.n_orient, cells=self.cells)
         self.template = None if template is None else np.asarray(template, dtype=float)
 
@@ -289,20 +316,18 @@ class GradientLikelihood(LikelihoodFactor):
 
     def descriptors(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         """``(N, n_orient · cells)`` L2-normalised gradient descriptors of particles ``x``."""
-        return self._features.gradients(ctx, x[:, list(self.box_indices)])
+        return self._features.gradients(ctx, self.boxes(x))
 
-    def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:
-        if self.template is None:
-            self.template = self.descriptors(np.asarray(value, dtype=float)[None], ctx)[0]
+    def learn(self, ctx: FrameContext, value: np.ndarray) -> None:
+        """The template: the first frame's descriptor at ``value``."""
+        self.template = self.descriptors(value[None], ctx)[0]
 
     def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
-        if self.template is None:
-            raise ValueError(f"factor {self.name!r} has no template: run it from the first "
-                             f"frame")
+        self.require_model()
         return -self.lam * (1.0 - self.descriptors(x, ctx) @ self.template)
 
 
-class RotationInvariantLikelihood(LikelihoodFactor):
+class RotationInvariantLikelihood(BoxAppearanceLikelihood):
     r"""The rotation-invariant ring model of seed 003, §3.2.7 (eq. 7).
 
     Pixels in a reference circle around the box centre are grouped into ``rings``
@@ -325,8 +350,7 @@ class RotationInvariantLikelihood(LikelihoodFactor):
     def __init__(self, variable: str, *, lam: float = 2.0, rings: int = 4, angles: int = 24,
                  radial_samples: int = 2, radius_scale: float = 1.0, template=None,
                  min_var: float = 4.0, box_indices=(0, 1, 2, 3), name: str | None = None):
-        super().__init__(variable, name=name)
-        self.lam = float(check_finite_param(f"{self.name}.lam", lam, positive=True))
+        super().__init__(variable, lam=lam, box_indices=box_indices, name=name)
         self.rings, self.angles = int(rings), int(angles)
         self.radial_samples = int(radial_samples)
         if min(self.rings, self.angles, self.radial_samples) < 1:
@@ -336,7 +360,6 @@ class RotationInvariantLikelihood(LikelihoodFactor):
                                                      radius_scale, positive=True))
         self.min_var = float(check_finite_param(f"{self.name}.min_var", min_var,
                                                 positive=True))
-        self.box_indices = tuple(int(i) for i in box_indices)
         self.template = None if template is None else np.asarray(template, dtype=float)
         k = np.arange(self.rings * self.radial_samples)
         self._radii = (k + 0.5) / (self.rings * self.radial_samples)  # in units of R
@@ -356,7 +379,7 @@ class RotationInvariantLikelihood(LikelihoodFactor):
         """``(N, rings, channels, 2)``: per-ring mean and variance of each channel."""
         img = ctx.image
         H, W = img.shape[:2]
-        b = x[:, list(self.box_indices)]
+        b = self.boxes(x)
         R = 0.5 * self.radius_scale * np.sqrt(np.maximum(b[:, 2] * b[:, 3], 1e-9))
         r = R[:, None, None] * self._radii[None, :, None]  # (N, K·S, 1)
         px = b[:, 0, None, None] + r * self._cos[None, None, :]
@@ -376,15 +399,13 @@ class RotationInvariantLikelihood(LikelihoodFactor):
             out[:, :, ch, 1] = np.maximum(sq - mean * mean, self.min_var)
         return out
 
-    def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:
-        if self.template is None:
-            self.template = self.ring_stats(np.asarray(value, dtype=float)[None], ctx)[0]
+    def learn(self, ctx: FrameContext, value: np.ndarray) -> None:
+        """The template: the first frame's ring statistics at ``value``."""
+        self.template = self.ring_stats(value[None], ctx)[0]
 
     def gamma(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         """``Γ`` of eq. 7 for every particle, ``(N,)`` (1 = identical)."""
-        if self.template is None:
-            raise ValueError(f"factor {self.name!r} has no template: run it from the first "
-                             f"frame")
+        self.require_model()
         s = self.ring_stats(x, ctx)
         mu_b, var_b = s[..., 0], s[..., 1]
         mu_a, var_a = self.template[..., 0], self.template[..., 1]
@@ -395,7 +416,7 @@ class RotationInvariantLikelihood(LikelihoodFactor):
         return -self.lam * (self.gamma(x, ctx) - 1.0)
 
 
-class GMMKLLikelihood(LikelihoodFactor):
+class GMMKLLikelihood(BoxAppearanceLikelihood):
     r"""GMM-KL appearance (seed 003, §3.2.6, eq. 6; SPEC §4): a Gaussian mixture over
     RGB fitted to the template's pixels in the first frame (scikit-learn), the
     Monte-Carlo KL divergence ``D`` of eq. 6 between it and the candidate's mixture, and
@@ -436,8 +457,7 @@ class GMMKLLikelihood(LikelihoodFactor):
                  n_samples: int = 256, seed: int = 0, weights=None, means=None,
                  covariances=None, samples=None, box_indices=(0, 1, 2, 3),
                  name: str | None = None):
-        super().__init__(variable, name=name)
-        self.lam = float(check_finite_param(f"{self.name}.lam", lam, positive=True))
+        super().__init__(variable, lam=lam, box_indices=box_indices, name=name)
         self.n_components = int(n_components)
         self.n_samples = int(n_samples)
         if self.n_components < 1 or self.n_samples < 1:
@@ -451,7 +471,6 @@ class GMMKLLikelihood(LikelihoodFactor):
                                                        outlier_weight, positive=True))
         if self.outlier_weight >= 1:
             raise ValueError(f"factor {self.name!r}: outlier_weight must be below 1")
-        self.box_indices = tuple(int(i) for i in box_indices)
         self.template = None
         self._kl = None
         given = [a is not None for a in (weights, means, covariances, samples)]
@@ -480,18 +499,16 @@ class GMMKLLikelihood(LikelihoodFactor):
                      samples=t.samples)
         return p
 
-    def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:
-        if self.template is None:
-            box = np.asarray(value, dtype=float)[list(self.box_indices)]
-            self._set_template(fit_template(ctx.image, box, n_components=self.n_components,
-                                            n_samples=self.n_samples, seed=self.seed))
+    def learn(self, ctx: FrameContext, value: np.ndarray) -> None:
+        """The template mixture, fitted to the first frame's box pixels."""
+        box = value[list(self.box_indices)]
+        self._set_template(fit_template(ctx.image, box, n_components=self.n_components,
+                                        n_samples=self.n_samples, seed=self.seed))
 
     def divergence(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         """``D`` of eq. 6 for every particle, ``(N,)``."""
-        if self.template is None:
-            raise ValueError(f"factor {self.name!r} has no template: run it from the first "
-                             f"frame")
-        boxes = x[:, list(self.box_indices)]
+        self.require_model()
+        boxes = self.boxes(x)
         if self.method == "literal":
             return literal_kl(ctx.image, boxes, self.template, symmetric=self.symmetric,
                               seed=self.seed)
@@ -501,7 +518,7 @@ class GMMKLLikelihood(LikelihoodFactor):
         return -self.lam * self.divergence(x, ctx)
 
 
-class ColourContrastLikelihood(_Adaptive, LikelihoodFactor):
+class ColourContrastLikelihood(BoxAppearanceLikelihood):
     r"""Foreground/background colour log-odds summed over the box: a colour cue that
     sees scale.
 
@@ -523,21 +540,21 @@ class ColourContrastLikelihood(_Adaptive, LikelihoodFactor):
     so the background model follows a moving camera.
     """
 
+    model_attr = "object_hist"
+
     def __init__(self, variable: str, *, lam: float = 10.0, context: float = 0.5,
                  clip: float = 3.0, delta: float = 1e-3, adapt_rate: float = 0.0,
                  layout: str = "perez", n_h: int = 16, n_s: int = 4, n_v: int | None = None,
                  object_hist=None, background_hist=None, ref_area: float | None = None,
                  box_indices=(0, 1, 2, 3), name: str | None = None):
-        super().__init__(variable, name=name)
-        self.lam = float(check_finite_param(f"{self.name}.lam", lam, positive=True))
+        super().__init__(variable, lam=lam, box_indices=box_indices, adapt_rate=adapt_rate,
+                         name=name)
         self.context = float(check_finite_param(f"{self.name}.context", context,
                                                 positive=True))
         self.clip = float(check_finite_param(f"{self.name}.clip", clip, positive=True))
         self.delta = float(check_finite_param(f"{self.name}.delta", delta, positive=True))
-        self.adapt_rate = _adapt_rate(self, adapt_rate)
         self.layout, self.n_h, self.n_s = layout, int(n_h), int(n_s)
         self.n_v = None if n_v is None else int(n_v)
-        self.box_indices = tuple(int(i) for i in box_indices)
         self.scorer = ColourHistogramScorer(layout=layout, n_h=self.n_h, n_s=self.n_s,
                                             n_v=self.n_v)
         given = [a is not None for a in (object_hist, background_hist, ref_area)]
@@ -585,14 +602,14 @@ class ColourContrastLikelihood(_Adaptive, LikelihoodFactor):
         counts = hist * ((x1 - x0) * (y1 - y0))[:, None]  # normalised: back to counts
         return counts[0], np.maximum(counts[1] - counts[0], 0.0), frac
 
-    def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:
-        if self.object_hist is None:
-            box = np.asarray(value, dtype=float)[list(self.box_indices)]
-            obj, bg, frac = self._histograms(ctx, box)
-            if frac[0] <= 0 or obj.sum() <= 0:
-                raise ValueError(f"factor {self.name!r}: the initial box lies outside the "
-                                 f"image")
-            self._set(obj, bg, float(box[2] * box[3]))
+    def learn(self, ctx: FrameContext, value: np.ndarray) -> None:
+        """Object and background histograms of the first frame's box and its ring."""
+        box = value[list(self.box_indices)]
+        obj, bg, frac = self._histograms(ctx, box)
+        if frac[0] <= 0 or obj.sum() <= 0:
+            raise ValueError(f"factor {self.name!r}: the initial box lies outside the "
+                             f"image")
+        self._set(obj, bg, float(box[2] * box[3]))
 
     def update(self, estimates, scores, frame=None) -> None:
         """Blend both histograms towards those around the estimate."""
@@ -608,10 +625,8 @@ class ColourContrastLikelihood(_Adaptive, LikelihoodFactor):
 
     def box_sums(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         """``(N,)`` sum of the log-odds over each particle's box (in-image pixels)."""
-        if self.object_hist is None:
-            raise ValueError(f"factor {self.name!r} has no histograms: run it from the "
-                             f"first frame")
-        b = x[:, list(self.box_indices)]
+        self.require_model()
+        b = self.boxes(x)
         x0, x1, y0, y1 = pixel_bounds(b, *ctx.shape)
         region = (int(x0.min()), int(x1.max()), int(y0.min()), int(y1.max()))
         if region[0] >= region[1] or region[2] >= region[3]:
@@ -642,7 +657,7 @@ def grey_frame(ctx: FrameContext) -> np.ndarray:
     return ctx.cached(("grey-f32",), make)
 
 
-class TemplateLikelihood(_Adaptive, LikelihoodFactor):
+class TemplateLikelihood(BoxAppearanceLikelihood):
     r"""Grey-level template matching by zero-mean normalised cross-correlation (NCC).
 
     Every box is read on a fixed ``grid = (columns, rows)`` of sample points placed
@@ -662,14 +677,12 @@ class TemplateLikelihood(_Adaptive, LikelihoodFactor):
     def __init__(self, variable: str, *, lam: float = 20.0, grid=(12, 24),
                  adapt_rate: float = 0.0, template=None, box_indices=(0, 1, 2, 3),
                  name: str | None = None):
-        super().__init__(variable, name=name)
-        self.lam = float(check_finite_param(f"{self.name}.lam", lam, positive=True))
+        super().__init__(variable, lam=lam, box_indices=box_indices, adapt_rate=adapt_rate,
+                         name=name)
         self.grid = (int(grid[0]), int(grid[1]))
         if min(self.grid) < 1 or self.grid[0] * self.grid[1] < 2:
             raise ValueError(f"factor {self.name!r}: grid must be positive with at least 2 "
                              f"points, got {grid!r}")
-        self.adapt_rate = _adapt_rate(self, adapt_rate)
-        self.box_indices = tuple(int(i) for i in box_indices)
         self.template = None
         if template is not None:
             t = np.asarray(template, dtype=float).reshape(-1)
@@ -699,7 +712,7 @@ class TemplateLikelihood(_Adaptive, LikelihoodFactor):
         """``(N, columns · rows)`` zero-mean unit-norm grey samples of each particle's box."""
         img = grey_frame(ctx)
         H, W = img.shape
-        b = x[:, list(self.box_indices)]
+        b = self.boxes(x)
         px = b[:, 0, None] + b[:, 2, None] * self._u[None, :]  # (N, gx)
         py = b[:, 1, None] + b[:, 3, None] * self._v[None, :]  # (N, gy)
         xi = np.clip(np.floor(px), 0, W - 1).astype(np.intp)
@@ -707,9 +720,9 @@ class TemplateLikelihood(_Adaptive, LikelihoodFactor):
         flat = (yi[:, :, None] * W + xi[:, None, :]).reshape(len(b), -1)  # row-major grid
         return self._normalise(img.reshape(-1)[flat].astype(np.float64))
 
-    def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:
-        if self.template is None:
-            self.template = self.samples(np.asarray(value, dtype=float)[None], ctx)[0]
+    def learn(self, ctx: FrameContext, value: np.ndarray) -> None:
+        """The template: the first frame's grey samples at ``value``."""
+        self.template = self.samples(value[None], ctx)[0]
 
     def update(self, estimates, scores, frame=None) -> None:
         """Blend the template towards the estimate's samples."""
@@ -720,7 +733,5 @@ class TemplateLikelihood(_Adaptive, LikelihoodFactor):
                                         + self.adapt_rate * s)
 
     def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
-        if self.template is None:
-            raise ValueError(f"factor {self.name!r} has no template: run it from the first "
-                             f"frame")
+        self.require_model()
         return -self.lam * (1.0 - self.samples(x, ctx) @ self.template)
