@@ -20,7 +20,7 @@ from pgm.observation.appearance.colour import (
 from pgm.observation.appearance.colour import cache as colour_cache
 from pgm.observation.appearance.colour import integral as colour_integral
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
+DATA = Path(__file__).resolve().parents[4] / "shared" / "data"
 
 
 def _random_boxes(rng, n, width, height):
