@@ -71,8 +71,7 @@ def time_engine(engine, frames, trace_memory: bool = False):
         t0 = time.perf_counter()
         rec = engine.step(ctx)
         secs += time.perf_counter() - t0
-        c = output_box(engine.graph, rec)
-        boxes.append([c[0] - c[2] / 2, c[1] - c[3] / 2, c[2], c[3]])
+        boxes.append(output_box(engine.graph, rec))  # top-left x, y, w, h
     if mem is not None:
         mem.__exit__(None, None, None)
     return np.array(boxes), secs, (mem.peak_mib if mem is not None else float("nan"))

@@ -20,7 +20,8 @@ re-identification (default 1, as ``pgm track``; 0 turns the lost stage off).
 
 ``--dbn``: also VB-PHD + DBN, leave one sequence out: for each sequence a DBN
 (``pgm learn dbn`` defaults: every 3rd frame, 40 fine-tuning epochs, seed 0) is trained
-on the other two and its likelihood ratio multiplies into the VB-PHD update (SPEC §3c);
+on the other two and its likelihood ratio multiplies into the VB-PHD update (§II-C of
+Feng et al. 2015, as read in :mod:`pgm.observation.appearance.dbn`);
 the training time is printed. ``--dbn-calibrate N``: detections the DBN factor collects
 on the video before re-fitting its calibration without labels (default 60, the
 factor's default; 0: keep the trained calibration).

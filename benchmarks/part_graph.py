@@ -1,12 +1,13 @@
-"""Part graph vs colour particle filter: the runtime workload of seed 002's Table 1.
+"""Part graph vs colour particle filter: the runtime workload of Table 1 of Zhang & Kang (2015).
 
-Table 1 of the paper (MATLAB 2009, 2.6 GHz Core 2 Duo) times 100 frames of its
-sequence 1 (CAVIAR, 384x288, not obtainable here) and 300 frames of its sequence 3 —
-the FaceOcc sequence of ``../shared/data/FaceOcc1`` — at 30/90/210 particles in total,
-part graph against the conventional colour particle filter. This script runs the same
-workloads on FaceOcc1 with frames decoded beforehand (decoding excluded), times only
-``engine.step``, and prints seconds next to the paper's with the speed-up; then frames
-per second and success AUC over the whole sequence for one, two and three nodes.
+Table 1 of the paper (reference in :mod:`pgm.models.part_graph`; MATLAB 2009, 2.6 GHz
+Core 2 Duo) times 100 frames of its sequence 1 (CAVIAR, 384x288, not obtainable here) and
+300 frames of its sequence 3 — the FaceOcc sequence of ``../shared/data/FaceOcc1`` — at
+30/90/210 particles in total, part graph against the conventional colour particle filter.
+This script runs the same workloads on FaceOcc1 with frames decoded beforehand (decoding
+excluded), times only ``engine.step``, and prints seconds next to the paper's with the
+speed-up; then frames per second and success AUC over the whole sequence for one, two and
+three nodes.
 
 Particles "in total" are node particles, with one message particle per node particle
 (the paper's setting). The paper's graphs: sequence 1 (a pedestrian) is tracked with

@@ -5,12 +5,13 @@
 The scenario (bench/README.md): 2-D nearly-constant-velocity targets, state
 ``[px, vx, py, vy]``, 100 steps, σ = 10 m, p_D = 0.9, 10 clutter per scan, true count
 3 → 6 → 3. The filters get the measurements only (never the origin labels).
-Births here are measurement-driven (SPEC §3a), not the scenario's Gaussian birth
-intensity. Budgets are set so that the mean *total* particle count per step
-(persistent after resampling + newborn) is close to the Stone Soup counts; the table
-prints the count actually used. OSPA on position (c=50, p=1 and c=100, p=2), mean
-over the 100 steps, for the raw per-measurement extraction and for the track layer's
-confirmed tracks; mean over seeds. Stone Soup SMC-PHD figures from bench/README.md.
+Births here are measurement-driven (Ristic, Clark, Vo & Vo 2012; references in
+:mod:`pgm.models.phd`), not the scenario's Gaussian birth intensity. Budgets are set so
+that the mean *total* particle count per step (persistent after resampling + newborn) is
+close to the Stone Soup counts; the table prints the count actually used. OSPA on
+position (c=50, p=1 and c=100, p=2), mean over the 100 steps, for the raw
+per-measurement extraction and for the track layer's confirmed tracks; mean over seeds.
+Stone Soup SMC-PHD figures from bench/README.md.
 """
 
 from __future__ import annotations

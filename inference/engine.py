@@ -1,6 +1,6 @@
 """The generic engine: one per-frame schedule derived from the graph, rules by dispatch.
 
-A frame's step (DESIGN.md):
+A frame's step:
 
 1. **predict** — every variable with a transition factor moves its belief;
 2. **weight** — likelihood factors score the belief against the frame (the local
@@ -13,9 +13,9 @@ A frame's step (DESIGN.md):
 5. **resample** — ESS-triggered, scheme chosen by the user; mass is kept; a fused
    mixture is always brought back to the variable's particle count.
 
-DESIGN.md lists in-frame passes before weighting; both fusion rules of SPEC §2 need
-each part's local evidence first (a message carries its source's likelihood), so the
-weight stage comes first here.
+An order with the in-frame passes before weighting would not do: both fusion rules of
+:mod:`pgm.inference.pbp` need each part's local evidence first (a message carries its
+source's likelihood), so the weight stage comes first here.
 
 The first frame replaces *predict* by *prior*: each variable's belief is drawn from its
 prior factor and likelihood factors may learn from the frame (e.g. a colour template at

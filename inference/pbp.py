@@ -1,20 +1,22 @@
-r"""Particle belief propagation: coupling messages and their fusion (SPEC §2).
+r"""Particle belief propagation: coupling messages and their fusion.
 
 Two fusion rules, chosen by the engine option ``fusion``:
 
-``"mixture"`` (seed 002; the default)
+``"mixture"`` (Zhang & Kang [#zhang2015], whose equation numbers are cited; the default)
     A message ``β → α`` is ``β``'s predicted particles pushed through the coupling
     (``factor.propagate``), each carrying ``β``'s own unnormalised likelihood
     (``message_weight="source"``, eq. 26) or ``α``'s likelihood at the message particle
     (``"target"``, eq. 20). ``α``'s posterior is the *mixture* of its own weighted
     particles and all incoming message particles, with all weights on one common
     scale (prior weight × unnormalised likelihood) normalised jointly (eqs. 17, 22–23,
-    27–30); the estimate is the jointly weighted mean and the resample stage draws
-    ``N_α`` particles from the union. With equal likelihoods a node keeps only
-    ``1 / (1 + degree)`` of its own mass — the structural bias SPEC §2 asks to expose;
+    27–30; eq. 28 writes normalised weights for ``α``'s own particles and eq. 26
+    unnormalised ones for messages, which one common scale reconciles); the estimate is
+    the jointly weighted mean and the resample stage draws ``N_α`` particles from the
+    union. With equal likelihoods a node keeps only
+    ``1 / (1 + degree)`` of its own mass — a structural bias, exposed rather than hidden:
     ``record.info[α]["own_mass"]`` reports it every frame.
 
-``"product"`` (nonparametric / particle BP; Sudderth et al. 2003, Ihler & McAllester 2009)
+``"product"`` (nonparametric BP [#sudderth2003]; particle BP [#ihler2009])
     ``α``'s support stays its own particles, weighted by
 
     .. math::
@@ -31,6 +33,17 @@ Two fusion rules, chosen by the engine option ``fusion``:
 Settings read from ``engine.settings`` (:class:`~pgm.inference.settings.EngineSettings`):
 ``fusion``, ``message_weight`` (``"source"`` | ``"target"``), ``message_particles``
 (``M``; default ``N_β``: one message particle per predicted particle).
+
+References
+----------
+.. [#zhang2015] M.-J. Zhang and B.-S. Kang, "Particle filter tracking method using graphical
+   model", Journal of Computers (Computer Society of the R.O.C.), 2015 (accepted March 2015;
+   venue inferred from the article's layout; volume, pages and DOI not confirmed).
+.. [#sudderth2003] E. B. Sudderth, A. T. Ihler, W. T. Freeman and A. S. Willsky,
+   "Nonparametric belief propagation", Proc. CVPR 2003, vol. 1, 605–612.
+   doi:10.1109/CVPR.2003.1211409
+.. [#ihler2009] A. Ihler and D. McAllester, "Particle belief propagation", Proc. AISTATS 2009,
+   PMLR 5, 256–263 (no DOI).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-r"""The particle PHD filter as rules of the engine (SPEC §3a; Vo, Singh & Doucet 2005).
+r"""The particle PHD filter as rules of the engine (Vo, Singh & Doucet [#vo2005]).
 
 A ``set`` variable's belief is an :class:`~pgm.Intensity`. Its rules:
 
@@ -13,17 +13,32 @@ A ``set`` variable's belief is an :class:`~pgm.Intensity`. Its rules:
 
   with ``a_j`` the (tempered) appearance score of particle ``j`` when appearance
   factors are declared (1 otherwise), then ``n_birth`` newborn particles per
-  measurement with total weight ``ν_b / L(z)`` (eqs. 22, 28, 29; births as Ristic,
-  Clark, Vo & Vo 2012);
+  measurement with total weight ``ν_b / L(z)`` (eqs. (22), (28), (29) of [#feng2015];
+  births as Ristic, Clark, Vo & Vo [#ristic2012]);
 * **resample** — the persistent set only, keeping its mass, with a budget of
   ``max(min_particles, round(num_particles · mass))`` (``num_particles`` is per
   expected target here);
-* **estimate** — per-measurement extraction (Ristic, Clark & Vo 2010): report the
+* **estimate** — per-measurement extraction (Ristic, Clark & Vo [#ristic2010]): report the
   weighted mean of measurement ``z``'s share of the persistent intensity when
   ``W_z > 0.5``, merge estimates closer than the factor's ``merge_gate`` σ, then the
   track layer (settings: the factor's ``tracks``)
   (:mod:`pgm.inference.tracks`) gives identities, confirmation, coasting and an
   existence score.
+
+References
+----------
+.. [#vo2005] B.-N. Vo, S. Singh and A. Doucet, "Sequential Monte Carlo methods for multitarget
+   filtering with random finite sets", IEEE Trans. Aerospace and Electronic Systems 41(4),
+   1224–1245, 2005. doi:10.1109/TAES.2005.1561884
+.. [#feng2015] P. Feng, W. Wang, S. M. Naqvi and J. A. Chambers, "Variational Bayesian PHD
+   filter with deep learning network updating for multiple human tracking", Proc. Sensor
+   Signal Processing for Defence (SSPD), Edinburgh, 2015 (venue inferred; DOI not confirmed).
+.. [#ristic2010] B. Ristic, D. Clark and B.-N. Vo, "Improved SMC implementation of the PHD
+   filter", Proc. 13th Int. Conf. Information Fusion (FUSION), Edinburgh, 2010.
+   doi:10.1109/ICIF.2010.5711922
+.. [#ristic2012] B. Ristic, D. Clark, B.-N. Vo and B.-T. Vo, "Adaptive target birth intensity
+   for PHD and CPHD filters", IEEE Trans. Aerospace and Electronic Systems 48(2),
+   1656–1668, 2012. doi:10.1109/TAES.2012.6178085
 """
 
 from __future__ import annotations

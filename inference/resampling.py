@@ -4,8 +4,23 @@ Every scheme is a pure function ``scheme(rng, weights, num_samples) -> indices``
 ``weights`` normalised, shape ``(N,)``, returning ancestor indices, shape
 ``(num_samples,)``, in ``[0, N)``; all are unbiased (each particle's expected number of
 offspring is ``num_samples * w_i``) and vectorised (``cumsum`` + ``searchsorted``).
-Douc, Cappé & Moulines (2005) compare them: residual, stratified and systematic have
+Douc, Cappé & Moulines [#douc2005] compare them: residual, stratified and systematic have
 lower variance than multinomial; systematic is the usual default.
+
+References
+----------
+.. [#douc2005] R. Douc, O. Cappé and E. Moulines, "Comparison of resampling schemes for
+   particle filtering", Proc. 4th Int. Symp. Image and Signal Processing and Analysis
+   (ISPA), 64–69, 2005. doi:10.1109/ISPA.2005.195385
+.. [#kitagawa1996] G. Kitagawa, "Monte Carlo filter and smoother for non-Gaussian nonlinear
+   state space models", J. Computational and Graphical Statistics 5(1), 1–25, 1996.
+   doi:10.1080/10618600.1996.10474692
+.. [#carpenter1999] J. Carpenter, P. Clifford and P. Fearnhead, "Improved particle filter for
+   nonlinear problems", IEE Proc. Radar, Sonar and Navigation 146(1), 2–7, 1999.
+   doi:10.1049/ip-rsn:19990255
+.. [#liu1998] J. S. Liu and R. Chen, "Sequential Monte Carlo methods for dynamic systems",
+   J. American Statistical Association 93(443), 1032–1044, 1998.
+   doi:10.1080/01621459.1998.10473765
 """
 
 from __future__ import annotations
@@ -45,14 +60,14 @@ def multinomial(rng: np.random.Generator, weights: np.ndarray, num_samples: int)
 
 
 def stratified(rng: np.random.Generator, weights: np.ndarray, num_samples: int) -> np.ndarray:
-    """One uniform per stratum ``[k/M, (k+1)/M)`` (Kitagawa 1996)."""
+    """One uniform per stratum ``[k/M, (k+1)/M)`` (Kitagawa [#kitagawa1996])."""
     w = _check(weights, num_samples)
     u = (np.arange(num_samples) + rng.random(num_samples)) / num_samples
     return _inverse_cdf(w, u)
 
 
 def systematic(rng: np.random.Generator, weights: np.ndarray, num_samples: int) -> np.ndarray:
-    """One shared uniform offset for all strata (Carpenter, Clifford & Fearnhead 1999).
+    """One shared uniform offset for all strata (Carpenter, Clifford & Fearnhead [#carpenter1999]).
 
     The points ``(j + u)/M`` are evenly spaced, so particle ``i`` receives
     ``ceil(M cdf_i − u) − ceil(M cdf_{i−1} − u)`` of them: offspring counts in O(N) and one
@@ -71,7 +86,8 @@ def systematic(rng: np.random.Generator, weights: np.ndarray, num_samples: int) 
 
 
 def residual(rng: np.random.Generator, weights: np.ndarray, num_samples: int) -> np.ndarray:
-    """Deterministic ``floor(M w_i)`` copies, the remainder drawn multinomially (Liu & Chen 1998)."""
+    """Deterministic ``floor(M w_i)`` copies, the remainder drawn multinomially (Liu & Chen
+    [#liu1998])."""
     w = _check(weights, num_samples)
     w = w / w.sum()
     scaled = num_samples * w

@@ -1,4 +1,4 @@
-"""The track layer on top of PHD state extraction (SPEC §3a).
+"""The track layer on top of PHD state extraction (per-measurement estimates, [#ristic2010]).
 
 Raw per-frame extraction cannot report targets missed in a frame and has no
 identities, so a track layer is required: extracted estimates are assigned to tracks
@@ -13,6 +13,12 @@ score* — a log-odds of hit/miss evidence mapped to [0, 1] — that drops when 
 target is lost. Identities are given at confirmation, so tentative tracks burn none.
 Box sizes (for output) are an exponential average of the sizes of the detections
 that produced the track's estimates.
+
+References
+----------
+.. [#ristic2010] B. Ristic, D. Clark and B.-N. Vo, "Improved SMC implementation of the PHD
+   filter", Proc. 13th Int. Conf. Information Fusion (FUSION), Edinburgh, 2010.
+   doi:10.1109/ICIF.2010.5711922
 """
 
 from __future__ import annotations

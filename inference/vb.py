@@ -1,4 +1,4 @@
-r"""Mean-field variational Bayes as rules of the engine (SPEC §3b).
+r"""Mean-field variational Bayes as rules of the engine (the VB-PHD filter of [#feng2015]).
 
 Noise variables (role ``noise``) hold an :class:`~pgm.core.expfam.InverseGamma` belief:
 prior from :class:`~pgm.factors.multitarget.InverseGammaPrior`, forgetting prediction
@@ -6,10 +6,10 @@ prior from :class:`~pgm.factors.multitarget.InverseGammaPrior`, forgetting predi
 conjugate factor (:class:`~pgm.factors.multitarget.VBNoise`) runs the fixed point between the
 target's belief and the noise belief each frame, dispatched on the target's belief:
 
-* ``Gaussian`` — the VB adaptive Kalman filter (Särkkä & Nummenmaa 2009), the exact
+* ``Gaussian`` — the VB adaptive Kalman filter (Särkkä & Nummenmaa [#sarkka2009]), the exact
   closed form: ``α = α̂ + ½``; repeat ``R̂ = diag(β/α)``, Kalman update with ``R̂``,
   ``β = β̂ + ½ (z − H m)² + ½ diag(H P Hᵀ)``;
-* ``Intensity`` — the VB-PHD filter: the PHD corrector with
+* ``Intensity`` — the VB-PHD filter (§II-B of [#feng2015]): the PHD corrector with
   ``log g̃(z|x) = −(d/2) ln 2π − ½ Σ_i (ln β_i − ψ(α_i)) − ½ Σ_i (α_i/β_i)(z − Hx)_i²``,
   then ``α = α̂ + ½ Σ_z W_z``, ``β = β̂ + ½ Σ_z Σ_j ω_jz (z − Hx_j)²`` over persistent
   particles; the first pass uses ``α = α̂ + ½ min(|Z|, p_D Σ_j w_j)``, ``β = β̂``.
@@ -20,6 +20,15 @@ Both stop when the relative change of ``R̂ = β/α`` is below ``tol`` or after
 
 This module also holds the exact Gaussian rules (Kalman predict/update) used when a
 ``state`` variable is given a ``Gaussian`` belief.
+
+References
+----------
+.. [#feng2015] P. Feng, W. Wang, S. M. Naqvi and J. A. Chambers, "Variational Bayesian PHD
+   filter with deep learning network updating for multiple human tracking", Proc. Sensor
+   Signal Processing for Defence (SSPD), Edinburgh, 2015 (venue inferred; DOI not confirmed).
+.. [#sarkka2009] S. Särkkä and A. Nummenmaa, "Recursive noise adaptive Kalman filtering by
+   variational Bayesian approximations", IEEE Trans. Automatic Control 54(3), 596–600, 2009.
+   doi:10.1109/TAC.2008.2008348
 """
 
 from __future__ import annotations
@@ -113,7 +122,8 @@ def gaussian_elbo_terms(g: Gaussian, prior: Gaussian, q: InverseGamma, q_pred: I
 
 def vb_akf_update(prior: Gaussian, q_pred: InverseGamma, H: np.ndarray, z: np.ndarray,
                   tol: float, max_iter: int) -> tuple[Gaussian, InverseGamma, dict[str, Any]]:
-    """The VB-AKF fixed point (SPEC §3b eqs. 16–17 in their correct form)."""
+    """The VB-AKF fixed point: eqs. (16)–(17) of [#feng2015], garbled in its text, in the
+    form of [#sarkka2009] (``α = α̂ + ½``; ``β = β̂ + ½ (z − H m)² + ½ diag(H P Hᵀ)``)."""
     alpha = q_pred.alpha + 0.5
     beta = q_pred.beta.copy()
     elbo: list[float] = []
@@ -164,8 +174,9 @@ def _vb_phd_fixed_point(engine: Engine, factor, frame, inv: np.ndarray,
     """The VB-PHD fixed point with one noise belief per group of particles.
 
     ``inv`` ``(N,)`` maps each persistent particle to its group; ``q_pred`` holds each
-    group's predicted belief. One group is the shared-noise filter of SPEC §3b; one
-    group per lineage label is the per-track option. Each group's statistics are
+    group's predicted belief. One group is the shared-noise filter (the default; Algorithm
+    1 of [#feng2015] carries ``(α, β)`` per particle); one group per lineage label is the
+    per-track option. Each group's statistics are
     summed over its own particles (``np.bincount``: no loop over particles).
     """
     noise, target = factor.variables

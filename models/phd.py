@@ -1,4 +1,4 @@
-"""The particle PHD filter (SPEC §3a) as a model config: one ``set`` variable.
+"""The particle PHD filter [#vo2005] as a model config: one ``set`` variable.
 
 ``targets`` holds every target's state ``[px, vx, py, vy]`` (state order of the bench
 scenario and Stone Soup; matrices are built from named components). For video the
@@ -9,12 +9,21 @@ detections associated with the track (an exponential average), not from the stat
 Factors: an empty :class:`~pgm.factors.multitarget.IntensityPrior` (targets are born from
 measurements), a nearly-constant-velocity :class:`~pgm.LinearGaussianTransition` with
 survival ``p_S``, and a :class:`~pgm.factors.multitarget.PHDLikelihood` with detection
-probability, Poisson clutter and measurement-driven births.
+probability, Poisson clutter and measurement-driven births [#ristic2012].
 
 >>> from pgm.models import phd
 >>> g = phd.build_graph(phd.Params(area=768 * 576))
 >>> [f.kind for f in g.factors.values()]
 ['prior', 'transition', 'likelihood']
+
+References
+----------
+.. [#vo2005] B.-N. Vo, S. Singh and A. Doucet, "Sequential Monte Carlo methods for multitarget
+   filtering with random finite sets", IEEE Trans. Aerospace and Electronic Systems 41(4),
+   1224–1245, 2005. doi:10.1109/TAES.2005.1561884
+.. [#ristic2012] B. Ristic, D. Clark, B.-N. Vo and B.-T. Vo, "Adaptive target birth intensity
+   for PHD and CPHD filters", IEEE Trans. Aerospace and Electronic Systems 48(2),
+   1656–1668, 2012. doi:10.1109/TAES.2012.6178085
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@ runs when no ``--model`` is given.
 
 One ``object`` node (the colour particle filter's graph: damped AR(2) on the centre,
 100 particles) with a shared log-scale step (``SCALE_NOISE`` per frame, clamped to
-[0.5, 2] × the first box, SPEC §1) and a likelihood that multiplies two cues, declared
+[0.5, 2] × the first box) and a likelihood that multiplies two cues, declared
 and nothing more:
 
 * contrast — foreground/background colour log-odds summed over the box, which punishes

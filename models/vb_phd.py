@@ -1,4 +1,4 @@
-"""The variational-Bayes PHD filter (seed 000; SPEC §3b) as a model config.
+"""The variational-Bayes PHD filter of Feng et al. [#feng2015] as a model config.
 
 The PHD graph of :mod:`pgm.models.phd` plus a ``noise`` variable ``R`` with an
 inverse-Gamma belief per measurement component: an
@@ -8,14 +8,24 @@ conjugate :class:`~pgm.factors.multitarget.VBNoise` factor that ties it to the P
 likelihood, so the engine runs the mean-field fixed point between the intensity and
 the noise belief every frame.
 
-Departure from the seed (say so): its Algorithm 1 carries ``(α, β)`` per particle; here
-one noise variable is shared by all targets by default (SPEC §3b), and
-``per_track_noise=True`` gives one belief per track lineage.
+Departure from the paper: its Algorithm 1 carries ``(α, β)`` per particle; here one noise
+variable is shared by all targets by default, and ``per_track_noise=True`` gives one belief
+per track lineage. The single-target recursion it generalises is the VB adaptive Kalman
+filter of Särkkä & Nummenmaa [#sarkka2009].
 
 >>> from pgm.models import vb_phd
 >>> g = vb_phd.build_graph(vb_phd.Params())
 >>> sorted(g.variables)
 ['noise', 'targets']
+
+References
+----------
+.. [#feng2015] P. Feng, W. Wang, S. M. Naqvi and J. A. Chambers, "Variational Bayesian PHD
+   filter with deep learning network updating for multiple human tracking", Proc. Sensor
+   Signal Processing for Defence (SSPD), Edinburgh, 2015 (venue inferred; DOI not confirmed).
+.. [#sarkka2009] S. Särkkä and A. Nummenmaa, "Recursive noise adaptive Kalman filtering by
+   variational Bayesian approximations", IEEE Trans. Automatic Control 54(3), 596–600, 2009.
+   doi:10.1109/TAC.2008.2008348
 """
 
 from __future__ import annotations

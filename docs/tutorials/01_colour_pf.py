@@ -2,7 +2,7 @@
 Tutorial 1 — the colour particle filter as a factor graph
 ==========================================================
 
-Declare the conventional colour particle filter (Pérez et al. 2002) as an explicit
+Declare the conventional colour particle filter (Pérez et al. [#perez2002]) as an explicit
 graph, draw it, run it on a video with the generic engine, look inside a frame and
 score the result. Run it as a script::
 
@@ -10,6 +10,11 @@ score the result. Run it as a script::
     python docs/tutorials/01_colour_pf.py --source ../shared/data/FaceOcc1 --out faceocc
 
 Without ``--source`` it renders the built-in synthetic scene, so it needs no data.
+
+References
+----------
+.. [#perez2002] P. Pérez, C. Hue, J. Vermaak and M. Gangnet, "Color-based probabilistic
+   tracking", Proc. ECCV 2002, LNCS 2350, 661–675. doi:10.1007/3-540-47969-4_44
 """
 
 # %%

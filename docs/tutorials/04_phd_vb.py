@@ -3,14 +3,23 @@ Tutorial 4 — many targets: the PHD intensity, births, and a VB noise estimate
 =============================================================================
 
 An unknown, changing number of people is one *set-valued* variable whose belief is an
-intensity: particles whose total weight is the expected number of targets. Births
-come from measurements that existing targets do not explain; a track layer turns the
-per-measurement estimates into identities. Adding a ``noise`` variable with an
-inverse-Gamma belief and a conjugate factor makes it the VB-PHD filter, which
+intensity (the particle PHD filter [#vo2005]): particles whose total weight is the expected
+number of targets. Births come from measurements that existing targets do not explain; a
+track layer turns the per-measurement estimates into identities. Adding a ``noise`` variable with an
+inverse-Gamma belief and a conjugate factor makes it the VB-PHD filter [#feng2015], which
 estimates the measurement noise as it goes; the last plot shows its variational
 updates, the ELBO after each fixed-point iteration, frame by frame. Run it as a script::
 
     python docs/tutorials/04_phd_vb.py --out tutorial_out
+
+References
+----------
+.. [#vo2005] B.-N. Vo, S. Singh and A. Doucet, "Sequential Monte Carlo methods for multitarget
+   filtering with random finite sets", IEEE Trans. Aerospace and Electronic Systems 41(4),
+   1224–1245, 2005. doi:10.1109/TAES.2005.1561884
+.. [#feng2015] P. Feng, W. Wang, S. M. Naqvi and J. A. Chambers, "Variational Bayesian PHD
+   filter with deep learning network updating for multiple human tracking", Proc. Sensor
+   Signal Processing for Defence (SSPD), Edinburgh, 2015 (venue inferred; DOI not confirmed).
 """
 
 # %%

@@ -7,10 +7,16 @@ This tutorial composes colour, fragment, oriented-gradient, GMM-KL, rotation-inv
 colour-contrast and template (NCC) cues on a one-node tracker and compares them on a synthetic
 occlusion scene (the ``single-object`` model that ``pgm track`` runs by default is one
 of these compositions), then trains the
-deep-belief-network person likelihood of the VB-PHD paper on one synthetic crowd and
+deep-belief-network person likelihood of the VB-PHD paper [#feng2015] on one synthetic crowd and
 uses it as an appearance factor of a PHD filter on another. Run it as a script::
 
     python docs/tutorials/05_appearance.py --out tutorial_out
+
+References
+----------
+.. [#feng2015] P. Feng, W. Wang, S. M. Naqvi and J. A. Chambers, "Variational Bayesian PHD
+   filter with deep learning network updating for multiple human tracking", Proc. Sensor
+   Signal Processing for Defence (SSPD), Edinburgh, 2015 (venue inferred; DOI not confirmed).
 """
 
 # %%

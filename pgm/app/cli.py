@@ -15,7 +15,8 @@
 
 Bad input (a missing or corrupt video, a malformed box or ground-truth file, a bad
 parameter) gets a one-line ``pgm: error: ...`` and exit code 2, never a traceback.
-The CLI sits on top of everything and may import :mod:`pgm.models` (STYLE.md §4.1).
+The CLI sits on top of everything and may import :mod:`pgm.models`: imports otherwise go
+one way, ``models → inference → pgm``, and a test of the code base enforces it.
 """
 
 from __future__ import annotations

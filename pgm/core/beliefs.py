@@ -9,6 +9,12 @@
 
 Exponential-family beliefs for variational Bayes (Gaussian, inverse-Gamma) join this
 module with the VB engine.
+
+References
+----------
+.. [#ristic2012] B. Ristic, D. Clark, B.-N. Vo and B.-T. Vo, "Adaptive target birth intensity
+   for PHD and CPHD filters", IEEE Trans. Aerospace and Electronic Systems 48(2),
+   1656–1668, 2012. doi:10.1109/TAES.2012.6178085
 """
 
 from __future__ import annotations
@@ -193,11 +199,12 @@ class Intensity(Particles):
     """A PHD intensity: particles whose total weight is the expected number of targets.
 
     ``x, log_weights`` are the *persistent* particles; ``newborn`` holds the particles
-    born from this frame's measurements (SPEC §3a): they are not re-weighted, not
-    resampled and not extracted this frame, and join the persistent set at the next
-    prediction. ``expected_count`` includes them. ``labels`` (optional, ``(N,)`` int)
-    are lineage labels carried through prediction and resampling (one label per birth),
-    used for per-track noise beliefs; ``newborn`` then carries labels too.
+    born from this frame's measurements (the persistent/newborn split of [#ristic2012]):
+    they are not re-weighted, not resampled and not extracted this frame, and join the
+    persistent set at the next prediction. ``expected_count`` includes them. ``labels``
+    (optional, ``(N,)`` int) are lineage labels carried through prediction and resampling
+    (one label per birth), used for per-track noise beliefs; ``newborn`` then carries
+    labels too.
     """
 
     newborn: Particles | None = None

@@ -6,10 +6,19 @@ r"""Exponential-family beliefs for mean-field variational Bayes.
   ``(log σ², 1/σ²)``; the expectations a VB update needs are
   ``E[1/σ²] = α/β`` and ``E[log σ²] = log β − ψ(α)``.
 * :class:`Gaussian` — ``N(mean, cov)``, the belief of a linear-Gaussian state (the
-  Kalman / VB adaptive Kalman filter), with information-form natural parameters
-  ``(J, h) = (Σ⁻¹, Σ⁻¹ μ)``.
+  Kalman / VB adaptive Kalman filter [#sarkka2009]), with information-form natural
+  parameters ``(J, h) = (Σ⁻¹, Σ⁻¹ μ)``.
 
 Beliefs are immutable values; updates return new objects.
+
+References
+----------
+.. [#feng2015] P. Feng, W. Wang, S. M. Naqvi and J. A. Chambers, "Variational Bayesian PHD
+   filter with deep learning network updating for multiple human tracking", Proc. Sensor
+   Signal Processing for Defence (SSPD), Edinburgh, 2015 (venue inferred; DOI not confirmed).
+.. [#sarkka2009] S. Särkkä and A. Nummenmaa, "Recursive noise adaptive Kalman filtering by
+   variational Bayesian approximations", IEEE Trans. Automatic Control 54(3), 596–600, 2009.
+   doi:10.1109/TAC.2008.2008348
 """
 
 from __future__ import annotations
@@ -81,7 +90,7 @@ class InverseGamma:
             return np.where(self.alpha > 1, self.beta / (self.alpha - 1), np.nan)
 
     def forget(self, rho: float, alpha_min: float = 0.0) -> InverseGamma:
-        """Forgetting prediction ``α̂ = ρα, β̂ = ρβ`` (SPEC §3b, eq. 18), floored.
+        """Forgetting prediction ``α̂ = ρα, β̂ = ρβ`` (eq. (18) of [#feng2015]), floored.
 
         When ``α̂ < alpha_min`` both ``α̂`` and ``β̂`` are multiplied by
         ``alpha_min / α̂`` (flooring ``α`` alone would let ``R̂ → 0``).

@@ -1,4 +1,10 @@
-"""Log-domain numerics shared by every engine."""
+"""Log-domain numerics shared by every engine.
+
+References
+----------
+.. [#kong1992] A. Kong, "A note on importance sampling using standardized weights",
+   Technical Report 348, Department of Statistics, University of Chicago, 1992 (no DOI).
+"""
 
 from __future__ import annotations
 
@@ -64,7 +70,7 @@ def normalized_weights(log_weights: np.ndarray) -> np.ndarray:
 
 
 def ess_from_log_weights(log_weights: np.ndarray) -> float:
-    """Effective sample size ``1 / sum(w_i^2)`` of normalised weights (Kong 1992)."""
+    """Effective sample size ``1 / sum(w_i^2)`` of normalised weights (Kong [#kong1992])."""
     w = normalized_weights(log_weights)
     return float(1.0 / np.sum(w * w))
 

@@ -1,4 +1,5 @@
-"""Multi-target tracking metrics (SPEC §3d, §5).
+"""Multi-target tracking metrics: CLEAR MOT [#bernardin2008], identity [#ristani2016],
+HOTA [#luiten2021] and the set distances OSPA [#schuhmacher2008] and OSPA⁽²⁾ [#beard2017].
 
 The set distances (OSPA, OSPA⁽²⁾, cardinality error) are in
 :mod:`pgm.evaluation.set_distances`; :func:`evaluate_mot` reports them beside the
@@ -42,7 +43,30 @@ ignore handling is written here because TrackEval does it only inside its file-b
 dataset class, keyed on distractor classes (for MOT15 files it drops the flag-0 rows but
 keeps the predictions on them, which then count as false positives). The same
 preprocessed sets feed every metric, OSPA included. OSPA is on box foot points
-(bottom-centre), in pixels.
+(bottom-centre), in pixels. The VB-PHD paper [#feng2015] reports mean OSPA without its
+cut-off ``c`` and order ``p``; the defaults here report ``(c, p) = (50, 1)`` and ``(100, 2)``.
+Its "OSPAMT" is not implemented; the track-level OSPA⁽²⁾ stands in for it.
+
+References
+----------
+.. [#bernardin2008] K. Bernardin and R. Stiefelhagen, "Evaluating multiple object tracking
+   performance: the CLEAR MOT metrics", EURASIP J. Image and Video Processing 2008, Article
+   ID 246309. doi:10.1155/2008/246309
+.. [#ristani2016] E. Ristani, F. Solera, R. Zou, R. Cucchiara and C. Tomasi, "Performance
+   measures and a data set for multi-target, multi-camera tracking", ECCV 2016 Workshops,
+   LNCS 9914, 17–35. doi:10.1007/978-3-319-48881-3_2
+.. [#luiten2021] J. Luiten, A. Ošep, P. Dendorfer, P. Torr, A. Geiger, L. Leal-Taixé and
+   B. Leibe, "HOTA: A higher order metric for evaluating multi-object tracking", Int. J.
+   Computer Vision 129(2), 548–578, 2021. doi:10.1007/s11263-020-01375-2
+.. [#schuhmacher2008] D. Schuhmacher, B.-T. Vo and B.-N. Vo, "A consistent metric for
+   performance evaluation of multi-object filters", IEEE Trans. Signal Processing 56(8),
+   3447–3457, 2008. doi:10.1109/TSP.2008.920469
+.. [#beard2017] M. Beard, B.-T. Vo and B.-N. Vo, "OSPA(2): Using the OSPA metric to
+   evaluate multi-target tracking performance", Proc. ICCAIS 2017, 86–91.
+   doi:10.1109/ICCAIS.2017.8217598
+.. [#feng2015] P. Feng, W. Wang, S. M. Naqvi and J. A. Chambers, "Variational Bayesian PHD
+   filter with deep learning network updating for multiple human tracking", Proc. Sensor
+   Signal Processing for Defence (SSPD), Edinburgh, 2015 (venue inferred; DOI not confirmed).
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """Set distances between finite point sets and track sets (written here; exact).
 
-* :func:`ospa` / :func:`ospa_components` — OSPA of Schuhmacher, Vo & Vo (2008), with its
+* :func:`ospa` / :func:`ospa_components` — OSPA of Schuhmacher, Vo & Vo [#schuhmacher2008], with its
   localisation and cardinality parts;
-* :func:`ospa2` — the track-level OSPA⁽²⁾ of Beard, Vo & Vo (2017) over a sliding window;
+* :func:`ospa2` — the track-level OSPA⁽²⁾ of Beard, Vo & Vo [#beard2017] over a sliding window;
 * :func:`cardinality_error` — estimated minus true count per frame.
 
 References
@@ -191,8 +191,9 @@ def ospa2(gt_tracks: Tracks, est_tracks: Tracks, c: float, p: float, window: int
     take part. The base distance between a true track ``x`` and an estimated track ``y``
     is ``(1/|D_x ∪ D_y|) Σ_{t ∈ D_x ∪ D_y} d_c(t)`` with ``D`` the window frames where a
     track exists, ``d_c(t) = min(c, |x(t) - y(t)|)`` when both exist and ``c`` when
-    exactly one does (SPEC §5: order 1 inside the window); OSPA with cut-off ``c`` and
-    order ``p`` is then taken between the two sets of tracks with this base distance.
+    exactly one does (the base distance of [#beard2017] with order 1 inside the window);
+    OSPA with cut-off ``c`` and order ``p`` is then taken between the two sets of tracks
+    with this base distance.
 
     Parameters
     ----------

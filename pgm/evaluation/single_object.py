@@ -1,4 +1,4 @@
-"""Single-object tracking metrics in the OTB convention (SPEC §5).
+"""Single-object tracking metrics in the OTB convention of Wu, Lim & Yang [#wu2013].
 
 Scored over the annotated ground-truth frames only:
 
@@ -11,6 +11,11 @@ Scored over the annotated ground-truth frames only:
 
 Boxes are top-left ``(x, y, w, h)`` in the same coordinates for ground truth and
 prediction (0-based internally; see :mod:`pgm.core.boxes`).
+
+References
+----------
+.. [#wu2013] Y. Wu, J. Lim and M.-H. Yang, "Online object tracking: a benchmark", Proc. CVPR
+   2013, 2411–2418. doi:10.1109/CVPR.2013.312
 """
 
 from __future__ import annotations

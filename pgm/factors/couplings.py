@@ -3,15 +3,25 @@
 A coupling factor ``ψ(x_a, x_b)`` is used by particle belief propagation in two ways:
 
 * ``propagate(rng, x_src, src)`` pushes message particles from one end to the other
-  (the ``"mixture"`` fusion of SPEC §2: message particles join the target's own);
+  (the ``"mixture"`` fusion of Zhang & Kang [#zhang2015]: message particles join the
+  target's own);
 * ``log_prob(x_a, x_b)`` evaluates the potential, broadcasting over leading axes, so
   that ``log_prob(x_a[:, None], x_b[None, :])`` is the ``(N_a, N_b)`` log-matrix of the
-  ``"product"`` fusion (particle BP, Ihler & McAllester 2009).
+  ``"product"`` fusion (particle BP, Ihler & McAllester [#ihler2009]).
 
 ``map(x_src, src)`` is the deterministic part of ``propagate``; the engine uses it to
-carry a message particle's AR(2) history (SPEC §2). To write your own coupling,
-subclass :class:`~pgm.CouplingFactor` and implement ``map`` and ``log_prob`` (and
-``propagate`` if it adds noise); ``docs/tutorials/03_your_own_model.py`` shows one.
+carry a message particle's AR(2) history (the source particle's previous state pushed
+through the same map). To write your own coupling, subclass :class:`~pgm.CouplingFactor`
+and implement ``map`` and ``log_prob`` (and ``propagate`` if it adds noise);
+``docs/tutorials/03_your_own_model.py`` shows one.
+
+References
+----------
+.. [#zhang2015] M.-J. Zhang and B.-S. Kang, "Particle filter tracking method using graphical
+   model", Journal of Computers (Computer Society of the R.O.C.), 2015 (accepted March 2015;
+   venue inferred from the article's layout; volume, pages and DOI not confirmed).
+.. [#ihler2009] A. Ihler and D. McAllester, "Particle belief propagation", Proc. AISTATS 2009,
+   PMLR 5, 256–263 (no DOI).
 """
 
 from __future__ import annotations
@@ -38,7 +48,8 @@ def _vec(value, dim: int, what: str, *, nonneg: bool = True) -> np.ndarray:
 
 
 class AffineCoupling(CouplingFactor):
-    r"""``x_a = A x_b + b + ε`` between two variables of equal dimension (seed 002, eqs. 21, 25).
+    r"""``x_a = A x_b + b + ε`` between two variables of equal dimension (eqs. (21), (25) of
+    [#zhang2015]).
 
     .. math::
         \psi(x_a, x_b) = \mathcal N\big(x_a;\ A x_b + b,\ \mathrm{diag}(\sigma^2)\big)
@@ -54,8 +65,8 @@ class AffineCoupling(CouplingFactor):
     std : array_like (d,) or float, optional
         ``σ`` of the potential, used by ``log_prob`` (product fusion needs it > 0).
     jitter_std : array_like (d,) or float
-        Standard deviation of the noise added by ``propagate`` (mixture fusion; SPEC §2:
-        none by default, position only when used).
+        Standard deviation of the noise added by ``propagate`` (mixture fusion): none by
+        default, position only when used (jitter on size brings back size drift).
     forgetting : float, optional
         Offset adaptation (off when ``None``): after a frame in which both parts score
         at least ``adapt_min_log_lik`` at their estimates,
@@ -148,7 +159,8 @@ class AffineCoupling(CouplingFactor):
 
 
 class RelativeBoxCoupling(CouplingFactor):
-    r"""Relative geometry of two boxes ``(cx, cy, w, h, ...)`` (SPEC §2 option).
+    r"""Relative geometry of two boxes ``(cx, cy, w, h, ...)`` (an option beside the fixed
+    offset of [#zhang2015]).
 
     ``a``'s centre is ``b``'s centre plus ``r ⊙ (w_b, h_b)`` and ``a``'s size is
     ``s ⊙ (w_b, h_b)``; for models that carry an observable scale. With a fixed box

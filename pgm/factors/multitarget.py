@@ -3,16 +3,33 @@ r"""Factors for many targets (PHD filters) and for adaptive measurement noise (V
 * :class:`IntensityPrior` — the initial intensity of a ``set`` variable (empty by
   default: targets are born from measurements).
 * :class:`PHDLikelihood` — point measurements ``z = H x + v`` of a random finite set
-  with detection probability ``p_D``, Poisson clutter ``κ = λ_c / A`` and
-  measurement-driven births ``ν_b = λ_b / A`` (SPEC §3a). Its ``log_g`` evaluates the
-  ``(N, |Z|)`` log-likelihood matrix either with a fixed diagonal ``R`` or with the
-  variational ``E_q[log N(z; Hx, R)]`` of an inverse-Gamma noise belief (SPEC §3b).
-  Other likelihood factors declared on the same set variable are *appearance* terms:
-  their per-particle log-scores multiply the detection terms (SPEC §3c), so a learned
-  appearance model slots in as one more factor.
+  (eq. (2) of [#feng2015] misprints it as ``z_t = H z_{t−1} + v``) with detection
+  probability ``p_D``, Poisson clutter ``κ = λ_c / A`` and measurement-driven births
+  ``ν_b = λ_b / A`` (the particle PHD filter of [#vo2005], births as in [#ristic2012]).
+  Its ``log_g`` evaluates the ``(N, |Z|)`` log-likelihood matrix either with a fixed
+  diagonal ``R`` or with the variational ``E_q[log N(z; Hx, R)]`` of an inverse-Gamma
+  noise belief (§II-B of [#feng2015]). Other likelihood factors declared on the same set
+  variable are *appearance* terms: their per-particle log-scores multiply the detection
+  terms (as the DBN of §II-C of [#feng2015] does), so a learned appearance model slots in
+  as one more factor.
 * :class:`InverseGammaPrior`, :class:`NoiseForgetting`, :class:`VBNoise` — the
   ``noise`` variable's prior, its forgetting transition (``α̂ = ρα, β̂ = ρβ``, floored)
   and the conjugate factor that ties it to the likelihood it parameterises.
+
+References
+----------
+.. [#vo2005] B.-N. Vo, S. Singh and A. Doucet, "Sequential Monte Carlo methods for multitarget
+   filtering with random finite sets", IEEE Trans. Aerospace and Electronic Systems 41(4),
+   1224–1245, 2005. doi:10.1109/TAES.2005.1561884
+.. [#ristic2012] B. Ristic, D. Clark, B.-N. Vo and B.-T. Vo, "Adaptive target birth intensity
+   for PHD and CPHD filters", IEEE Trans. Aerospace and Electronic Systems 48(2),
+   1656–1668, 2012. doi:10.1109/TAES.2012.6178085
+.. [#feng2015] P. Feng, W. Wang, S. M. Naqvi and J. A. Chambers, "Variational Bayesian PHD
+   filter with deep learning network updating for multiple human tracking", Proc. Sensor
+   Signal Processing for Defence (SSPD), Edinburgh, 2015 (venue inferred; DOI not confirmed).
+.. [#sarkka2009] S. Särkkä and A. Nummenmaa, "Recursive noise adaptive Kalman filtering by
+   variational Bayesian approximations", IEEE Trans. Automatic Control 54(3), 596–600, 2009.
+   doi:10.1109/TAC.2008.2008348
 """
 
 from __future__ import annotations
@@ -32,7 +49,7 @@ from pgm.factors.kinds import ConjugateFactor, LikelihoodFactor, PriorFactor, Tr
 __all__ = ["IntensityPrior", "PHDLikelihood", "TrackSettings", "InverseGammaPrior",
            "NoiseForgetting", "VBNoise", "constant_velocity"]
 
-LOG_G_FLOOR = -300.0  # SPEC §3b numerics: below -708 numpy's exp goes subnormal and slow
+LOG_G_FLOOR = -300.0  # numerics: below -708 numpy's exp goes subnormal and slow
 
 
 def constant_velocity(dt: float, q: float, layout: str = "pv") -> tuple[np.ndarray, np.ndarray]:
@@ -126,7 +143,7 @@ class TrackSettings:
 
 
 class PHDLikelihood(LikelihoodFactor):
-    r"""Point measurements of a random finite set (particle PHD corrector, SPEC §3a).
+    r"""Point measurements of a random finite set (particle PHD corrector of [#vo2005]).
 
     Parameters
     ----------
@@ -265,7 +282,7 @@ class PHDLikelihood(LikelihoodFactor):
         r"""``(N, M)`` matrix of ``log g(z | x)``, floored at ``LOG_G_FLOOR``.
 
         With ``precision = E[1/σ²]`` and ``log_variance = E[log σ²]`` of a noise belief
-        this is the variational ``log g̃`` of SPEC §3b (constant included); by default
+        this is the variational ``log g̃`` of the VB-PHD update (constant included); by default
         the plug-in Gaussian with the factor's ``R``. Both may be ``(k,)`` (one noise
         shared by all particles) or ``(N, k)`` (per-particle, e.g. per-track noise).
         ``sq``: the :meth:`sq_dist` of ``x`` and ``z`` when already computed (the result
@@ -346,7 +363,8 @@ class InverseGammaPrior(PriorFactor):
 
 
 class NoiseForgetting(TransitionFactor):
-    """Forgetting of a noise belief between frames: ``α̂ = ρα, β̂ = ρβ`` (SPEC §3b),
+    """Forgetting of a noise belief between frames: ``α̂ = ρα, β̂ = ρβ`` (eq. (18) of
+    [#feng2015], after [#sarkka2009]),
     with both multiplied by ``max(1, α_min/α̂)`` so that ``α̂ ≥ α_min``."""
 
     order = 1
@@ -382,12 +400,12 @@ class VBNoise(ConjugateFactor):
         Cap on fixed-point passes (``n_max``).
     strict_counts : bool
         Count only measurements with ``W_z ≥ 0.5`` in the noise statistics (halves the
-        clutter bias at small σ but breaks the ELBO guarantee; SPEC §3b). Off by default.
+        clutter bias at small σ but breaks the ELBO guarantee). Off by default.
     per_track : bool
         One noise belief per track instead of one shared by all targets: particles carry
         a lineage label (one per birth), each label has its own inverse-Gamma belief,
-        and each label's statistics are summed over its own particles (the seed's
-        Algorithm 1 carries ``(α, β)`` per particle; this is its per-track form).
+        and each label's statistics are summed over its own particles (Algorithm 1 of
+        [#feng2015] carries ``(α, β)`` per particle; this is its per-track form).
     """
 
     def __init__(self, noise: str, target: str, *, likelihood: str | None = None,

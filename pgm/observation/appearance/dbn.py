@@ -1,4 +1,4 @@
-r"""A deep-belief-network person likelihood (seed 000, §II-C; SPEC §3c).
+r"""A deep-belief-network person likelihood (§II-C of Feng et al. [#feng2015]).
 
 Input: colour histogram + oriented-gradient features of the patch at a particle
 (:class:`~pgm.observation.appearance.features.PatchFeatures`), in [0, 1]. Two Bernoulli RBM
@@ -12,10 +12,19 @@ output is calibrated by Platt scaling on a held-out split. Its calibrated output
 
 (``π`` the training prior of the person class), tempered by ``γ``
 (:class:`~pgm.factors.multitarget.PHDLikelihood`'s ``appearance_temper``), on the detection
-terms only: declare a :class:`DBNLikelihood` on the set variable.
+terms only: declare a :class:`DBNLikelihood` on the set variable. The paper turns the
+network's last layer into a particle weight with a constant (its eq. (19); ``γ`` here); the
+calibrated likelihood ratio on the detection terms, with the missed-detection term
+untouched, is this toolkit's reading of that step.
 
 A trained network is saved as ``.npz`` (arrays plus a JSON header) and loaded with
 ``allow_pickle=False``: loading never executes code.
+
+References
+----------
+.. [#feng2015] P. Feng, W. Wang, S. M. Naqvi and J. A. Chambers, "Variational Bayesian PHD
+   filter with deep learning network updating for multiple human tracking", Proc. Sensor
+   Signal Processing for Defence (SSPD), Edinburgh, 2015 (venue inferred; DOI not confirmed).
 """
 
 from __future__ import annotations
@@ -163,7 +172,7 @@ class DBN:
         return 1 / (1 + np.exp(-self.calibrated_logits(X)))
 
     def log_ratio(self, X: np.ndarray) -> np.ndarray:
-        """``log ℓ(x) = logit s(x) + log((1 − π)/π)`` (SPEC §3c)."""
+        """``log ℓ(x) = logit s(x) + log((1 − π)/π)`` (see the module docstring)."""
         return self.calibrated_logits(X) + np.log((1 - self.prior_) / self.prior_)
 
     # -- files ---------------------------------------------------------------------------
@@ -218,7 +227,7 @@ class DBNLikelihood(LikelihoodFactor):
     are foot points: the patch is a box of the frame's median detection size standing
     on the particle's foot point (``box_size`` when the frame has no detections).
 
-    Three departures from a literal reading of SPEC §3c, all measured:
+    Three departures from the literal ratio of the module docstring, all measured:
 
     * **robustness** ``epsilon``: the calibrated score is mixed with the class prior,
       ``s' = (1 − ε) s + ε π`` — "with probability ε the network knows nothing" — so the

@@ -1,11 +1,12 @@
 """Patch features of many boxes at once: colour histogram + histogram of oriented gradients.
 
-The input of the deep-belief-network likelihood (SPEC §3c). Both parts are computed
-for all ``N`` boxes of a frame in one vectorised pass from per-frame integral images,
-cached on the :class:`~pgm.core.frame.FrameContext` and shared by every factor that scores
-that frame:
+The input of the deep-belief-network likelihood (colour + HOG, as in §II-C of
+[#feng2015]). Both parts are computed for all ``N`` boxes of a frame in one vectorised pass
+from per-frame integral images, cached on the :class:`~pgm.core.frame.FrameContext` and
+shared by every factor that scores that frame:
 
-* colour: the Pérez histogram of :mod:`pgm.observation.appearance.colour` (80 bins by default);
+* colour: the Pérez histogram [#perez2002] of :mod:`pgm.observation.appearance.colour` (80 bins
+  by default);
 * gradients: ``n_orient`` unsigned orientation bins of the Sobel gradient magnitude,
   one integral image per bin, summed over a ``cells_x × cells_y`` grid of cells in the
   box (a HOG without block overlap), each box's vector L2-normalised.
@@ -15,6 +16,14 @@ that frame:
 >>> img = np.random.default_rng(0).integers(0, 256, (60, 80, 3), dtype=np.uint8)
 >>> PatchFeatures().compute(img, np.array([[40.0, 30.0, 16.0, 32.0]])).shape
 (1, 152)
+
+References
+----------
+.. [#feng2015] P. Feng, W. Wang, S. M. Naqvi and J. A. Chambers, "Variational Bayesian PHD
+   filter with deep learning network updating for multiple human tracking", Proc. Sensor
+   Signal Processing for Defence (SSPD), Edinburgh, 2015 (venue inferred; DOI not confirmed).
+.. [#perez2002] P. Pérez, C. Hue, J. Vermaak and M. Gangnet, "Color-based probabilistic
+   tracking", Proc. ECCV 2002, LNCS 2350, 661–675. doi:10.1007/3-540-47969-4_44
 """
 
 from __future__ import annotations

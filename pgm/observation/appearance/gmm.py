@@ -1,6 +1,6 @@
-"""Gaussian-mixture colour models and the Kullback–Leibler score of seed 003, §3.2.6.
+"""Gaussian-mixture colour models and the Kullback–Leibler score of [#wang2008], §3.2.6.
 
-Seed 003 fits a Gaussian mixture ``p1`` to the template's RGB pixels and one, ``p2``, to
+Wang et al. fit a Gaussian mixture ``p1`` to the template's RGB pixels and one, ``p2``, to
 each candidate region, and scores the candidate by the Monte-Carlo estimate of the
 symmetric KL divergence (eq. 6)::
 
@@ -30,6 +30,12 @@ is fitted after the first frame.
 >>> d = SharedComponentKL(model).divergence(img, np.array([[40.0, 30, 20, 20], [15, 30, 20, 20]]))
 >>> bool(d[0] < d[1])
 True
+
+References
+----------
+.. [#wang2008] J. Wang, Y. Yin and H. Man, "Multiple human tracking using particle filter with
+   Gaussian process dynamical model", EURASIP J. Image and Video Processing 2008, Article
+   ID 969456. doi:10.1155/2008/969456
 """
 
 from __future__ import annotations
@@ -272,7 +278,7 @@ class SharedComponentKL:
 
 def literal_kl(image: np.ndarray, boxes: np.ndarray, template: MixtureTemplate, *,
                symmetric: bool = True, reg_covar: float = 1e-3, seed: int = 0) -> np.ndarray:
-    """Seed 003's eq. 6 as written: a mixture fitted to every candidate box (the slow
+    """Eq. (6) of [#wang2008] as written: a mixture fitted to every candidate box (the slow
     reference; one scikit-learn EM per box), the template term over the template's
     samples and the candidate term over all the box's pixels."""
     b = np.asarray(boxes, dtype=float).reshape(-1, 4)

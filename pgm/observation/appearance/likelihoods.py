@@ -1,6 +1,6 @@
 """Appearance likelihood factors (image evidence for box-valued variables).
 
-:class:`ColourHistogramLikelihood` — Pérez et al. (2002), SPEC §1: the colour
+:class:`ColourHistogramLikelihood` — Pérez et al. [#perez2002]: the colour
 histogram of the candidate box against a template histogram ``q``, through the
 Bhattacharyya coefficient ``ρ``:
 
@@ -10,6 +10,26 @@ Bhattacharyya coefficient ``ρ``:
 All particles of a frame are scored in one vectorised pass
 (:mod:`pgm.observation.appearance.colour`); the colour quantisation is cached on the frame and
 shared with every other factor using the same bin layout.
+
+Other factors here follow a paper too: :class:`FragmentsLikelihood` (Adam et al.
+[#adam2006]), :class:`RotationInvariantLikelihood` and :class:`GMMKLLikelihood` (Wang et al.
+[#wang2008]).
+
+References
+----------
+.. [#perez2002] P. Pérez, C. Hue, J. Vermaak and M. Gangnet, "Color-based probabilistic
+   tracking", Proc. ECCV 2002, LNCS 2350, 661–675. doi:10.1007/3-540-47969-4_44
+.. [#nummiaro2003] K. Nummiaro, E. Koller-Meier and L. Van Gool, "An adaptive color-based
+   particle filter", Image and Vision Computing 21(1), 99–110, 2003.
+   doi:10.1016/S0262-8856(02)00129-4
+.. [#zhang2015] M.-J. Zhang and B.-S. Kang, "Particle filter tracking method using graphical
+   model", Journal of Computers (Computer Society of the R.O.C.), 2015 (accepted March 2015;
+   venue inferred from the article's layout; volume, pages and DOI not confirmed).
+.. [#adam2006] A. Adam, E. Rivlin and I. Shimshoni, "Robust fragments-based tracking using the
+   integral histogram", Proc. CVPR 2006, vol. 1, 798–805. doi:10.1109/CVPR.2006.256
+.. [#wang2008] J. Wang, Y. Yin and H. Man, "Multiple human tracking using particle filter with
+   Gaussian process dynamical model", EURASIP J. Image and Video Processing 2008, Article
+   ID 969456. doi:10.1155/2008/969456
 """
 
 from __future__ import annotations
@@ -108,10 +128,12 @@ class ColourHistogramLikelihood(BoxAppearanceLikelihood):
     variable : str
         A variable whose components ``box_indices`` are ``(cx, cy, w, h)``.
     lam : float
-        ``λ`` (default 20, Pérez et al.; seed 002's garbled setting reads as 2.5).
+        ``λ`` (default 20, as in [#perez2002]). The setting of [#zhang2015], garbled
+        in the text ("2σ is Gaussian variance, the value is 0.2"), most plausibly means
+        ``σ² = 0.2``, i.e. ``λ = 1/(2σ²) = 2.5``.
     layout : {"perez", "hsv", "rgb"}
-        Bin layout (SPEC §1): ``"perez"`` keeps a value-only histogram for
-        low-saturation pixels, so greyscale video works.
+        Bin layout: ``"perez"`` (the layout of [#perez2002]) keeps a value-only
+        histogram for low-saturation pixels, so greyscale video works.
     n_h, n_s, n_v : int
         Bin counts of the layout (``n_v=None``: 16 value bins for ``"perez"``, 4 for
         ``"hsv"``).
@@ -123,7 +145,7 @@ class ColourHistogramLikelihood(BoxAppearanceLikelihood):
     box_indices : tuple of 4 int
         Where ``cx, cy, w, h`` sit in the variable's state.
     adapt_rate : float
-        Adaptive template (Nummiaro et al. 2003), off at 0 (the default): after a frame
+        Adaptive template (Nummiaro et al. [#nummiaro2003]), off at 0 (the default): after a frame
         whose score at the estimate has ``ρ ≥ adapt_threshold``, the template becomes
         ``(1 − adapt_rate) q + adapt_rate p(estimate)``.
     adapt_threshold : float
@@ -203,7 +225,7 @@ class ColourHistogramLikelihood(BoxAppearanceLikelihood):
 
 
 class FragmentsLikelihood(BoxAppearanceLikelihood):
-    """Fragment-based colour likelihood (Adam, Rivlin & Shimshoni 2006, "FragTrack").
+    """Fragment-based colour likelihood ("FragTrack" of Adam, Rivlin & Shimshoni [#adam2006]).
 
     The box is cut into a ``grid = (columns, rows)`` of sub-regions, each scored
     against its own template fragment (taken in the first frame) through the same
@@ -328,7 +350,7 @@ class GradientLikelihood(BoxAppearanceLikelihood):
 
 
 class RotationInvariantLikelihood(BoxAppearanceLikelihood):
-    r"""The rotation-invariant ring model of seed 003, §3.2.7 (eq. 7).
+    r"""The rotation-invariant ring model of Wang et al. [#wang2008], §3.2.7 (eq. (7)).
 
     Pixels in a reference circle around the box centre are grouped into ``rings``
     concentric rings; each ring's colour is summarised per channel by a Gaussian
@@ -340,7 +362,7 @@ class RotationInvariantLikelihood(BoxAppearanceLikelihood):
         \Big(\frac{1}{\sigma_A^2} + \frac{1}{\sigma_B^2}\Big)
         + \frac{\sigma_B^2}{\sigma_A^2} + \frac{\sigma_A^2}{\sigma_B^2}\Big] \ge 1,
 
-    and the likelihood is ``exp(−λ (Γ − 1))`` (SPEC §4: eq. 7's minimum is 1). All
+    and the likelihood is ``exp(−λ (Γ − 1))`` (``Γ − 1``: eq. 7's minimum is 1). All
     particles are scored at once from a fixed polar grid of sample points
     (``rings × radial_samples × angles`` per particle, one gather), so this is a grid
     approximation of the ring integrals; with ``angles`` divisible by 4 it is exactly
@@ -417,14 +439,15 @@ class RotationInvariantLikelihood(BoxAppearanceLikelihood):
 
 
 class GMMKLLikelihood(BoxAppearanceLikelihood):
-    r"""GMM-KL appearance (seed 003, §3.2.6, eq. 6; SPEC §4): a Gaussian mixture over
+    r"""GMM-KL appearance (Wang et al. [#wang2008], §3.2.6, eq. (6)): a Gaussian mixture over
     RGB fitted to the template's pixels in the first frame (scikit-learn), the
     Monte-Carlo KL divergence ``D`` of eq. 6 between it and the candidate's mixture, and
 
     .. math::
         \log p(z \mid X) = -\lambda\, D(X)
 
-    (SPEC §4: the seed's "proportional to the KL distance" inverted).
+    (the paper's likelihood "proportional to the KL distance" inverted: a larger
+    divergence must score lower).
 
     ``method="shared"`` (default) scores every particle without fitting a mixture per
     particle: the candidate's mixture keeps the template's components plus a uniform

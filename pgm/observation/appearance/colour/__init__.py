@@ -5,9 +5,9 @@ The pieces, one module each: :mod:`~.quantize` (colour quantisation),
 kernels and the template-support coefficient), :mod:`~.grid` (kernel-weighted grid
 histograms) and :mod:`~.scorer` (:class:`ColourHistogramScorer`).
 
-This is the hot path of every colour tracker (``SPEC.md`` §1): score N candidate
-boxes of one frame against a template histogram ``q``. It is one vectorised
-computation, with no Python loop over boxes:
+This is the hot path of every colour tracker (the colour likelihood of Pérez et al.
+[#perez2002]): score N candidate boxes of one frame against a template histogram ``q``. It
+is one vectorised computation, with no Python loop over boxes:
 
 1. **Quantise only what is scored, once per frame** (:func:`quantize_colour`): one
    ``cv2.cvtColor`` to 8-bit HSV, then per-channel bit shifts (power-of-two bin
@@ -72,7 +72,12 @@ Box rounding: a box ``(cx, cy, w, h)`` covers pixel columns
 ``x1 = max(x1, x0 + 1)`` so that a valid box always covers at least one pixel
 column; rows likewise. The in-image fraction ``in_frac`` is the number of those
 pixels inside the image over their total number; the histogram is normalised over
-the in-image pixels only (``SPEC.md`` §1: pixels outside the image are absent).
+the in-image pixels only (this toolkit's convention: pixels outside the image are absent).
+
+References
+----------
+.. [#perez2002] P. Pérez, C. Hue, J. Vermaak and M. Gangnet, "Color-based probabilistic
+   tracking", Proc. ECCV 2002, LNCS 2350, 661–675. doi:10.1007/3-540-47969-4_44
 """
 
 from pgm.observation.appearance.colour.integral import box_histograms, pixel_bounds

@@ -1,5 +1,14 @@
 """Colour quantisation of a frame region into histogram bins (step 1 of
-:mod:`pgm.observation.appearance.colour`)."""
+:mod:`pgm.observation.appearance.colour`).
+
+References
+----------
+.. [#perez2002] P. Pérez, C. Hue, J. Vermaak and M. Gangnet, "Color-based probabilistic
+   tracking", Proc. ECCV 2002, LNCS 2350, 661–675. doi:10.1007/3-540-47969-4_44
+.. [#zhang2015] M.-J. Zhang and B.-S. Kang, "Particle filter tracking method using graphical
+   model", Journal of Computers (Computer Society of the R.O.C.), 2015 (accepted March 2015;
+   venue inferred from the article's layout; volume, pages and DOI not confirmed).
+"""
 
 from __future__ import annotations
 
@@ -14,7 +23,7 @@ __all__ = ['quantize_colour', 'colour_bin_count', 'LAYOUTS']
 
 LAYOUTS = ("perez", "hsv", "rgb")
 
-# Pérez et al.: a pixel is chromatic when saturation > 0.1 and value > 0.2
+# Pérez et al. [#perez2002]: a pixel is chromatic when saturation > 0.1 and value > 0.2
 # (OpenCV 8-bit HSV: S >= 26, V >= 52).
 _S_MIN = 26
 _V_MIN = 52
@@ -149,15 +158,15 @@ def quantize_colour(image_bgr: np.ndarray, layout: str = "perez", n_h: int = 16,
     ----------
     image_bgr : ndarray, (H, W, 3) uint8 BGR, or (H, W) uint8 greyscale
     layout : {"perez", "hsv", "rgb"}
-        ``"perez"`` (default, ``SPEC.md`` §1): OpenCV 8-bit HSV; pixels with
-        ``S >= 26`` and ``V >= 52`` go to ``n_h * n_s`` hue-saturation bins
-        ``(H * n_h // 180) * n_s + S * n_s // 256`` (so the lowest saturation bin
+        ``"perez"`` (default; the layout of Pérez et al. [#perez2002]): OpenCV 8-bit
+        HSV; pixels with ``S >= 26`` and ``V >= 52`` go to ``n_h * n_s`` hue-saturation
+        bins ``(H * n_h // 180) * n_s + S * n_s // 256`` (so the lowest saturation bin
         holds S in [26, 64) with the defaults), every other pixel to one of ``n_v``
         value-only bins ``n_h*n_s + V * n_v // 256``. Greyscale frames therefore
         keep an ``n_v``-bin intensity histogram.
         ``"hsv"``: plain ``n_h x n_s x n_v`` bins, ``((h * n_s) + s) * n_v + v``
-        (16 x 4 x 4 = 256 by default; a greyscale frame collapses onto the ``n_v``
-        bins of hue 0, saturation 0).
+        (16 x 4 x 4 = 256 by default, as in [#zhang2015]; a greyscale frame collapses
+        onto the ``n_v`` bins of hue 0, saturation 0).
         ``"rgb"``: ``n_rgb`` bins per channel, ``(r * n + g) * n + b``.
     n_h, n_s, n_v : int
         Bins of hue, saturation and value. ``n_v=None`` means 16 for "perez" and 4

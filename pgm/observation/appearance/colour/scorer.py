@@ -1,4 +1,13 @@
-"""Bhattacharyya similarity and :class:`ColourHistogramScorer`, the colour factors' engine."""
+"""Bhattacharyya similarity and :class:`ColourHistogramScorer`, the colour factors' engine.
+
+References
+----------
+.. [#perez2002] P. Pérez, C. Hue, J. Vermaak and M. Gangnet, "Color-based probabilistic
+   tracking", Proc. ECCV 2002, LNCS 2350, 661–675. doi:10.1007/3-540-47969-4_44
+.. [#nummiaro2003] K. Nummiaro, E. Koller-Meier and L. Van Gool, "An adaptive color-based
+   particle filter", Image and Vision Computing 21(1), 99–110, 2003.
+   doi:10.1016/S0262-8856(02)00129-4
+"""
 
 from __future__ import annotations
 
@@ -45,7 +54,7 @@ def bhattacharyya(p: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 
 class ColourHistogramScorer:
-    """Colour-histogram likelihood of candidate boxes (``SPEC.md`` §1).
+    """Colour-histogram likelihood of candidate boxes (Pérez et al. [#perez2002]).
 
     ``rho(ctx, boxes)`` is the Bhattacharyya coefficient between each box's
     histogram and the template ``q``, multiplied by the box's in-image fraction, so
@@ -58,9 +67,9 @@ class ColourHistogramScorer:
         Bin layout; see :func:`quantize_colour`.
     kernel : {"uniform", "epanechnikov", "grid-uniform"}
         ``"uniform"`` (default): every pixel of the box counts once; exact, by
-        integral histograms. ``"epanechnikov"``: Nummiaro et al.'s kernel
-        ``k(r) = 1 - r^2``, ``r`` the normalised elliptical radius in the box;
-        integral histograms cannot weight pixels, so this is a *grid approximation*:
+        integral histograms. ``"epanechnikov"``: the kernel of Nummiaro et al.
+        [#nummiaro2003], ``k(r) = 1 - r^2``, ``r`` the normalised elliptical radius in
+        the box; integral histograms cannot weight pixels, so this is a *grid approximation*:
         a fixed ``grid x grid`` lattice of sample points in every box (the points
         with ``r < 1``), each reading the pixel that contains it. ``"grid-uniform"``:
         the same lattice with unit weights (an approximation of "uniform").
@@ -231,7 +240,7 @@ class ColourHistogramScorer:
 
     def log_likelihood(self, image_or_ctx: Any, boxes: np.ndarray, lam: float = 20.0,
                        q: np.ndarray | None = None) -> np.ndarray:
-        """``-lam * (1 - rho)`` (``SPEC.md`` §1, default ``lam = 20``)."""
+        """``-lam * (1 - rho)`` (default ``lam = 20``, as in [#perez2002])."""
         return -float(lam) * (1.0 - self.rho(image_or_ctx, boxes, q))
 
 
