@@ -59,7 +59,7 @@ def factories(dbn_path: str):
     from pgm.observation.appearance.dbn import DBNLikelihood
 
     return [
-        ("colour perez (SPEC §1)", lambda: ColourHistogramLikelihood("o")),
+        ("colour perez (Pérez et al. 2002)", lambda: ColourHistogramLikelihood("o")),
         ("colour hsv 16x4x4", lambda: ColourHistogramLikelihood("o", layout="hsv")),
         ("colour rgb 8x8x8", lambda: ColourHistogramLikelihood("o", layout="rgb")),
         ("fragments 3x3", lambda: FragmentsLikelihood("o")),

@@ -46,7 +46,7 @@ DEFAULT = single_object.APPEARANCE
 SCALE = single_object.SCALE_NOISE
 #: (label, part_graph.Params overrides): the ablation
 CONFIGS = [
-    ("colour PF (SPEC §1)", dict(appearance="colour")),
+    ("colour PF (Pérez et al. 2002)", dict(appearance="colour")),
     ("part graph, 3 nodes x 10, colour", dict(n_parts=3, num_particles=10, appearance="colour")),
     ("fragments", dict(appearance="fragments")),
     ("gradient", dict(appearance="gradient")),
@@ -65,7 +65,7 @@ CONFIGS = [
     ("3 nodes x 10, fragments+contrast", dict(n_parts=3, num_particles=10,
                                               appearance="fragments+contrast")),
 ]
-QUICK = {"colour PF (SPEC §1)", f"DEFAULT {DEFAULT}, scale {SCALE}", "contrast"}
+QUICK = {"colour PF (Pérez et al. 2002)", f"DEFAULT {DEFAULT}, scale {SCALE}", "contrast"}
 OPENCV = {"FaceOcc1": "CSRT 0.815 / KCF 0.855", "Crossing": "CSRT 0.771 / KCF 0.100"}
 
 
