@@ -61,9 +61,9 @@ def run(det: DetectionSource, frames, gt) -> tuple[list[MatchCounts], list[Match
         d = det(k, image)
         spent += time.perf_counter() - t0
         rows = gt.rows(k)
-        boxes, ignore = gt.boxes[rows], gt.ignore[rows]
-        per_iou.append(match_detections(d, boxes[~ignore], boxes[ignore], criterion="iou"))
-        per_foot.append(match_detections(d, boxes[~ignore], boxes[ignore], criterion="foot"))
+        boxes, scored, ignore = gt.boxes[rows], gt.scored[rows], gt.ignore[rows]
+        per_iou.append(match_detections(d, boxes[scored], boxes[ignore], criterion="iou"))
+        per_foot.append(match_detections(d, boxes[scored], boxes[ignore], criterion="foot"))
     return per_iou, per_foot, 1000.0 * spent / max(len(per_iou), 1)
 
 

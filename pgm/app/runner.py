@@ -327,10 +327,7 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
     metrics = None
     if gt is not None:
         last = int(number)
-        keep = gt.frames <= last
-        gt_cut = MotTable(gt.frames[keep], gt.ids[keep], gt.boxes[keep], gt.conf[keep],
-                          None if gt.ignore is None else gt.ignore[keep])
-        metrics = evaluate_mot(gt_cut, table, num_frames=last)
+        metrics = evaluate_mot(gt.until(last), table, num_frames=last)
         metrics["fps"] = n / secs if secs > 0 else 0.0
         metrics["detector_fps"] = n / det_secs if det_secs > 0 else 0.0
     result = MultiTrackResult(table, metrics, secs, det_secs, n, out, sigmas)

@@ -105,27 +105,26 @@ def foot_points(boxes_xywh: Any) -> np.ndarray:
     return np.stack([b[..., 0] + b[..., 2] / 2.0, b[..., 1] + b[..., 3]], axis=-1)
 
 
-def _subset(table: MotTable, keep: np.ndarray) -> MotTable:
-    return MotTable(frames=table.frames[keep], ids=table.ids[keep], boxes=table.boxes[keep],
-                    conf=table.conf[keep], ignore=table.ignore[keep])
-
-
 def apply_ignore_regions(gt: MotTable, pred: MotTable, iou: float = 0.5
                          ) -> tuple[MotTable, MotTable, int]:
-    """MOTChallenge preprocessing with flag-0 ground-truth rows as ignore regions.
+    """MOTChallenge preprocessing: predictions on ignore regions removed, then only the
+    scored ground truth kept.
 
-    In each frame that has flag-0 rows and predictions, predictions are matched to every
-    ground-truth box of the frame (flag 0 or not) by the Hungarian algorithm on IoU, pairs
-    with ``IoU < iou`` excluded (TrackEval: scores below ``iou - eps`` set to 0 before
-    the assignment, zero-score pairs discarded after it). A prediction matched to a flag-0
-    box is dropped: it is neither a false nor a true positive. The flag-0 rows are then
-    dropped: never a miss.
+    In each frame that has ignore regions (MOT15: flag-0 rows; MOT16/17: classes 2, 7, 8,
+    12) and predictions, predictions are matched to every ground-truth box of the frame
+    (whatever its flag or class) by the Hungarian algorithm on IoU, pairs with
+    ``IoU < iou`` excluded (TrackEval: scores below ``iou - eps`` set to 0 before the
+    assignment, zero-score pairs discarded after it). A prediction matched to an ignore
+    region is dropped: it is neither a false nor a true positive. Only the scored rows
+    (:attr:`MotTable.scored`: MOT15 flag ≠ 0; MOT16/17 class 1 with ``consider`` = 1) are
+    then kept: an unscored row is never a miss, and a prediction on one that is not an
+    ignore region (an occluder, a car) stays a false positive.
 
     Returns
     -------
     (gt, pred, dropped)
-        The scored ground truth (no flag-0 rows), the kept predictions and the number of
-        predictions dropped.
+        The scored ground truth, the kept predictions and the number of predictions
+        dropped.
     """
     keep_pred = np.ones(len(pred), dtype=bool)
     if np.any(gt.ignore) and len(pred):
@@ -140,8 +139,8 @@ def apply_ignore_regions(gt: MotTable, pred: MotTable, iou: float = 0.5
             rows, cols = rows[ok], cols[ok]
             on_ignore = gt.ignore[gs][rows]
             keep_pred[ps.start + cols[on_ignore]] = False
-    gt_out = gt if not np.any(gt.ignore) else _subset(gt, ~gt.ignore)
-    pred_out = pred if keep_pred.all() else _subset(pred, keep_pred)
+    gt_out = gt if gt.scored.all() else gt.subset(gt.scored)
+    pred_out = pred if keep_pred.all() else pred.subset(keep_pred)
     return gt_out, pred_out, int((~keep_pred).sum())
 
 
@@ -306,7 +305,7 @@ def evaluate_mot(gt: MotTable, pred: MotTable, *, iou: float = 0.5,
     out["mean_abs_cardinality_error"] = cardinality_error(n_gt, n_pr).mean_abs
     out["num_gt"] = len(gt_s)
     out["num_pred"] = len(pred_s)
-    out["num_gt_ignored"] = int(np.count_nonzero(gt.ignore))
+    out["num_gt_ignored"] = int(np.count_nonzero(~gt.scored))
     out["num_pred_ignored"] = dropped
     out["num_frames"] = n_frames
     return out

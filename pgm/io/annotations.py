@@ -27,6 +27,8 @@ __all__ = [
     "SingleTrack",
     "MotTable",
     "MotWriter",
+    "MOT16_PEDESTRIAN",
+    "MOT16_DISTRACTOR_CLASSES",
     "write_otb_groundtruth",
     "format_numbers",
     "load_single_gt",
@@ -249,8 +251,22 @@ class MotTable:
         Column 7: the evaluation flag for ground truth, the score for detections and
         results (1.0 when the file has only six columns).
     ignore : ndarray of bool, shape (K,)
-        Ground-truth rows with flag 0 (ignore regions in MOT15 evaluation); all False
+        Ground-truth rows that are *ignore regions*: a prediction matched to one is
+        neither a true nor a false positive. MOT15: rows with flag 0; MOT16/17: the
+        distractor classes 2, 7, 8 and 12 (:data:`MOT16_DISTRACTOR_CLASSES`). All False
         for detections and results.
+    scored : ndarray of bool, shape (K,)
+        Ground-truth rows scored as targets (default: the rows that are not ignore
+        regions). MOT16/17: class 1 with ``consider`` = 1; rows of other classes are
+        neither scored nor ignore regions (a prediction on an occluder is a false
+        positive).
+    classes : ndarray of int, shape (K,)
+        MOT16/17 class of each row (``-1`` where the file has none).
+    visibility : ndarray of float, shape (K,)
+        MOT16/17 visible fraction of each row (NaN where the file has none).
+    fmt : str
+        ``"mot15"`` (or a detection / result file) or ``"mot16"`` (the 2016/17 ground
+        truth with ``consider, class, visibility`` columns).
     """
 
     frames: np.ndarray
@@ -258,6 +274,10 @@ class MotTable:
     boxes: np.ndarray
     conf: np.ndarray
     ignore: np.ndarray | None = None
+    scored: np.ndarray | None = None
+    classes: np.ndarray | None = None
+    visibility: np.ndarray | None = None
+    fmt: str = "mot15"
     _index: dict[int, tuple[int, int]] = field(init=False, repr=False, default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -269,16 +289,28 @@ class MotTable:
         conf = np.array(self.conf, dtype=float).reshape(-1)
         ignore = (np.zeros(k, dtype=bool) if self.ignore is None
                   else np.array(self.ignore, dtype=bool).reshape(-1))
-        if not (ids.shape[0] == boxes.shape[0] == conf.shape[0] == ignore.shape[0] == k):
+        scored = (~ignore if self.scored is None
+                  else np.array(self.scored, dtype=bool).reshape(-1))
+        classes = (np.full(k, -1, dtype=np.int64) if self.classes is None
+                   else np.array(self.classes, dtype=np.int64).reshape(-1))
+        visibility = (np.full(k, np.nan) if self.visibility is None
+                      else np.array(self.visibility, dtype=float).reshape(-1))
+        if not all(a.shape[0] == k for a in (ids, boxes, conf, ignore, scored, classes,
+                                             visibility)):
             raise ValueError("MotTable columns have different lengths")
+        if np.any(scored & ignore):
+            raise ValueError("MotTable: a row cannot be both scored and an ignore region")
+        if self.fmt not in ("mot15", "mot16"):
+            raise ValueError(f"MotTable: fmt must be 'mot15' or 'mot16', got {self.fmt!r}")
+        cols = {"frames": frames, "ids": ids, "boxes": boxes, "conf": conf, "ignore": ignore,
+                "scored": scored, "classes": classes, "visibility": visibility}
         order = np.argsort(frames, kind="stable")
         if np.any(order != np.arange(k)):
-            frames, ids, boxes, conf, ignore = (frames[order], ids[order], boxes[order],
-                                                conf[order], ignore[order])
-        for name, value in (("frames", frames), ("ids", ids), ("boxes", boxes),
-                            ("conf", conf), ("ignore", ignore)):
+            cols = {name: value[order] for name, value in cols.items()}
+        for name, value in cols.items():
             value.setflags(write=False)
             object.__setattr__(self, name, value)
+        frames = cols["frames"]
         uniq, starts, counts = np.unique(frames, return_index=True, return_counts=True)
         index = {int(f): (int(s), int(s + c)) for f, s, c in zip(uniq, starts, counts,
                                                                   strict=True)}
@@ -296,6 +328,18 @@ class MotTable:
         start, stop = self._index.get(int(frame), (0, 0))
         return slice(start, stop)
 
+    def subset(self, keep: np.ndarray) -> MotTable:
+        """The rows where ``keep`` (a boolean mask) is true, every column kept."""
+        keep = np.asarray(keep, dtype=bool)
+        return MotTable(frames=self.frames[keep], ids=self.ids[keep], boxes=self.boxes[keep],
+                        conf=self.conf[keep], ignore=self.ignore[keep],
+                        scored=self.scored[keep], classes=self.classes[keep],
+                        visibility=self.visibility[keep], fmt=self.fmt)
+
+    def until(self, frame: int) -> MotTable:
+        """The rows of frames ``<= frame``."""
+        return self.subset(self.frames <= int(frame))
+
     def at(self, frame: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(ids (n,), boxes (n, 4), conf (n,))`` of one frame (read-only views)."""
         s = self.rows(frame)
@@ -307,8 +351,15 @@ def load_mot(path: str | Path, *, kind: str = "gt", min_score: float | None = No
     """Read a MOTChallenge ``gt.txt``, ``det.txt`` or result file.
 
     Rows are ``frame, id, x, y, w, h, conf[, ...]`` with 1-based top-left ``x, y``
-    (converted to 0-based); extra columns (world coordinates, class, visibility) are
-    ignored.
+    (converted to 0-based). Ground truth comes in two layouts, told apart from the file:
+
+    * **MOT15** (10 columns; world coordinates after the flag): column 7 is the
+      evaluation flag; flag-0 rows are ignore regions;
+    * **MOT16/17** (exactly 9 columns ``..., consider, class, visibility`` with
+      ``consider`` in {0, 1}, integer classes 1–12 and visibility in [0, 1]): the
+      benchmark's protocol — class 1 with ``consider`` = 1 are the targets, classes 2,
+      7, 8 and 12 are ignore regions, every other row is neither
+      (:attr:`MotTable.scored`, :attr:`MotTable.ignore`).
 
     Parameters
     ----------
@@ -356,9 +407,33 @@ def load_mot(path: str | Path, *, kind: str = "gt", min_score: float | None = No
     keep = np.ones(len(lines), dtype=bool)
     if min_score is not None:
         keep = conf >= float(min_score)
-    ignore = (conf == 0) if kind == "gt" else np.zeros(len(lines), dtype=bool)
+    extra: dict = {}
+    if kind == "gt" and _is_mot16_gt(table):
+        classes = table[:, 7].astype(np.int64)
+        ignore = np.isin(classes, MOT16_DISTRACTOR_CLASSES)
+        scored = (classes == MOT16_PEDESTRIAN) & (conf == 1)
+        extra = {"scored": scored[keep], "classes": classes[keep],
+                 "visibility": table[keep, 8], "fmt": "mot16"}
+    else:
+        ignore = (conf == 0) if kind == "gt" else np.zeros(len(lines), dtype=bool)
     return MotTable(frames=frames_f[keep].astype(np.int64), ids=ids_f[keep].astype(np.int64),
-                    boxes=boxes[keep], conf=conf[keep], ignore=ignore[keep])
+                    boxes=boxes[keep], conf=conf[keep], ignore=ignore[keep], **extra)
+
+
+#: MOT16/17 ground-truth class of the evaluated targets (pedestrians)
+MOT16_PEDESTRIAN = 1
+#: MOT16/17 classes whose boxes are ignore regions (person on vehicle, static person,
+#: distractor, reflection): predictions matched to them are removed before scoring
+MOT16_DISTRACTOR_CLASSES = (2, 7, 8, 12)
+
+
+def _is_mot16_gt(table: np.ndarray) -> bool:
+    """Whether a parsed ``gt.txt`` has the MOT16/17 ``consider, class, visibility`` columns."""
+    if table.shape[1] != 9 or table.shape[0] == 0:
+        return False
+    consider, cls, vis = table[:, 6], table[:, 7], table[:, 8]
+    return bool(np.all(np.isin(consider, (0.0, 1.0))) and np.all(cls == np.round(cls))
+                and np.all((cls >= 1) & (cls <= 12)) and np.all((vis >= 0) & (vis <= 1)))
 
 
 def load_tracks(path: str | Path) -> MotTable:

@@ -390,7 +390,7 @@ def training_set(sequences, rng: np.random.Generator, *, every: int = 5,
                 continue
             _, boxes, _ = gt.at(number)
             rows = np.flatnonzero(gt.frames == number)
-            keep = ~gt.ignore[rows] if gt.ignore is not None else np.ones(len(rows), bool)
+            keep = gt.scored[rows]  # targets only (MOT16: pedestrians, not distractors)
             boxes = np.asarray(boxes)[keep]
             if len(boxes) == 0:
                 continue

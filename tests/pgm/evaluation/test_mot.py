@@ -215,3 +215,52 @@ def test_ignore_regions_on_pets09(shared_data: Path) -> None:
     assert (r["fp"], r["fn"], r["id_switches"]) == (0, 0, 0)
     assert r["mota"] == 1.0 and r["hota"] == pytest.approx(1.0, abs=1e-9)
     assert r["ospa_50_1"] == 0.0 and r["ospa2"] == 0.0
+
+
+# --------------------------------------------------------------------------- MOT16/17 protocol
+MOT16_GT = """\
+1,1,11,11,20,40,1,1,1
+1,2,101,11,20,40,0,8,1
+1,3,201,11,20,40,0,9,0.5
+1,4,301,11,20,40,1,7,1
+1,5,401,11,20,40,0,1,0.2
+2,1,13,11,20,40,1,1,1
+"""
+MOT16_PRED = """\
+1,1,11,11,20,40,1,-1,-1,-1
+1,2,101,11,20,40,1,-1,-1,-1
+1,3,201,11,20,40,1,-1,-1,-1
+1,4,301,11,20,40,1,-1,-1,-1
+1,5,401,11,20,40,1,-1,-1,-1
+1,6,601,11,20,40,1,-1,-1,-1
+2,1,13,11,20,40,1,-1,-1,-1
+"""
+
+
+def test_mot16_ground_truth_is_read_with_its_classes(tmp_path):
+    (tmp_path / "gt.txt").write_text(MOT16_GT)
+    gt = load_mot(tmp_path / "gt.txt", kind="gt")
+    assert gt.fmt == "mot16"
+    np.testing.assert_array_equal(gt.classes, [1, 8, 9, 7, 1, 1])
+    np.testing.assert_array_equal(gt.scored, [True, False, False, False, False, True])
+    np.testing.assert_array_equal(gt.ignore, [False, True, False, True, False, False])
+    np.testing.assert_allclose(gt.visibility, [1, 1, 0.5, 1, 0.2, 1])
+    # MOT15 (10 columns) and a 9-column file that is not MOT16 keep the flag reading
+    (tmp_path / "odd.txt").write_text("1,1,11,11,20,40,0,13,1\n1,2,11,11,20,40,1,1,1\n")
+    odd = load_mot(tmp_path / "odd.txt", kind="gt")
+    assert odd.fmt == "mot15" and odd.ignore.tolist() == [True, False]
+
+
+def test_mot16_protocol_against_a_hand_worked_example(tmp_path):
+    """Frame 1 holds a pedestrian (scored), a distractor (class 8) and a static person
+    (class 7) — ignore regions —, an occluder (class 9) and a pedestrian with consider=0
+    — neither. Predictions on the two ignore regions are removed; those on the occluder,
+    on the unconsidered pedestrian and on empty background are false positives; the
+    pedestrian is hit in both frames. So GT = 2, TP = 2, FP = 3, FN = 0, and
+    MOTA = 1 − (FN + FP + IDSW) / GT = 1 − 3/2 = −0.5."""
+    (tmp_path / "gt.txt").write_text(MOT16_GT)
+    (tmp_path / "pred.txt").write_text(MOT16_PRED)
+    m = evaluate_mot_files(tmp_path / "gt.txt", tmp_path / "pred.txt")
+    assert (m["fp"], m["fn"], m["id_switches"]) == (3, 0, 0)
+    assert m["num_pred_ignored"] == 2 and m["num_gt_ignored"] == 4
+    assert m["mota"] == pytest.approx(-0.5)

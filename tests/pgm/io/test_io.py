@@ -427,3 +427,17 @@ def test_real_pets_video(shared_data: Path) -> None:
     folder = open_source(shared_data / "PETS09-S2L1-video")
     assert isinstance(folder, VideoSource) and folder.layout == "mot"
     assert folder.fps == 7.0 and len(folder) == 795
+
+
+def test_mot16_sequence_ground_truth_follows_the_protocol(shared_data):
+    """MOT16-11: 3349 pedestrian rows with consider=1 are scored, the 284 distractor
+    (class 8) rows are ignore regions and the 385 occluder (class 9) rows are neither
+    (counts read off the file with awk)."""
+    from pgm.io.annotations import load_mot
+
+    gt = load_mot(shared_data / "MOT16-11" / "gt" / "gt.txt", kind="gt")
+    assert gt.fmt == "mot16"
+    assert int(gt.scored.sum()) == 3349 and int(gt.ignore.sum()) == 284
+    assert int((gt.classes == 9).sum()) == 385 and not np.any(gt.scored & (gt.classes != 1))
+    pets = load_mot(shared_data / "PETS09-S2L1" / "gt" / "gt.txt", kind="gt")
+    assert pets.fmt == "mot15"
