@@ -68,6 +68,7 @@ from pgm.core.expfam import InverseGamma
 from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
+from pgm.core.motion import warp_states
 from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
 
 from .resampling import ess_triggered, get_resampler
@@ -641,6 +642,10 @@ def _prior_particles(engine: Engine, factor, frame) -> None:
 def _predict_particles(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     b: Particles = engine.beliefs[var]
+    if frame.camera_motion is not None:  # past states into this frame's image coordinates
+        labels = engine.graph.variables[var].labels
+        b = b._trusted(warp_states(b.x, labels, frame.camera_motion), b.log_weights,
+                       tuple(warp_states(h, labels, frame.camera_motion) for h in b.history))
     x_new = np.asarray(factor.sample(engine.rng, b.x, *b.history), dtype=float)
     if x_new.shape != b.x.shape:
         raise ValueError(f"factor {factor.name!r}: sample() returned shape {x_new.shape}, "

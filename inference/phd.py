@@ -48,6 +48,7 @@ from typing import Any
 import numpy as np
 
 from pgm.core.beliefs import Intensity, Particles
+from pgm.core.motion import motion_scale, warp_states
 from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
 from pgm.factors.multitarget import PHDLikelihood
 
@@ -132,6 +133,11 @@ def _predict_intensity(engine: Engine, factor, frame) -> None:
         lw = np.concatenate([lw, b.newborn.log_weights])
         if labels is not None:
             labels = np.concatenate([labels, engine.aux[var]["newborn_labels"]])
+    if frame.camera_motion is not None:  # past states into this frame's image coordinates
+        names = engine.graph.variables[var].labels
+        x = warp_states(x, names, frame.camera_motion)
+        engine.aux[var]["tracks"].move(lambda s: warp_states(s, names, frame.camera_motion),
+                                       motion_scale(frame.camera_motion))
     if x.shape[0]:
         x = np.asarray(factor.sample(engine.rng, x), dtype=float)
     lw = lw + np.log(getattr(factor, "p_survive", 1.0))

@@ -95,6 +95,18 @@ class TrackManager:
         self.tracks: list[Track] = []
         self._next_id = 1
 
+    def move(self, warp, scale: float = 1.0) -> None:
+        """Move every track's state through ``warp`` (states ``(K, d)`` to ``(K, d)``),
+        e.g. the camera's image motion since the previous frame; box sizes are multiplied
+        by the motion's ``scale``."""
+        if not self.tracks:
+            return
+        moved = warp(np.array([t.state for t in self.tracks]))
+        for t, s in zip(self.tracks, moved, strict=True):
+            t.state = s
+            if t.size is not None:
+                t.size = t.size * scale
+
     def update(self, states: np.ndarray, sizes: np.ndarray | None = None,
                sigma: np.ndarray | None = None) -> list[Track]:
         """Feed this frame's extracted states ``(K, d)``; return the tracks to report.

@@ -109,6 +109,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--show-particles", action="store_true",
                    help="draw particles in the annotated video")
     t.add_argument("--max-frames", type=_positive_int("--max-frames"), default=None)
+    t.add_argument("--camera-motion", choices=("auto", "on", "off"), default="auto",
+                   help="global-motion compensation of every target's prediction: auto (on "
+                        "frames where the camera moves, default), on, off")
     t.add_argument("--detections", help="phd/vb-phd: a MOTChallenge det.txt to use as "
                                         "measurements")
     t.add_argument("--dbn", help="phd/vb-phd: a DBN person likelihood trained by "
@@ -265,7 +268,8 @@ def cmd_track_multi(args, source) -> int:
                                    name=graph.name + "+dbn")
     result = track_multi(source, graph, detector, rng=as_generator(args.seed), out_dir=args.out,
                          gt=gt, write_video=not args.no_video, show_particles=args.show_particles,
-                         progress=not args.quiet, max_frames=args.max_frames)
+                         progress=not args.quiet, max_frames=args.max_frames,
+                         camera_motion=args.camera_motion)
     print(f"tracked {result.n_frames} frames at {result.fps:.1f} frames/s (inference only; "
           f"detector {result.n_frames / max(result.detector_seconds, 1e-9):.0f} frames/s) -> "
           f"{Path(args.out) / 'tracks.txt'}")
@@ -329,7 +333,7 @@ def cmd_track(args) -> int:
     result = track(source, graph, rng=as_generator(args.seed), out_dir=args.out, gt=gt,
                    num_particles=args.particles, write_video=not args.no_video,
                    show_particles=args.show_particles, progress=not args.quiet,
-                   max_frames=args.max_frames)
+                   max_frames=args.max_frames, camera_motion=args.camera_motion)
     print(f"tracked {len(result.frames)} frames at {result.fps:.1f} frames/s "
           f"(inference only) -> {Path(args.out) / 'tracks.txt'}")
     if result.metrics is not None:

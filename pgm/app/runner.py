@@ -28,6 +28,7 @@ from pgm.inference.engine import Engine, StepRecord
 from pgm.io.annotated_video import AnnotatedVideoWriter
 from pgm.io.annotations import MotWriter, SingleTrack, load_single_gt
 from pgm.io.video import FrameSource, open_source
+from pgm.observation.camera_motion import CameraMotionEstimator
 from pgm.plotting.annotate import annotate
 
 __all__ = ["TrackResult", "track", "output_box", "init_box_from_gt", "MultiTrackResult",
@@ -105,7 +106,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
           gt: SingleTrack | str | Path | None = None, num_particles: int | None = None,
           write_video: bool = True, show_particles: bool = False, progress: bool = True,
           max_frames: int | None = None, keep_records: bool = False,
-          engine_kwargs: dict[str, Any] | None = None,
+          engine_kwargs: dict[str, Any] | None = None, camera_motion: str = "auto",
           on_frame: Callable[[StepRecord], None] | None = None) -> TrackResult:
     """Track one object through ``source`` with the tracker ``graph``.
 
@@ -124,6 +125,10 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
         Passed to :class:`Engine`.
     max_frames : int, optional
         Stop after this many frames.
+    camera_motion : {"auto", "on", "off"}
+        Global-motion compensation (:mod:`pgm.observation.camera_motion`): ``"auto"``
+        moves the particles through the camera's motion on frames where it is
+        significant.
     """
     if num_particles is not None and (isinstance(num_particles, bool)
                                       or not isinstance(num_particles, (int, np.integer))
@@ -135,6 +140,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     if max_frames is not None:
         total = min(total, max_frames) if total is not None else max_frames
     engine = Engine(graph, rng, num_particles=num_particles, **(engine_kwargs or {}))
+    motion = CameraMotionEstimator(camera_motion)
     out = Path(out_dir) if out_dir is not None else None
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
@@ -157,7 +163,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
         for k, (number, image) in enumerate(frames_iter):
             if max_frames is not None and k >= max_frames:
                 break
-            ctx = FrameContext(number, image)
+            ctx = FrameContext(number, image, camera_motion=motion(image))
             t0 = time.perf_counter()
             record = engine.step(ctx)
             seconds += time.perf_counter() - t0
@@ -188,7 +194,8 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     if out is not None:
         run = {"model": graph.name, "frames": len(frames_done),
                "num_particles": engine.num_particles, "inference_seconds": seconds,
-               "fps": result.fps}
+               "fps": result.fps, "camera_motion": camera_motion,
+               "camera_motion_frames": motion.frames_moved}
         if metrics is not None:
             metrics = {**metrics, "fps": result.fps}
             (out / "metrics.json").write_text(json.dumps(metrics, indent=1))
@@ -246,7 +253,8 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
                 rng: np.random.Generator, out_dir: str | Path | None = None,
                 gt=None, write_video: bool = True, show_particles: bool = False,
                 progress: bool = True, max_frames: int | None = None,
-                engine_kwargs: dict[str, Any] | None = None) -> MultiTrackResult:
+                engine_kwargs: dict[str, Any] | None = None,
+                camera_motion: str = "auto") -> MultiTrackResult:
     """Track every target through ``source`` with a set-variable graph (PHD, VB-PHD).
 
     ``detector(frame_number, image) -> Detections`` gives each frame's measurements
@@ -264,6 +272,8 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
         source = open_source(source)
     var = graph.output[0]
     engine = Engine(graph, rng, **(engine_kwargs or {}))
+    motion = CameraMotionEstimator(camera_motion)
+    motion_secs = 0.0
     noise = [v for v in engine.graph.variables.values() if v.role == "noise"]
     out = Path(out_dir) if out_dir is not None else None
     if out is not None:
@@ -288,7 +298,10 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
             t0 = time.perf_counter()
             dets = detector(number, image)
             det_secs += time.perf_counter() - t0
-            ctx = FrameContext(number, image, detections=dets)
+            t0 = time.perf_counter()
+            moved = motion(image)
+            motion_secs += time.perf_counter() - t0
+            ctx = FrameContext(number, image, detections=dets, camera_motion=moved)
             t0 = time.perf_counter()
             record = engine.step(ctx)
             secs += time.perf_counter() - t0
@@ -335,7 +348,9 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
         if metrics is not None:
             (out / "metrics.json").write_text(json.dumps(metrics, indent=1))
         run = {"model": graph.name, "frames": n, "inference_seconds": secs,
-               "detector_seconds": det_secs, "fps": result.fps}
+               "detector_seconds": det_secs, "fps": result.fps,
+               "camera_motion": camera_motion, "camera_motion_frames": motion.frames_moved,
+               "camera_motion_seconds": motion_secs}
         if sigmas:
             run["noise_sigma_per_frame"] = sigmas
         (out / "run.json").write_text(json.dumps(run, indent=1))

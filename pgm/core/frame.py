@@ -33,16 +33,28 @@ class FrameContext:
         Detector output for the frame (``pgm.observation.detections.Detections``: boxes, scores,
         foot points); measurement factors read their points from it when
         ``measurements`` is not given, and track layers take box sizes from it.
+    camera_motion : ndarray, shape (2, 3), optional
+        The camera's image motion since the previous frame: the affine map ``[M | t]``
+        taking a pixel of the previous frame to this one (``None``: a still camera).
+        Transition rules move every target's past states through it before predicting
+        (:func:`pgm.core.motion.warp_states`).
     """
 
-    __slots__ = ("index", "image", "measurements", "detections", "_cache")
+    __slots__ = ("index", "image", "measurements", "detections", "camera_motion", "_cache")
 
     def __init__(self, index: int, image: np.ndarray | None = None,
-                 measurements: np.ndarray | None = None, detections=None):
+                 measurements: np.ndarray | None = None, detections=None,
+                 camera_motion: np.ndarray | None = None):
         self.index = int(index)
         self.image = image
         self.measurements = measurements
         self.detections = detections
+        if camera_motion is not None:
+            camera_motion = np.asarray(camera_motion, dtype=float)
+            if camera_motion.shape != (2, 3) or not np.all(np.isfinite(camera_motion)):
+                raise ValueError(f"frame {self.index}: camera_motion must be a finite 2x3 "
+                                 f"affine matrix, got shape {camera_motion.shape}")
+        self.camera_motion = camera_motion
         self._cache: dict[Hashable, Any] = {}
 
     @property

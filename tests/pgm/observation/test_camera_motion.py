@@ -1,0 +1,91 @@
+"""Camera motion: a known synthetic camera motion is recovered; states follow it."""
+
+import cv2
+import numpy as np
+import pytest
+
+from pgm import FactorGraph, FrameContext, Variable
+from pgm.core.motion import motion_scale, warp_states
+from pgm.factors import GaussianPrior, LinearGaussianTransition
+from pgm.inference import Engine
+from pgm.observation.camera_motion import CameraMotionEstimator
+
+
+def _scene(rng, h=360, w=480):
+    """A textured background: blurred noise at two scales (plenty of corners)."""
+    img = rng.uniform(0, 255, (h // 8, w // 8)).astype(np.float32)
+    img = cv2.resize(img, (w, h), interpolation=cv2.INTER_CUBIC)
+    img += rng.normal(0, 25, (h, w)).astype(np.float32)
+    img = cv2.GaussianBlur(img, (0, 0), 1.5)
+    return cv2.cvtColor(np.clip(img, 0, 255).astype(np.uint8), cv2.COLOR_GRAY2BGR)
+
+
+def _similarity(angle_deg, scale, tx, ty, centre):
+    A = cv2.getRotationMatrix2D(centre, angle_deg, scale)
+    A[:, 2] += (tx, ty)
+    return A
+
+
+@pytest.mark.parametrize("angle, scale, tx, ty", [(0.0, 1.0, 6.3, -2.7),
+                                                  (1.0, 1.02, -4.0, 3.5)])
+def test_estimator_recovers_a_known_camera_motion(angle, scale, tx, ty):
+    rng = np.random.default_rng(0)
+    big = _scene(rng, 480, 640)
+    h, w = 360, 480
+    frame0 = big[60:60 + h, 80:80 + w]
+    A_true = _similarity(angle, scale, tx, ty, (w / 2, h / 2))
+    # the new frame sees the big scene through the motion (so the borders stay filled)
+    full = np.hstack([A_true[:, :2], (A_true[:, :2] @ [-80, -60] + A_true[:, 2])[:, None]])
+    frame1 = cv2.warpAffine(big, full, (w, h), flags=cv2.INTER_LINEAR)
+    est = CameraMotionEstimator("on")
+    assert est(frame0) is None
+    A = est(frame1)
+    corners = np.array([[0, 0], [w, 0], [0, h], [w, h]], dtype=float)
+    err = np.linalg.norm((corners @ A[:, :2].T + A[:, 2]) - (corners @ A_true[:, :2].T
+                                                            + A_true[:, 2]), axis=1)
+    assert err.max() < 0.25, (A, A_true)
+
+
+def test_auto_mode_reports_no_motion_for_a_still_camera():
+    rng = np.random.default_rng(1)
+    img = _scene(rng)
+    noisy = np.clip(img.astype(int) + rng.integers(-2, 3, img.shape), 0, 255).astype(np.uint8)
+    est = CameraMotionEstimator("auto")
+    assert est(img) is None and est(noisy) is None and est.frames_moved == 0
+    assert CameraMotionEstimator("off")(img) is None
+    with pytest.raises(ValueError, match="mode"):
+        CameraMotionEstimator("sometimes")
+
+
+def test_warp_states_moves_positions_velocities_and_sizes():
+    A = np.array([[0.0, -2.0, 10.0], [2.0, 0.0, -5.0]])  # 90 degrees, scale 2, shift
+    x = np.array([[1.0, 3.0, 4.0, 8.0]])
+    out = warp_states(x, ("cx", "cy", "w", "h"), A)
+    np.testing.assert_allclose(out, [[10.0 - 6.0, -5.0 + 2.0, 8.0, 16.0]])
+    s = warp_states(np.array([[1.0, 0.5, 3.0, -1.0]]), ("px", "vx", "py", "vy"), A)
+    np.testing.assert_allclose(s, [[4.0, 2.0, -3.0, 1.0]])
+    assert motion_scale(A) == pytest.approx(2.0)
+    assert warp_states(x, ("a", "b", "c", "d"), A) is x  # no position labels: untouched
+
+
+def test_prediction_follows_the_camera():
+    """With no process noise the predicted particles are exactly the warped ones."""
+    g = FactorGraph([Variable("p", 4, labels=("px", "vx", "py", "vy"))],
+                    [GaussianPrior("p", mean=[50.0, 1.0, 20.0, 0.0], cov=4.0),
+                     LinearGaussianTransition("p", F=np.eye(4), Q=0.0)])
+    A = np.array([[1.0, 0.0, 7.0], [0.0, 1.0, -3.0]])
+    eng = Engine(g, np.random.default_rng(0), num_particles=20)
+    x0 = eng.step(FrameContext(1)).beliefs["p"].x
+    x1 = eng.step(FrameContext(2, camera_motion=A)).beliefs["p"].x
+    np.testing.assert_allclose(x1, warp_states(x0, ("px", "vx", "py", "vy"), A))
+
+
+def test_auto_mode_compensates_a_camera_that_keeps_moving():
+    """A camera panning 3 px per frame: after 16 of 20 moving frames, auto reports it."""
+    rng = np.random.default_rng(2)
+    big = _scene(rng, 360, 900)
+    est = CameraMotionEstimator("auto")
+    got = [est(big[:, 3 * k:3 * k + 480]) for k in range(30)]  # the view slides right
+    assert all(a is None for a in got[:16])
+    assert all(a is not None for a in got[16:]) and est.frames_moved == 14
+    np.testing.assert_allclose(got[-1][:, 2], [-3.0, 0.0], atol=0.15)
