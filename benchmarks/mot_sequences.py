@@ -5,7 +5,8 @@
                                        [--sigma-factors 0.25,4] [--dbn-calibrate N]
 
 Public detections (``det/det.txt``, all rows) on PETS09-S2L1 (frames 1-240),
-TUD-Campus, TUD-Stadtmitte and MOT16-11 (frames 1-300; moving camera; MOT16 protocol); with ``--mog2`` also background subtraction on the full
+TUD-Campus, TUD-Stadtmitte and MOT16-11 (frames 1-300; moving camera; MOT16
+protocol); with ``--mog2`` also background subtraction on the full
 PETS09-S2L1 video. Scored with :func:`pgm.evaluation.mot.evaluate_mot` (CLEAR / Identity /
 HOTA at IoU 0.5, flag-0 rows as ignore regions; OSPA on foot points). Frames per
 second are inference only (detection and decoding excluded). The peers' rows are
@@ -144,7 +145,7 @@ def dbn_check(seq_dir: Path, path: Path, every: int = 5) -> str:
 
 def run(seq_dir: Path, module, detector, seed: int = 0, dbn: Path | None = None,
         lost_seconds: float = 1.0, merge_gate: float = 3.0, sigma_factor: float = 1.0,
-        dbn_calibrate: int = 60, camera_motion: str = "auto"):
+        dbn_calibrate: int = 60, camera_motion: str = "auto", scale_aware: bool = False):
     src = open_source(seq_dir)
     gt = load_mot(src.gt_path, kind="gt")
     w, h = src.size
@@ -155,7 +156,8 @@ def run(seq_dir: Path, module, detector, seed: int = 0, dbn: Path | None = None,
         table = detector.table
     height = float(np.median(table.boxes[:, 3])) if table is not None else None
     params = video_params(module.Params, w, h, src.fps, typical_height=height,
-                          lost_seconds=lost_seconds, merge_gate=merge_gate)
+                          lost_seconds=lost_seconds, merge_gate=merge_gate,
+                          scale_aware=scale_aware)
     if sigma_factor != 1.0:
         params = dataclasses.replace(params, sigma=params.sigma * sigma_factor)
     graph = module.build_graph(params)
@@ -186,6 +188,8 @@ def main() -> None:
                     help="extraction: estimates closer than this many sigma are merged")
     ap.add_argument("--camera-motion", choices=("auto", "on", "off"), default="auto",
                     help="global-motion compensation (as pgm track; default auto)")
+    ap.add_argument("--scale-aware", action="store_true",
+                    help="scale-aware state and noise (lengths in each target's own height)")
     ap.add_argument("--sequences", default=None,
                     help="comma-separated subset of the sequences (default: all)")
     args = ap.parse_args()
@@ -212,7 +216,8 @@ def main() -> None:
             for seed in range(args.seeds):
                 r = run(d, module, make_detector("public", open_source(d)), seed=seed, dbn=dbn,
                         lost_seconds=args.lost_seconds, merge_gate=args.merge_gate,
-                        dbn_calibrate=args.dbn_calibrate, camera_motion=args.camera_motion)
+                        dbn_calibrate=args.dbn_calibrate, camera_motion=args.camera_motion,
+                        scale_aware=args.scale_aware)
                 m = r.metrics
                 sig = (float(np.median(r.noise_sigma))
                        if r.noise_sigma else np.nan)

@@ -106,7 +106,8 @@ def _install_tracks(engine: Engine, variable: str) -> None:
     s = f.tracks
     engine.aux.setdefault(variable, {})["tracks"] = TrackManager(
         F, f.H, np.sqrt(f.R), gate=s.gate, confirm_hits=s.confirm_hits,
-        max_coast=s.max_coast, max_lost=s.max_lost)
+        max_coast=s.max_coast, max_lost=s.max_lost, scale_index=f.scale_index,
+        scaled=f.scaled if f.scale_index is not None else None)
 
 
 @DEFAULT_RULES.register(PriorFactor, Intensity)
@@ -213,8 +214,14 @@ def _resample_intensity(engine: Engine, variable: str, frame) -> dict[str, Any]:
 
 
 def extract(res: dict[str, Any], merge_gate: float, sigma: np.ndarray,
-            threshold: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
-    """Per-measurement extraction: states ``(K, d)`` and the measurement index of each."""
+            threshold: float = 0.5, log_h_row: int | None = None,
+            scaled: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Per-measurement extraction: states ``(K, d)`` and the measurement index of each.
+
+    With scale-aware noise (``log_h_row``: the measurement row holding ``log h``;
+    ``scaled``: the rows whose σ is relative), two estimates' distance divides the
+    scaled rows by ``σ · sqrt(h_a h_b)`` — a merge gate in units of their own height.
+    """
     W, omega, x = res["W"], res["omega"], res["x"]
     keep = np.flatnonzero(W > threshold)
     if keep.size == 0 or x.shape[0] == 0:
@@ -223,7 +230,11 @@ def extract(res: dict[str, Any], merge_gate: float, sigma: np.ndarray,
     order = np.argsort(-W[keep])
     states, keep = states[order], keep[order]
     z = res["z"][keep]
-    d = np.sqrt(((((z[:, None, :] - z[None, :, :]) / sigma) ** 2).sum(-1)))  # (K, K)
+    diff = (z[:, None, :] - z[None, :, :]) / sigma
+    if log_h_row is not None:
+        pair_h = np.exp(0.5 * (z[:, None, log_h_row] + z[None, :, log_h_row]))  # (K, K)
+        diff[..., scaled] /= pair_h[..., None]
+    d = np.sqrt((diff ** 2).sum(-1))  # (K, K)
     chosen: list[int] = []
     for i in range(len(keep)):  # greedy merge: loop over the few estimates, not particles
         if not chosen or d[i, chosen].min() > merge_gate:
@@ -246,7 +257,8 @@ def _estimate_intensity(engine: Engine, variable: str, frame) -> dict[str, Any]:
     if res is None:
         states, zi = np.zeros((0, d)), np.zeros(0, int)
     else:
-        states, zi = extract(res, factor.merge_gate, gate_sigma)
+        states, zi = extract(res, factor.merge_gate, gate_sigma, log_h_row=factor.log_h_row,
+                             scaled=factor.scaled)
     sizes = None
     dets = getattr(frame, "detections", None)
     if dets is not None and len(zi):

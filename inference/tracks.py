@@ -76,12 +76,18 @@ class TrackManager:
         Existence evidence per hit (added) and per miss (subtracted).
     size_smoothing : float
         Weight of the newest detection size in the size average.
+    scale_index : int, optional
+        Scale-aware gate: the state component holding ``log h``; the measurement rows
+        flagged in ``scaled`` are then compared in units of the estimate's own height.
+    scaled : array of bool, optional
+        The measurement rows whose σ is relative (with ``scale_index``).
     """
 
     def __init__(self, F: np.ndarray, H: np.ndarray, sigma: np.ndarray, *, gate: float = 5.0,
                  confirm_hits: int = 3, max_coast: int = 2, max_lost: int | None = None,
                  hit_log_odds: float = 1.0,
-                 miss_log_odds: float = 1.5, size_smoothing: float = 0.3):
+                 miss_log_odds: float = 1.5, size_smoothing: float = 0.3,
+                 scale_index: int | None = None, scaled: np.ndarray | None = None):
         self.F = np.asarray(F, dtype=float)
         self.H = np.asarray(H, dtype=float)
         self.sigma = np.asarray(sigma, dtype=float)
@@ -94,6 +100,8 @@ class TrackManager:
         self.size_smoothing = float(size_smoothing)
         self.tracks: list[Track] = []
         self._next_id = 1
+        self.scale_index = scale_index
+        self.scaled = None if scaled is None else np.asarray(scaled, dtype=bool)
 
     def move(self, warp, scale: float = 1.0) -> None:
         """Move every track's state through ``warp`` (states ``(K, d)`` to ``(K, d)``),
@@ -175,7 +183,11 @@ class TrackManager:
             return np.zeros(0, int), np.zeros(0, int)
         pred = np.array([self.H @ self.tracks[i].state for i in track_idx])
         meas = states[est_idx] @ self.H.T
-        d = np.sqrt((((pred[:, None, :] - meas[None, :, :]) / sig) ** 2).sum(-1))
+        diff = (pred[:, None, :] - meas[None, :, :]) / sig
+        if self.scale_index is not None:  # in units of the estimate's own height
+            h = np.exp(states[est_idx, self.scale_index])
+            diff[..., self.scaled] /= h[None, :, None]
+        d = np.sqrt((diff ** 2).sum(-1))
         cost = np.where(d <= self.gate, d, 1e6)
         rows, cols = linear_sum_assignment(cost)
         ok = cost[rows, cols] < 1e6

@@ -71,9 +71,14 @@ class Params(phd.Params):
 def build_graph(params: Params, name: str = "vb-phd") -> FactorGraph:
     """The PHD graph with a shared inverse-Gamma noise variable and a VB conjugate factor."""
     base = phd.build_graph(params, name=name)
-    noise = Variable("noise", 2, role="noise", labels=("var_x", "var_y"))
+    if params.scale_aware:  # relative position variances and the log-height's
+        noise = Variable("noise", 3, role="noise", labels=("var_x", "var_y", "var_log_h"))
+        sigma = [params.sigma] * 2 + [params.sigma_log_h]
+    else:
+        noise = Variable("noise", 2, role="noise", labels=("var_x", "var_y"))
+        sigma = [params.sigma] * 2
     factors = list(base.factors.values()) + [
-        InverseGammaPrior("noise", sigma=[params.sigma] * 2, alpha=params.alpha0),
+        InverseGammaPrior("noise", sigma=sigma, alpha=params.alpha0),
         NoiseForgetting("noise", rho=params.rho, alpha_min=params.alpha_min),
         VBNoise("noise", "targets", tol=params.vb_tol, max_iter=params.vb_max_iter,
                 per_track=params.per_track_noise),

@@ -116,6 +116,9 @@ def build_parser() -> argparse.ArgumentParser:
                                         "measurements")
     t.add_argument("--dbn", help="phd/vb-phd: a DBN person likelihood trained by "
                                  "'pgm learn dbn' (multiplies the detection terms)")
+    t.add_argument("--scale-aware", action="store_true",
+                   help="phd/vb-phd: track each box's scale; noise in units of each target's "
+                        "own height (experimental: see the README's MOT table)")
     t.add_argument("--per-track-noise", action="store_true",
                    help="vb-phd: one noise belief per track instead of one shared")
     t.add_argument("--detector", default=None,
@@ -258,6 +261,8 @@ def cmd_track_multi(args, source) -> int:
     table = getattr(detector, "table", None)  # public detections: their median height
     if table is not None and len(table):
         kwargs["typical_height"] = float(np.median(table.boxes[:, 3]))
+    if args.scale_aware:
+        kwargs["scale_aware"] = True
     graph = module.build_graph(video_params(module.Params, width, height, source.fps,
                                             **kwargs))
     if args.dbn is not None:

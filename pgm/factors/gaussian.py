@@ -103,12 +103,18 @@ class LinearGaussianTransition(TransitionFactor):
 
     ``p_survive`` is the survival probability used when the variable is a set (a PHD
     intensity's weights are multiplied by it at each prediction).
+
+    **Scale-aware noise**: with ``scale_index`` (the state component holding a log-height
+    ``log h``), the noise of the components flagged in ``scaled`` is multiplied by each
+    particle's ``h``: ``x_t = F x_{t-1} + D(h) N(0, Q)`` with ``D`` diagonal (1 for the
+    other components). ``Q`` is then in units of the target's own height, so one setting
+    serves targets near and far from the camera.
     """
 
     order = 1
 
     def __init__(self, variable: str, *, F, Q, p_survive: float = 1.0,
-                 name: str | None = None):
+                 scale_index: int | None = None, scaled=None, name: str | None = None):
         super().__init__(variable, name=name)
         self.p_survive = float(check_finite_param(f"{variable}.p_survive", p_survive))
         if not 0.0 < self.p_survive <= 1.0:
@@ -120,11 +126,23 @@ class LinearGaussianTransition(TransitionFactor):
             raise ValueError(f"factor {self.name!r}: F {self.F.shape} and Q {self.Q.shape} must "
                              f"be square and of equal size")
         self._sqrt = _sqrt_psd(self.Q, f"factor {self.name!r}: Q")
+        self.scale_index = None if scale_index is None else int(scale_index)
+        self.scaled = None
+        if self.scale_index is not None:
+            d = self.F.shape[0]
+            if not 0 <= self.scale_index < d:
+                raise ValueError(f"factor {self.name!r}: scale_index out of range")
+            self.scaled = (np.arange(d) != self.scale_index if scaled is None
+                           else np.asarray(scaled, dtype=bool).reshape(-1))
+            if self.scaled.shape != (d,):
+                raise ValueError(f"factor {self.name!r}: scaled needs {d} entries")
 
     def params(self) -> dict[str, Any]:
         p: dict[str, Any] = {"F": self.F, "Q": self.Q}
         if self.p_survive != 1.0:
             p["p_survive"] = self.p_survive
+        if self.scale_index is not None:
+            p.update(scale_index=self.scale_index, scaled=self.scaled.tolist())
         return p
 
     def check(self, variables: dict[str, Variable]) -> None:
@@ -133,6 +151,11 @@ class LinearGaussianTransition(TransitionFactor):
     def sample(self, rng: np.random.Generator, *past: np.ndarray) -> np.ndarray:
         x = past[0]
         out = x @ self.F.T
+        if self.scale_index is not None:
+            noise = rng.standard_normal(x.shape) @ self._sqrt.T
+            noise[:, self.scaled] *= np.exp(x[:, self.scale_index])[:, None]
+            out += noise
+            return out
         if x.ndim != 2 or x.shape[0] < 1024:
             out += rng.standard_normal(x.shape) @ self._sqrt.T
             return out
@@ -150,6 +173,12 @@ class LinearGaussianTransition(TransitionFactor):
         from scipy.stats import multivariate_normal
 
         diff = x - past[0] @ self.F.T
+        if self.scale_index is not None:  # D(h)^-1 diff ~ N(0, Q), Jacobian: -sum log h
+            log_h = past[0][:, self.scale_index]
+            diff = diff.copy()
+            diff[:, self.scaled] *= np.exp(-log_h)[:, None]
+            return (multivariate_normal(np.zeros(len(self.F)), self.Q, allow_singular=True)
+                    .logpdf(diff) - self.scaled.sum() * log_h)
         return np.atleast_1d(multivariate_normal(np.zeros(len(self.F)), self.Q).logpdf(diff))
 
 

@@ -52,16 +52,27 @@ __all__ = ["IntensityPrior", "PHDLikelihood", "TrackSettings", "InverseGammaPrio
 LOG_G_FLOOR = -300.0  # numerics: below -708 numpy's exp goes subnormal and slow
 
 
-def constant_velocity(dt: float, q: float, layout: str = "pv") -> tuple[np.ndarray, np.ndarray]:
+def constant_velocity(dt: float, q: float, layout: str = "pv",
+                      q_log_h: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``F, Q`` of a 2-D nearly-constant-velocity model (white-noise acceleration, density q).
 
     ``layout="pv"``: state ``[px, vx, py, vy]`` (the bench scenario, Stone Soup);
-    ``layout="pp"``: state ``[px, py, vx, vy]``.
+    ``layout="pp"``: state ``[px, py, vx, vy]``. With ``q_log_h`` (``"pv"`` only) a third
+    axis, the log-height and its rate, with its own density: ``[px, vx, py, vy, log_h,
+    v_log_h]``.
     """
     F1 = np.array([[1.0, dt], [0.0, 1.0]])
-    Q1 = q * np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
+    G = np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]])
     F = np.kron(np.eye(2), F1)
-    Q = np.kron(np.eye(2), Q1)
+    Q = np.kron(np.eye(2), q * G)
+    if q_log_h is not None:
+        if layout != "pv":
+            raise ValueError("a log-height axis needs layout 'pv'")
+        F = np.kron(np.eye(3), F1)
+        Q = np.zeros((6, 6))
+        Q[:4, :4] = np.kron(np.eye(2), q * G)
+        Q[4:, 4:] = q_log_h * G
+        return F, Q
     if layout == "pv":
         return F, Q
     if layout == "pp":
@@ -177,6 +188,20 @@ class PHDLikelihood(LikelihoodFactor):
         Extraction: estimates closer than this many σ are one target.
     tracks : TrackSettings or dict
         The track layer on top of extraction (identities, confirmation, coasting).
+    scale_index : int, optional
+        **Scale-aware noise**: the state component holding the target's log-height
+        ``log h``. The measured components flagged in ``scaled`` then have noise
+        variance ``R_i h²`` — ``R_i`` is *relative*, in units of the target's own height
+        — and the newborn velocities have std ``birth_velocity_std · h``; so one setting
+        serves a person near the camera and one far away, and a VB noise belief learns
+        the relative variance. Detections are then measured as
+        ``(foot x, foot y, log h)`` when ``H`` has three rows.
+    scaled : sequence of bool, optional
+        Which measured components scale with the height (default: all but the one that
+        measures ``log h``).
+    log_h_range : float
+        With a ``log h`` measurement: the extent of the log-heights where clutter and
+        births can appear (clutter density ``κ = λ_c / (A · log_h_range)``).
     """
 
     def __init__(self, variable: str, *, H, R, p_detect: float = 0.9,
@@ -185,6 +210,7 @@ class PHDLikelihood(LikelihoodFactor):
                  velocity_indices=(), appearance_temper: float = 1.0,
                  min_particles: int = 200, merge_gate: float = 2.0,
                  tracks: TrackSettings | dict[str, Any] | None = None,
+                 scale_index: int | None = None, scaled=None, log_h_range: float = 1.0,
                  name: str | None = None):
         super().__init__(variable, name=name)
         self.H = np.atleast_2d(np.asarray(H, dtype=float))
@@ -223,9 +249,28 @@ class PHDLikelihood(LikelihoodFactor):
         self.tracks = TrackSettings.coerce(tracks, f"factor {self.name!r}: tracks")
         # rows of H that pick one component with coefficient 1 -> births invert them
         self._pos_index = [int(np.argmax(np.abs(row))) for row in self.H]
+        self.scale_index = None if scale_index is None else int(scale_index)
+        k = self.H.shape[0]
+        if self.scale_index is None:
+            self.scaled = np.zeros(k, dtype=bool)
+        elif scaled is None:
+            self.scaled = np.array([i != self.scale_index for i in self._pos_index])
+        else:
+            self.scaled = np.asarray(scaled, dtype=bool).reshape(-1)
+            if self.scaled.shape != (k,):
+                raise ValueError(f"factor {self.name!r}: scaled needs {k} entries")
+        self.log_h_range = float(check_finite_param(f"{self.name}.log_h_range", log_h_range,
+                                                    positive=True))
+        #: measurement row that measures log h (None: detections give foot points only)
+        self.log_h_row = None
+        if self.scale_index is not None:
+            if self.scale_index not in self._pos_index:
+                raise ValueError(f"factor {self.name!r}: scale-aware noise needs a measured "
+                                 f"log-height (a row of H picking state {self.scale_index})")
+            self.log_h_row = self._pos_index.index(self.scale_index)
 
     def params(self) -> dict[str, Any]:
-        return {"H": self.H, "R": self.R, "p_detect": self.p_detect,
+        p = {"H": self.H, "R": self.R, "p_detect": self.p_detect,
                 "clutter_rate": self.clutter_rate, "area": self.area,
                 "birth_rate": self.birth_rate, "n_birth": self.n_birth,
                 "birth_velocity_std": self.birth_velocity_std,
@@ -233,6 +278,10 @@ class PHDLikelihood(LikelihoodFactor):
                 "appearance_temper": self.appearance_temper,
                 "min_particles": self.min_particles, "merge_gate": self.merge_gate,
                 "tracks": dataclasses.asdict(self.tracks)}
+        if self.scale_index is not None:
+            p.update(scale_index=self.scale_index, scaled=self.scaled.tolist(),
+                     log_h_range=self.log_h_range)
+        return p
 
     def check(self, variables: dict[str, Variable]) -> None:
         v = variables[self.variables[0]]
@@ -241,17 +290,28 @@ class PHDLikelihood(LikelihoodFactor):
         self._check_dim(variables, v.name, self.H.shape[1], "H's column count")
         if any(i >= v.dim for i in self.velocity_indices):
             raise ValueError(f"factor {self.name!r}: velocity_indices out of range")
+        if self.scale_index is not None and self.scale_index >= v.dim:
+            raise ValueError(f"factor {self.name!r}: scale_index out of range")
 
     # -- pieces used by the PHD / VB-PHD rules --------------------------------------------
     @property
+    def _volume(self) -> float:
+        """Measurement-space volume: the area, times the log-height extent if measured."""
+        return self.area * (self.log_h_range if self.log_h_row is not None else 1.0)
+
+    @property
     def kappa(self) -> float:
-        """Clutter intensity ``κ = λ_c / A``."""
-        return self.clutter_rate / self.area
+        """Clutter intensity ``κ = λ_c / V`` (``V``: the area, × the log-height extent)."""
+        return self.clutter_rate / self._volume
 
     @property
     def nu_birth(self) -> float:
-        """Birth measurement density ``ν_b = λ_b / A``."""
-        return self.birth_rate / self.area
+        """Birth measurement density ``ν_b = λ_b / V``."""
+        return self.birth_rate / self._volume
+
+    def log_scale(self, x: np.ndarray) -> np.ndarray | None:
+        """``(N,)`` log-heights of the particles (None without scale-aware noise)."""
+        return None if self.scale_index is None else x[:, self.scale_index]
 
     def measurements(self, ctx: FrameContext) -> np.ndarray:
         """This frame's measurements ``(M, k)``: ``ctx.measurements``, or the foot points
@@ -259,6 +319,11 @@ class PHDLikelihood(LikelihoodFactor):
         z = ctx.measurements
         if z is None and getattr(ctx, "detections", None) is not None:
             z = ctx.detections.foot_points
+            if self.log_h_row is not None:  # (foot x, foot y) + log h, in H's row order
+                boxes = ctx.detections.boxes
+                cols = [z[:, 0], z[:, 1]]
+                cols.insert(self.log_h_row, np.log(np.maximum(boxes[:, 3], 1e-6)))
+                z = np.stack(cols, axis=1)
         if z is None:
             return np.zeros((0, self.H.shape[0]))
         z = np.asarray(z, dtype=float).reshape(-1, self.H.shape[0])
@@ -271,9 +336,12 @@ class PHDLikelihood(LikelihoodFactor):
         iteration's :meth:`log_g` and noise statistics."""
         pred = x @ self.H.T  # (N, k)
         out = np.empty((z.shape[1], z.shape[0], x.shape[0]))
+        inv_h2 = None if self.scale_index is None else np.exp(-2.0 * x[:, self.scale_index])
         for i in range(z.shape[1]):  # k components, vectorised over measurements x particles
             np.subtract(z[:, i, None], pred[None, :, i], out=out[i])
             np.square(out[i], out=out[i])
+            if inv_h2 is not None and self.scaled[i]:
+                out[i] *= inv_h2[None, :]  # residual in units of the particle's height
         return out
 
     def log_g(self, x: np.ndarray, z: np.ndarray, precision: np.ndarray | None = None,
@@ -292,6 +360,8 @@ class PHDLikelihood(LikelihoodFactor):
         logv = np.log(self.R) if log_variance is None else np.asarray(log_variance, dtype=float)
         const = -0.5 * z.shape[1] * np.log(2 * np.pi) - 0.5 * np.sum(logv, axis=-1)
         const = const[:, None] if np.ndim(const) else float(const)
+        if self.scale_index is not None:  # -log h per scaled component: the density in px
+            const = const - self.scaled.sum() * x[:, self.scale_index][:, None]
         prec = prec.T[:, :, None] if prec.ndim == 2 else prec  # (k, N, 1) per particle
         # stored (M, N), returned as its (N, M) transpose: reductions over particles run
         # along contiguous rows (about 2x faster than (N, M) with few measurements)
@@ -304,6 +374,8 @@ class PHDLikelihood(LikelihoodFactor):
                 np.subtract(z[None, :, i], pred[:, i, None], out=buf)
                 np.square(buf, out=buf)
                 buf *= -0.5 * prec[i]
+                if self.scale_index is not None and self.scaled[i]:
+                    buf *= np.exp(-2.0 * x[:, self.scale_index])[:, None]
             else:
                 np.multiply(sq[i].T, -0.5 * prec[i], out=buf)
             if i:
@@ -320,10 +392,16 @@ class PHDLikelihood(LikelihoodFactor):
         x = np.zeros((m * self.n_birth, d))
         zz = np.repeat(z, self.n_birth, axis=0)
         noise = rng.standard_normal(zz.shape) * np.sqrt(r_hat)
+        h = None
+        if self.scale_index is not None:  # the measured height sets the newborns' scale
+            h = np.exp(zz[:, self.log_h_row])
+            noise[:, self.scaled] *= h[:, None]
         for row, idx in enumerate(self._pos_index):
             x[:, idx] = (zz[:, row] + noise[:, row]) / self.H[row, idx]
         for idx in self.velocity_indices:
             x[:, idx] = self.birth_velocity_std * rng.standard_normal(x.shape[0])
+            if h is not None:
+                x[:, idx] *= h
         return x
 
     def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
