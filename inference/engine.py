@@ -388,7 +388,7 @@ class Engine:
         #: per-variable state that rules keep across frames (PHD tracks, extraction, ...)
         self.aux: dict[str, dict[str, Any]] = {}
         self._learners = [f for f in self.graph.factors.values() if f.learns]
-        self._groups_cache: dict[tuple, list[list[str]]] = {}
+        self._groups_cache: dict[tuple, list[tuple[list[Factor], list[Rule], bool]]] = {}
         self.frame: FrameContext | None = None
         self.t = 0
         self._hooks: dict[str, list[Hook]] = {s: [] for s in STAGES}
@@ -404,11 +404,7 @@ class Engine:
             counts = {n: num_particles.get(n, EngineSettings.num_particles) for n in names}
         else:
             counts = {n: num_particles for n in names}
-        for n, c in counts.items():
-            if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or c < 1:
-                raise ValueError(f"number of particles for {n!r} must be a positive integer, "
-                                 f"got {c!r}")
-        return {n: int(c) for n, c in counts.items()}
+        return {n: int(c) for n, c in counts.items()}  # validated by EngineSettings
 
     def belief_type(self, variable: str) -> type:
         """Belief class of a variable (from its role)."""
@@ -516,8 +512,9 @@ class Engine:
             if info:
                 record.info.setdefault(v, {}).update(info)
 
-    def _weight_groups(self, items) -> list[list[str]]:
-        """Likelihood factors grouped by ``batch_key`` (scored in one pass when possible)."""
+    def _weight_groups(self, items) -> list[tuple[list[Factor], list[Rule], bool]]:
+        """Likelihood factors grouped by ``batch_key``, each group with its factors' rules
+        and whether it is scored in one batched pass (resolved once, then cached)."""
         key = tuple(items)
         groups = self._groups_cache.get(key)
         if groups is None:
@@ -534,18 +531,22 @@ class Engine:
                     by_key[bk] = []
                     groups.append(by_key[bk])
                 by_key[bk].append(name)
-            self._groups_cache[key] = groups
+            resolved = []
+            for names in groups:
+                fs = [self.graph.factors[n] for n in names]
+                rules = [self.rule_for(f) for f in fs]
+                resolved.append((fs, rules,
+                                 len(fs) > 1 and all(r is _weight_particles for r in rules)))
+            groups = self._groups_cache[key] = resolved
         return groups
 
     def _stage_weight(self, items, frame, record) -> None:
         """Apply the likelihood factors (the weight-stage contract: module docstring)."""
         before: dict[str, Particles] = {}  # reweighted beliefs as they entered the stage
         log_lik: dict[str, np.ndarray] = {}
-        for group in self._weight_groups(items):
-            fs = [self.graph.factors[n] for n in group]
+        for fs, rules, batched in self._weight_groups(items):
             vs = [f.variables[0] for f in fs]
-            rules = [self.rule_for(f) for f in fs]
-            if len(fs) > 1 and all(r is _weight_particles for r in rules):
+            if batched:
                 lls = type(fs[0]).log_likelihood_batch(fs, [self.beliefs[v].x for v in vs],
                                                        frame)
             else:

@@ -368,14 +368,16 @@ class PHDLikelihood(LikelihoodFactor):
         out = np.empty((z.shape[0], x.shape[0])).T
         tmp = scratch(self, "_log_g_tmp", out.T.shape).T  # reused, see pgm.core.numerics.scratch
         pred = x @ self.H.T if sq is None else None  # (N, k)
+        inv_h2 = (np.exp(-2.0 * x[:, self.scale_index])[:, None]
+                  if sq is None and self.scale_index is not None else None)
         for i in range(z.shape[1]):  # k is 2: a loop over components, not particles
             buf = out if i == 0 else tmp
             if sq is None:
                 np.subtract(z[None, :, i], pred[:, i, None], out=buf)
                 np.square(buf, out=buf)
                 buf *= -0.5 * prec[i]
-                if self.scale_index is not None and self.scaled[i]:
-                    buf *= np.exp(-2.0 * x[:, self.scale_index])[:, None]
+                if inv_h2 is not None and self.scaled[i]:
+                    buf *= inv_h2
             else:
                 np.multiply(sq[i].T, -0.5 * prec[i], out=buf)
             if i:
