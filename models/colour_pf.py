@@ -54,6 +54,9 @@ class Params:
     scale_noise : float
         Std of a shared log-scale step (0: fixed size, the default), clamped to
         [0.5, 2] × the initial size.
+    jump_prob, jump_scale : float
+        Heavy-tailed position step for fast motion: a fraction ``jump_prob`` of the
+        particles moves with ``jump_scale`` times the position noise (0: none).
     lam : float
         Likelihood sharpness λ (20).
     layout : str
@@ -70,6 +73,8 @@ class Params:
     damping: float = 0.5
     pos_noise: float | None = None
     scale_noise: float = 0.0
+    jump_prob: float = 0.0
+    jump_scale: float = 10.0
     lam: float = 20.0
     layout: str = "perez"
     kernel: str = "uniform"

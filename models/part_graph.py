@@ -43,6 +43,7 @@ from pgm.core.variable import Variable
 from pgm.factors import AR2Transition, GaussianPrior
 from pgm.factors.couplings import AffineCoupling, RelativeBoxCoupling
 from pgm.inference.settings import EngineSettings
+from pgm.observation.appearance.correlation import CorrelationFilterLikelihood
 from pgm.observation.appearance.likelihoods import (
     ColourContrastLikelihood,
     ColourHistogramLikelihood,
@@ -60,35 +61,71 @@ BOX_LABELS = ("cx", "cy", "w", "h")
 #: particles per node (and per message) in the experiments of Zhang & Kang [#zhang2015]
 PAPER_PARTICLES = {1: 30, 2: 15, 3: 10}
 #: the cues an ``appearance`` string may combine with "+" (each a likelihood factor)
-CUES = ("colour", "fragments", "gradient", "gmm", "rings", "contrast", "template")
+CUES = ("colour", "fragments", "gradient", "gmm", "rings", "contrast", "template", "cf")
 
 
-def appearance_cues(appearance: str) -> list[str]:
-    """The cues of an ``appearance`` string such as ``"fragments+gradient"``."""
-    cues = [c.strip() for c in str(appearance).split("+")]
-    bad = [c for c in cues if c not in CUES]
-    if bad or len(set(cues)) != len(cues):
+def appearance_cues(appearance: str) -> list[tuple[str, dict[str, float]]]:
+    """The cues of an ``appearance`` string such as ``"fragments+gradient"``, each with
+    its options: ``"cf(lam=20,padding=2)+template"`` sets the correlation filter's
+    ``lam`` and ``padding`` (any keyword of the cue's factor; numbers only)."""
+    out: list[tuple[str, dict[str, float]]] = []
+    for part in str(appearance).split("+"):
+        part = part.strip()
+        name, opts = part, {}
+        if "(" in part:
+            if not part.endswith(")"):
+                raise ValueError(f"appearance cue {part!r}: options go in one pair of "
+                                 f"parentheses, e.g. cf(lam=20,padding=2)")
+            name, body = part[:-1].split("(", 1)
+            name = name.strip()
+            for item in filter(None, (b.strip() for b in body.split(","))):
+                key, sep, value = item.partition("=")
+                try:
+                    num = float(value)
+                except ValueError:
+                    num = None
+                if not sep or not key.strip().isidentifier() or num is None:
+                    raise ValueError(f"appearance cue {part!r}: options must be key=number, "
+                                     f"got {item!r}")
+                opts[key.strip()] = int(num) if value.strip().lstrip("-").isdigit() else num
+        out.append((name, opts))
+    names = [n for n, _ in out]
+    bad = [n for n in names if n not in CUES]
+    if bad or len(set(names)) != len(names):
         raise ValueError(f"appearance must be distinct cues from {CUES} joined by '+', got "
                          f"{appearance!r}")
-    return cues
+    return out
 
 
-def cue_factor(cue: str, variable: str, params, name: str | None = None):
-    """The likelihood factor of one appearance cue on a box variable."""
+def cue_factor(cue: str, variable: str, params, name: str | None = None,
+               options: dict[str, float] | None = None):
+    """The likelihood factor of one appearance cue on a box variable (``options``: extra
+    keywords for the factor, from the appearance string)."""
+    kw = dict(options or {})
+    try:
+        return _cue_factor(cue, variable, params, name, kw)
+    except TypeError as e:
+        raise ValueError(f"appearance cue {cue!r}: bad option in {sorted(kw)} ({e})") from None
+
+
+def _cue_factor(cue, variable, params, name, kw):
     if cue == "colour":
-        return ColourHistogramLikelihood(variable, lam=params.lam, layout=params.layout,
-                                         kernel=params.kernel, name=name)
+        return ColourHistogramLikelihood(variable, **{"lam": params.lam, "layout": params.layout,
+                                                      "kernel": params.kernel, **kw}, name=name)
     if cue == "fragments":
-        return FragmentsLikelihood(variable, lam=params.lam, layout=params.layout, name=name)
+        return FragmentsLikelihood(variable, **{"lam": params.lam, "layout": params.layout,
+                                                **kw}, name=name)
     if cue == "gradient":
-        return GradientLikelihood(variable, lam=params.lam / 2, name=name)
+        return GradientLikelihood(variable, **{"lam": params.lam / 2, **kw}, name=name)
     if cue == "gmm":
-        return GMMKLLikelihood(variable, name=name)
+        return GMMKLLikelihood(variable, **kw, name=name)
     if cue == "contrast":
-        return ColourContrastLikelihood(variable, layout=params.layout, name=name)
+        return ColourContrastLikelihood(variable, **{"layout": params.layout, **kw}, name=name)
     if cue == "template":
-        return TemplateLikelihood(variable, lam=params.lam, name=name)
-    return RotationInvariantLikelihood(variable, name=name)
+        return TemplateLikelihood(variable, **{"lam": params.lam, **kw}, name=name)
+    if cue == "cf":
+        return CorrelationFilterLikelihood(variable, **kw, name=name)
+    return RotationInvariantLikelihood(variable, **kw, name=name)
 
 
 @dataclass(frozen=True)
@@ -144,8 +181,13 @@ class Params:
         ``"contrast"``: foreground/background colour log-odds
         (:class:`~pgm.observation.appearance.likelihoods.ColourContrastLikelihood`); ``"template"``:
         grey-level NCC template matching
-        (:class:`~pgm.observation.appearance.likelihoods.TemplateLikelihood`, sees scale). E.g.
-        ``"contrast+template"``.
+        (:class:`~pgm.observation.appearance.likelihoods.TemplateLikelihood`, sees scale);
+        ``"cf"``: an online-learned correlation filter's response map
+        (:class:`~pgm.observation.appearance.correlation.CorrelationFilterLikelihood`,
+        discriminative, sees scale). E.g. ``"contrast+template"``.
+    jump_prob, jump_scale : float
+        Heavy-tailed position step (see :class:`~pgm.factors.AR2Transition`): a fraction
+        ``jump_prob`` of the particles moves with ``jump_scale`` × the position noise.
     """
 
     init_box: tuple[float, float, float, float]
@@ -167,6 +209,8 @@ class Params:
     damping: float = 0.5
     pos_noise: float | None = None
     scale_noise: float = 0.0
+    jump_prob: float = 0.0
+    jump_scale: float = 10.0
     lam: float = 20.0
     layout: str = "perez"
     kernel: str = "uniform"
@@ -244,10 +288,12 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
             GaussianPrior(nm, mean=pb, cov=0.0),
             AR2Transition(nm, noise_std=[pos, pos, 0.0, 0.0], damping=params.damping,
                           scale_noise=params.scale_noise,
-                          reference_size=pb[2:] if params.scale_noise > 0 else None),
+                          reference_size=pb[2:] if params.scale_noise > 0 else None,
+                          jump_prob=params.jump_prob, jump_scale=params.jump_scale),
         ]
-        for k, cue in enumerate(appearance_cues(params.appearance)):
-            factors.append(cue_factor(cue, nm, params, name=None if k == 0 else f"{cue}:{nm}"))
+        for k, (cue, opts) in enumerate(appearance_cues(params.appearance)):
+            factors.append(cue_factor(cue, nm, params, name=None if k == 0 else f"{cue}:{nm}",
+                                      options=opts))
     if params.topology == "chain":
         pairs = [(k, k + 1) for k in range(n - 1)]
     else:

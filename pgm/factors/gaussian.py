@@ -210,14 +210,26 @@ class AR2Transition(TransitionFactor):
         ``(w_0, h_0)`` for the clamp; required when ``scale_noise > 0``.
     scale_clamp : (float, float)
     size_indices : (int, int)
+    jump_prob, jump_scale : float
+        A heavy-tailed step for fast motion: with probability ``jump_prob`` a particle's
+        noise is ``jump_scale`` times wider (a two-component Gaussian mixture; 0: none).
+        The narrow component keeps the particles dense on slow motion, the wide one
+        keeps hypotheses at the distances a fast object covers in one frame.
     """
 
     order = 2
 
     def __init__(self, variable: str, *, noise_std, damping: float = 0.5,
                  scale_noise: float = 0.0, reference_size=None,
-                 scale_clamp=(0.5, 2.0), size_indices=(2, 3), name: str | None = None):
+                 scale_clamp=(0.5, 2.0), size_indices=(2, 3), jump_prob: float = 0.0,
+                 jump_scale: float = 1.0, name: str | None = None):
         super().__init__(variable, name=name)
+        self.jump_prob = float(check_finite_param(f"{self.name}.jump_prob", jump_prob,
+                                                  nonneg=True))
+        if self.jump_prob >= 1:
+            raise ValueError(f"factor {self.name!r}: jump_prob must be in [0, 1)")
+        self.jump_scale = float(check_finite_param(f"{self.name}.jump_scale", jump_scale,
+                                                   positive=True))
         self.noise_std = np.atleast_1d(np.asarray(noise_std, dtype=float))
         check_finite_param(f"{self.name}.noise_std", self.noise_std, nonneg=True)
         self.damping = float(check_finite_param(f"{self.name}.damping", damping))
@@ -241,6 +253,8 @@ class AR2Transition(TransitionFactor):
         if self.scale_noise > 0:
             p.update(scale_noise=self.scale_noise, reference_size=self.reference_size,
                      scale_clamp=list(self.scale_clamp), size_indices=list(self.size_indices))
+        if self.jump_prob > 0:
+            p.update(jump_prob=self.jump_prob, jump_scale=self.jump_scale)
         return p
 
     def check(self, variables: dict[str, Variable]) -> None:
@@ -249,7 +263,11 @@ class AR2Transition(TransitionFactor):
     def sample(self, rng: np.random.Generator, *past: np.ndarray) -> np.ndarray:
         x1 = past[0]
         x2 = past[1] if len(past) > 1 else past[0]
-        x = x1 + self.damping * (x1 - x2) + rng.standard_normal(x1.shape) * self.noise_std
+        noise = rng.standard_normal(x1.shape) * self.noise_std
+        if self.jump_prob > 0:
+            noise *= np.where(rng.random(x1.shape[0]) < self.jump_prob, self.jump_scale,
+                              1.0)[:, None]
+        x = x1 + self.damping * (x1 - x2) + noise
         if self.scale_noise > 0:
             iw, ih = self.size_indices
             step = np.exp(self.scale_noise * rng.standard_normal(x.shape[0]))
@@ -268,8 +286,15 @@ class AR2Transition(TransitionFactor):
         x1 = past[0]
         x2 = past[1] if len(past) > 1 else past[0]
         r = (x - x1 - self.damping * (x1 - x2)) / self.noise_std
-        return (-0.5 * np.sum(r * r, axis=1) - np.sum(np.log(self.noise_std))
-                - 0.5 * x.shape[1] * np.log(2 * np.pi))
+        d = x.shape[1]
+        narrow = (-0.5 * np.sum(r * r, axis=1) - np.sum(np.log(self.noise_std))
+                  - 0.5 * d * np.log(2 * np.pi))
+        if self.jump_prob == 0:
+            return narrow
+        k = self.jump_scale
+        wide = narrow + 0.5 * np.sum(r * r, axis=1) * (1 - 1 / k ** 2) - d * np.log(k)
+        return np.logaddexp(np.log1p(-self.jump_prob) + narrow,
+                            np.log(self.jump_prob) + wide)
 
 
 class LinearGaussianLikelihood(LikelihoodFactor):

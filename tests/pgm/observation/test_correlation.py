@@ -1,0 +1,99 @@
+"""The correlation-filter likelihood: peak on the moved object, scale, illumination,
+the confidence gate, and a saved model that loads."""
+
+import cv2
+import numpy as np
+import pytest
+
+from pgm.core.frame import FrameContext
+from pgm.observation.appearance.correlation import CorrelationFilterLikelihood
+
+
+def texture(rng, shape, blur=2.0):
+    t = cv2.GaussianBlur(rng.normal(0, 1, shape).astype(np.float32), (0, 0), blur)
+    return (t - t.min()) / (t.max() - t.min())
+
+
+def scene(rng, centre, size=(40, 56), scale=1.0, shape=(200, 260)):
+    """A textured object (fixed texture, drawn at ``scale``) on a textured background."""
+    bg = texture(np.random.default_rng(100), shape, 3.0) * 120 + 40
+    obj = texture(np.random.default_rng(101), (size[1], size[0]), 1.5) * 200 + 30
+    w, h = int(round(size[0] * scale)), int(round(size[1] * scale))
+    obj = cv2.resize(obj, (w, h), interpolation=cv2.INTER_LINEAR)
+    img = bg.copy()
+    x0, y0 = int(round(centre[0] - w / 2)), int(round(centre[1] - h / 2))
+    img[y0:y0 + h, x0:x0 + w] = obj
+    img = img + rng.normal(0, 2, shape)
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def grid(centre, size, shifts, scales=(1.0,)):
+    return np.array([[centre[0] + dx, centre[1] + dy, size[0] * s, size[1] * s]
+                     for dx in shifts for dy in shifts for s in scales])
+
+
+def test_response_peaks_on_the_moved_object_and_ignores_illumination():
+    rng = np.random.default_rng(0)
+    f = CorrelationFilterLikelihood("object")
+    f.initialize(FrameContext(1, scene(rng, (120, 100))), np.array([120.0, 100, 40, 56]))
+    moved = scene(rng, (132, 93))
+    x = grid((120, 100), (40, 56), np.arange(-20, 21, 1.0))
+    ctx = FrameContext(2, moved)
+    ll = f.log_likelihood(x, ctx)
+    best = x[np.argmax(ll)]
+    assert abs(best[0] - 132) <= 1 and abs(best[1] - 93) <= 1
+    assert ll.max() > 0.5 * f.lam  # a typical peak scores about lam
+    # away from the object the response is near zero
+    far = np.abs(x[:, 0] - 132) + np.abs(x[:, 1] - 93) > 15
+    assert np.median(ll[far]) < 0.15 * f.lam
+    # a darker, lower-contrast frame: the same peak, about the same score
+    dim = np.clip(0.5 * moved.astype(float) + 20, 0, 255).astype(np.uint8)
+    ll_dim = f.log_likelihood(x, FrameContext(3, dim))
+    np.testing.assert_allclose(x[np.argmax(ll_dim)], best)
+    assert ll_dim.max() == pytest.approx(ll.max(), rel=0.1)
+
+
+def test_response_prefers_the_true_scale():
+    rng = np.random.default_rng(1)
+    f = CorrelationFilterLikelihood("object", scales=5, scale_step=1.08)
+    f.initialize(FrameContext(1, scene(rng, (130, 100))), np.array([130.0, 100, 40, 56]))
+    grown = scene(rng, (130, 100), scale=1.25)
+    scales = np.array([0.8, 1.0, 1.25, 1.5])
+    x = grid((130, 100), (40, 56), [0.0], scales)
+    ll = f.log_likelihood(x, FrameContext(2, grown))
+    assert scales[np.argmax(ll)] == 1.25
+
+
+def test_the_gate_keeps_an_occluder_out_of_the_filter():
+    rng = np.random.default_rng(2)
+    box = np.array([120.0, 100, 40, 56])
+    f = CorrelationFilterLikelihood("object", adapt_rate=0.2, gate=0.5)
+    f.initialize(FrameContext(1, scene(rng, (120, 100))), box)
+    num = f.num.copy()
+    # the object itself, slightly moved: confident, learned
+    f.update({"object": box}, {}, FrameContext(2, scene(rng, (120, 100))))
+    assert f.last_response > 0.5 and not np.allclose(f.num, num)
+    # a flat occluder over the object: not confident, not learned
+    occluded = scene(rng, (120, 100))
+    occluded[60:140, 90:150] = 128
+    num = f.num.copy()
+    f.update({"object": box}, {}, FrameContext(3, occluded))
+    assert f.last_response < 0.5
+    np.testing.assert_array_equal(f.num, num)
+
+
+def test_settings_are_checked_and_saved_with_the_model(tmp_path):
+    from pgm import FactorGraph, GaussianPrior, Variable
+
+    for bad in ({"lam": float("nan")}, {"scales": 2}, {"padding": -1}, {"n_orient": 1},
+                {"scale_step": 0.9}):
+        with pytest.raises(ValueError):
+            CorrelationFilterLikelihood("object", **bad)
+    f = CorrelationFilterLikelihood("object", lam=7.0, padding=2.0, gate=0.3)
+    with pytest.raises(ValueError, match="no num"):
+        f.log_likelihood(np.zeros((1, 4)), FrameContext(1, np.zeros((10, 10), np.uint8)))
+    g = FactorGraph([Variable("object", 4)],
+                    [GaussianPrior("object", mean=[50.0, 40, 20, 20], cov=1.0), f], name="t")
+    g.save(tmp_path / "g.json")
+    loaded = FactorGraph.load(tmp_path / "g.json").factors[f.name]
+    assert loaded.params() == f.params()
