@@ -3,6 +3,7 @@
     python benchmarks/mot_sequences.py [--mog2] [--noise-experiment] [--dbn] [--seeds K]
                                        [--lost-seconds S] [--merge-gate G]
                                        [--sigma-factors 0.25,4] [--dbn-calibrate N]
+                                       [--scores off|mixture]
 
 Public detections (``det/det.txt``, all rows) on PETS09-S2L1 (frames 1-240),
 TUD-Campus, TUD-Stadtmitte and MOT16-11 (frames 1-300; moving camera; MOT16
@@ -18,6 +19,8 @@ with the range of MOTA over the seeds in its own column.
 ``--lost-seconds S``: how long the track layer keeps a lost track for
 re-identification (default 1, as ``pgm track``; 0 turns the lost stage off).
 ``--merge-gate G``: extraction merge gate in σ (default 3, as ``pgm track``).
+``--scores off|mixture``: detection scores in the measurement model (default: as
+``pgm track``; ``off`` is the score-blind filter of before).
 
 ``--dbn``: also VB-PHD + DBN, leave one sequence out: for each sequence a DBN
 (``pgm learn dbn`` defaults: every 3rd frame, 40 fine-tuning epochs, seed 0) is trained
@@ -145,7 +148,8 @@ def dbn_check(seq_dir: Path, path: Path, every: int = 5) -> str:
 
 def run(seq_dir: Path, module, detector, seed: int = 0, dbn: Path | None = None,
         lost_seconds: float = 1.0, merge_gate: float = 3.0, sigma_factor: float = 1.0,
-        dbn_calibrate: int = 60, camera_motion: str = "auto", scale_aware: bool = False):
+        dbn_calibrate: int = 60, camera_motion: str = "auto", scale_aware: bool = False,
+        scores: str | None = None):
     src = open_source(seq_dir)
     gt = load_mot(src.gt_path, kind="gt")
     w, h = src.size
@@ -155,9 +159,10 @@ def run(seq_dir: Path, module, detector, seed: int = 0, dbn: Path | None = None,
     if table is None and src.det_path is not None and isinstance(detector, NoisyDetections):
         table = detector.table
     height = float(np.median(table.boxes[:, 3])) if table is not None else None
+    extra = {} if scores is None else {"score_model": scores}
     params = video_params(module.Params, w, h, src.fps, typical_height=height,
                           lost_seconds=lost_seconds, merge_gate=merge_gate,
-                          scale_aware=scale_aware)
+                          scale_aware=scale_aware, **extra)
     if sigma_factor != 1.0:
         params = dataclasses.replace(params, sigma=params.sigma * sigma_factor)
     graph = module.build_graph(params)
@@ -190,6 +195,8 @@ def main() -> None:
                     help="global-motion compensation (as pgm track; default auto)")
     ap.add_argument("--scale-aware", action="store_true",
                     help="scale-aware state and noise (lengths in each target's own height)")
+    ap.add_argument("--scores", choices=("off", "mixture"), default=None,
+                    help="detection scores in the measurement model (default: as pgm track)")
     ap.add_argument("--sequences", default=None,
                     help="comma-separated subset of the sequences (default: all)")
     args = ap.parse_args()
@@ -217,7 +224,7 @@ def main() -> None:
                 r = run(d, module, make_detector("public", open_source(d)), seed=seed, dbn=dbn,
                         lost_seconds=args.lost_seconds, merge_gate=args.merge_gate,
                         dbn_calibrate=args.dbn_calibrate, camera_motion=args.camera_motion,
-                        scale_aware=args.scale_aware)
+                        scale_aware=args.scale_aware, scores=args.scores)
                 m = r.metrics
                 sig = (float(np.median(r.noise_sigma))
                        if r.noise_sigma else np.nan)

@@ -51,11 +51,12 @@ from pgm.core.beliefs import Intensity, Particles
 from pgm.core.motion import motion_scale, warp_states
 from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
 from pgm.factors.multitarget import PHDLikelihood
+from pgm.factors.scores import ScoreCalibration
 
 from .engine import DEFAULT_RULES, Engine
 from .tracks import TrackManager
 
-__all__ = ["phd_correct", "extract", "phd_factor_of", "appearance_log_scores"]
+__all__ = ["phd_correct", "extract", "phd_factor_of", "appearance_log_scores", "score_terms"]
 
 
 def phd_factor_of(engine: Engine, variable: str) -> PHDLikelihood:
@@ -79,23 +80,58 @@ def appearance_log_scores(engine: Engine, variable: str, x: np.ndarray, frame) -
 
 
 def phd_correct(weights: np.ndarray, log_g: np.ndarray, factor: PHDLikelihood,
-                log_app: np.ndarray | None = None) -> dict[str, np.ndarray]:
+                log_app: np.ndarray | None = None, kappa: float | np.ndarray | None = None,
+                nu: float | np.ndarray | None = None) -> dict[str, np.ndarray]:
     """One PHD corrector pass in the linear domain (``log_g`` is floored, so no underflow).
 
     ``log_g`` is overwritten (it becomes ``omega``): the ``(N, |Z|)`` buffer is reused.
+    ``kappa`` and ``nu``: the clutter and birth densities, scalars or one per measurement
+    (default: the factor's ``κ`` and ``ν_b``; per detection with a score model, see
+    :func:`score_terms`).
 
     Returns the posterior persistent weights ``w``, ``L (M,)``, the association
     weights ``omega (N, M)`` (``p_D g a w / L``) and ``W_z = Σ_j omega_jz``.
     """
+    kappa = factor.kappa if kappa is None else kappa
+    nu = factor.nu_birth if nu is None else nu
     g = np.exp(log_g, out=log_g)  # in place: log_g is a work buffer owned by the caller
     if log_app is not None:
         g *= np.exp(np.clip(log_app, -300.0, 300.0))[:, None]
     g *= (factor.p_detect * weights)[:, None]  # p_D g a w
-    L = factor.kappa + factor.nu_birth + g.sum(axis=0)
+    L = kappa + nu + g.sum(axis=0)
     g /= L  # omega
     omega = g
     w_post = (1.0 - factor.p_detect) * weights + omega.sum(axis=1)
-    return {"w": w_post, "L": L, "omega": omega, "W": omega.sum(axis=0)}
+    return {"w": w_post, "L": L, "omega": omega, "W": omega.sum(axis=0), "nu": nu}
+
+
+def score_terms(engine: Engine, var: str, factor: PHDLikelihood, frame,
+                m: int) -> tuple[float | np.ndarray, float | np.ndarray]:
+    """This frame's clutter and birth densities ``(κ, ν_b)``: the factor's scalars when
+    it ignores scores, else one per detection (:mod:`pgm.factors.scores`):
+    ``κ(s) = κ (f_C(s)/f_T(s))^γ`` and ``ν_b`` zeroed for low-score detections.
+
+    The online score calibration (per run, in ``engine.aux``) sees each frame's scores
+    once; the result is cached for the frame (the VB fixed point asks every pass).
+    """
+    if not factor.scores.enabled:
+        return factor.kappa, factor.nu_birth
+    aux = engine.aux.setdefault(var, {})
+    cached = aux.get("score_terms")
+    if cached is not None and cached[0] is frame and np.size(cached[1]) == m:
+        return cached[1], cached[2]
+    s = factor.detection_scores(frame)
+    if s is None or s.shape[0] != m:  # measurements without scores: score-blind
+        out = (factor.kappa, factor.nu_birth)
+    else:
+        cal = aux.get("score_calibration")
+        if cal is None:
+            cal = aux["score_calibration"] = ScoreCalibration(factor.scores)
+        cal.observe(s)
+        kappa = cal.clutter_rate(factor.clutter_rate) / factor._volume
+        out = (kappa * cal.clutter_scale(s), factor.nu_birth * cal.birth_mask(s))
+    aux["score_terms"] = (frame, *out)
+    return out
 
 
 def _install_tracks(engine: Engine, variable: str) -> None:
@@ -153,7 +189,8 @@ def _update(engine: Engine, var: str, factor: PHDLikelihood, frame, precision=No
     w = np.exp(b.log_weights) if b.num else np.zeros(0)
     log_g = factor.log_g(b.x, z, precision, log_variance, sq=sq)
     log_app = appearance_log_scores(engine, var, b.x, frame)
-    out = phd_correct(w, log_g, factor, log_app)
+    kappa, nu = score_terms(engine, var, factor, frame, z.shape[0])
+    out = phd_correct(w, log_g, factor, log_app, kappa, nu)
     out["z"] = z
     out["x"] = b.x
     return out
@@ -168,9 +205,13 @@ def _finish(engine: Engine, var: str, factor: PHDLikelihood, res: dict[str, Any]
         lw = np.log(res["w"])
     newborn = None
     aux = engine.aux.setdefault(var, {})
+    nu = res.get("nu", factor.nu_birth)
+    if np.ndim(nu):  # per detection (score model): births only where nu > 0
+        keep = nu > 0
+        z, L, nu = z[keep], L[keep], nu[keep]
     if z.shape[0] and factor.nu_birth > 0:
         xb = factor.births(engine.rng, z, r_hat, b.dim)
-        wb = np.repeat(factor.nu_birth / L / factor.n_birth, factor.n_birth)
+        wb = np.repeat(nu / L / factor.n_birth, factor.n_birth)
         newborn = Particles._trusted(xb, np.log(wb), ())
         if b.labels is not None:  # one fresh lineage label per measurement
             first = aux.get("next_label", 0)

@@ -121,6 +121,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "own height (experimental: see the README's MOT table)")
     t.add_argument("--per-track-noise", action="store_true",
                    help="vb-phd: one noise belief per track instead of one shared")
+    t.add_argument("--scores", choices=("off", "mixture"), default=None,
+                   help="phd/vb-phd: detection scores in the measurement model: 'mixture' "
+                        "(per-detection clutter from a two-class score mixture fitted on the "
+                        "video; low-score detections only extend tracks) or 'off' "
+                        "(score-blind); default: the video default")
     t.add_argument("--detector", default=None,
                    help="phd/vb-phd: 'public' (the sequence's det/det.txt, default), "
                         "'public:MIN_SCORE' or 'mog2' (background subtraction)")
@@ -263,6 +268,8 @@ def cmd_track_multi(args, source) -> int:
         kwargs["typical_height"] = float(np.median(table.boxes[:, 3]))
     if args.scale_aware:
         kwargs["scale_aware"] = True
+    if args.scores is not None:
+        kwargs["score_model"] = args.scores
     graph = module.build_graph(video_params(module.Params, width, height, source.fps,
                                             **kwargs))
     if args.dbn is not None:

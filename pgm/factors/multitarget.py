@@ -45,8 +45,10 @@ from pgm.core.numerics import check_finite_param, scratch
 from pgm.core.variable import Variable
 from pgm.factors.gaussian import _as_cov, _sqrt_psd
 from pgm.factors.kinds import ConjugateFactor, LikelihoodFactor, PriorFactor, TransitionFactor
+from pgm.factors.scores import ScoreSettings
 
-__all__ = ["IntensityPrior", "PHDLikelihood", "TrackSettings", "InverseGammaPrior",
+__all__ = ["IntensityPrior", "PHDLikelihood", "TrackSettings", "ScoreSettings",
+           "InverseGammaPrior",
            "NoiseForgetting", "VBNoise", "constant_velocity"]
 
 LOG_G_FLOOR = -300.0  # numerics: below -708 numpy's exp goes subnormal and slow
@@ -202,6 +204,12 @@ class PHDLikelihood(LikelihoodFactor):
     log_h_range : float
         With a ``log h`` measurement: the extent of the log-heights where clutter and
         births can appear (clutter density ``κ = λ_c / (A · log_h_range)``).
+    scores : ScoreSettings, dict or str, optional
+        How detection scores enter (:mod:`pgm.factors.scores`): ``"off"`` (default:
+        score-blind) or ``"mixture"`` — a per-detection clutter intensity
+        ``κ(s) = κ (f_C(s)/f_T(s))^γ`` from a two-class mixture fitted online to the
+        video's own scores, and no births from low-score detections (they may only
+        update existing targets).
     """
 
     def __init__(self, variable: str, *, H, R, p_detect: float = 0.9,
@@ -211,6 +219,7 @@ class PHDLikelihood(LikelihoodFactor):
                  min_particles: int = 200, merge_gate: float = 2.0,
                  tracks: TrackSettings | dict[str, Any] | None = None,
                  scale_index: int | None = None, scaled=None, log_h_range: float = 1.0,
+                 scores: ScoreSettings | dict[str, Any] | str | None = None,
                  name: str | None = None):
         super().__init__(variable, name=name)
         self.H = np.atleast_2d(np.asarray(H, dtype=float))
@@ -247,6 +256,7 @@ class PHDLikelihood(LikelihoodFactor):
         self.merge_gate = float(check_finite_param(f"{self.name}.merge_gate", merge_gate,
                                                    positive=True))
         self.tracks = TrackSettings.coerce(tracks, f"factor {self.name!r}: tracks")
+        self.scores = ScoreSettings.coerce(scores, f"factor {self.name!r}: scores")
         # rows of H that pick one component with coefficient 1 -> births invert them
         self._pos_index = [int(np.argmax(np.abs(row))) for row in self.H]
         self.scale_index = None if scale_index is None else int(scale_index)
@@ -278,6 +288,8 @@ class PHDLikelihood(LikelihoodFactor):
                 "appearance_temper": self.appearance_temper,
                 "min_particles": self.min_particles, "merge_gate": self.merge_gate,
                 "tracks": dataclasses.asdict(self.tracks)}
+        if self.scores.enabled:  # score-blind factors save as before
+            p["scores"] = self.scores.to_dict()
         if self.scale_index is not None:
             p.update(scale_index=self.scale_index, scaled=self.scaled.tolist(),
                      log_h_range=self.log_h_range)
@@ -328,6 +340,14 @@ class PHDLikelihood(LikelihoodFactor):
             return np.zeros((0, self.H.shape[0]))
         z = np.asarray(z, dtype=float).reshape(-1, self.H.shape[0])
         return z
+
+    def detection_scores(self, ctx: FrameContext) -> np.ndarray | None:
+        """This frame's detection scores ``(M,)`` (None when the measurements carry none:
+        given directly as ``ctx.measurements``, or no detections)."""
+        dets = getattr(ctx, "detections", None)
+        if ctx.measurements is not None or dets is None:
+            return None
+        return np.asarray(dets.scores, dtype=float).reshape(-1)
 
     def sq_dist(self, x: np.ndarray, z: np.ndarray) -> np.ndarray:
         """``(k, M, N)`` squared residuals ``(z_i − (H x)_i)²`` per measured component,

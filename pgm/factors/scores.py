@@ -1,0 +1,256 @@
+r"""Detection scores in the PHD measurement model, calibrated on the video itself.
+
+A public detection is a box *and a score*, in the detector's own units (MOT15's ACF
+scores run from about 0 to 140, MOT16's DPM margins from about −0.5 to 4). Treating the
+score as a *mark* of the measurement, a detection ``(z, s)`` comes from a target with
+density ``p_D g(z|x) f_T(s)`` and from clutter with ``κ f_C(s)`` (``f_T, f_C``: the score
+densities of true and false detections). Dividing the PHD corrector's
+``L(z) = κ f_C(s) + ν_b f_T(s) + Σ_j p_D g(z|x_j) f_T(s) w_j`` by ``f_T(s)`` leaves the
+score-blind corrector with a **per-detection clutter intensity**
+
+.. math::  κ(s) = κ\, \big[f_C(s) / f_T(s)\big]^{γ}
+
+(``γ`` a temper, 1 the literal model): a high-score detection is hard to explain as
+clutter, so it earns more birth mass and a larger share of the intensity; a low-score
+one is readily written off as clutter unless a target predicts it. Equivalently
+``p_D(s) / κ(s)`` carries the score's likelihood ratio.
+
+``f_T`` and ``f_C`` are never taken from ground truth: :class:`ScoreMixture` fits a
+two-component Gaussian mixture to the scores seen so far (EM, online, warm-started each
+frame), the component with the higher mean being the targets. EM is affine-equivariant,
+so the fitted ratio does not depend on the detector's units — the same settings serve
+MOT15's and MOT16's detectors. (A rank transform would make it invariant to any
+monotone re-scaling, but a Gaussianised rank marginal is exactly normal and the
+mixture is then not identifiable; the shape of the raw score distribution is the
+information.) The ratio is evaluated with the score clipped to the span between the two
+component means (so it is monotone and saturates in the tails, where two Gaussians'
+ratio is an artefact) and clipped to ``[1/max_ratio, max_ratio]``.
+
+**Low-score detections extend, never start, tracks** (as ByteTrack does): a detection
+whose posterior probability of being a target, ``π f_T / (π f_T + (1−π) f_C)``, is below
+``birth_min_prob`` gets no newborn particles; it still enters the corrector, so it
+keeps a predicted target alive.
+
+The clutter *rate* may also be calibrated from the fit: ``λ_c = (1 − π) ×`` the mean number
+of detections per frame (``clutter_from_scores``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from pgm.core.numerics import check_finite_param
+
+__all__ = ["ScoreSettings", "ScoreMixture", "ScoreCalibration", "SCORE_MODELS"]
+
+SCORE_MODELS = ("off", "mixture")
+
+
+@dataclass(frozen=True)
+class ScoreSettings:
+    """How a PHD measurement factor uses detection scores.
+
+    Attributes
+    ----------
+    model : str
+        ``"off"``: scores ignored (the score-blind filter); ``"mixture"``: the
+        per-detection clutter intensity ``κ(s)`` from a two-class mixture fitted online
+        to the video's own scores (:class:`ScoreMixture`).
+    temper : float
+        ``γ ≥ 0``: exponent of the score likelihood ratio (0: scores ignored in the
+        corrector; the birth gate still applies).
+    max_ratio : float
+        The likelihood ratio is clipped to ``[1/max_ratio, max_ratio]`` (≥ 1).
+    birth_min_prob : float
+        Detections whose posterior probability of being a target is below this get no
+        births (they may only update existing targets); 0 turns the gate off.
+    min_samples : int
+        Scores to collect before the first fit; until then the filter is score-blind.
+    clutter_from_scores : bool
+        Replace the clutter rate ``λ_c`` by ``(1 − π) ×`` the mean detections per frame
+        of the fit (``π``: the target class's share).
+    em_iter : int
+        EM iterations per frame (warm-started from the previous frame's fit; the first
+        fit runs ``10 ×`` as many).
+    """
+
+    model: str = "off"
+    temper: float = 1.0
+    max_ratio: float = 100.0
+    birth_min_prob: float = 0.5
+    min_samples: int = 50
+    clutter_from_scores: bool = False
+    em_iter: int = 5
+
+    def __post_init__(self) -> None:
+        if self.model not in SCORE_MODELS:
+            raise ValueError(f"scores.model must be one of {SCORE_MODELS}, got {self.model!r}")
+        check_finite_param("scores.temper", self.temper, nonneg=True)
+        check_finite_param("scores.max_ratio", self.max_ratio, positive=True)
+        if self.max_ratio < 1.0:
+            raise ValueError(f"parameter 'scores.max_ratio' must be >= 1, got {self.max_ratio}")
+        check_finite_param("scores.birth_min_prob", self.birth_min_prob, nonneg=True)
+        if self.birth_min_prob > 1.0:
+            raise ValueError("parameter 'scores.birth_min_prob' must be in [0, 1], got "
+                             f"{self.birth_min_prob}")
+        for name, lo in (("min_samples", 2), ("em_iter", 1)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
+                raise ValueError(f"scores.{name} must be an integer >= {lo}, got {v!r}")
+        if not isinstance(self.clutter_from_scores, (bool, np.bool_)):
+            raise ValueError("scores.clutter_from_scores must be a bool, got "
+                             f"{self.clutter_from_scores!r}")
+
+    @property
+    def enabled(self) -> bool:
+        return self.model != "off"
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def coerce(cls, value: ScoreSettings | dict[str, Any] | str | None,
+               what: str) -> ScoreSettings:
+        """``value`` as settings: an instance, a dict (from a saved graph, checked key by
+        key), a model name, or None (the defaults)."""
+        if value is None:
+            return cls()
+        if isinstance(value, cls):
+            return value
+        if isinstance(value, str):
+            return cls(model=value)
+        if not isinstance(value, dict):
+            raise ValueError(f"{what} must be ScoreSettings, a dict or a model name, "
+                             f"got {value!r}")
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(value) - names)
+        if unknown:
+            raise ValueError(f"{what}: unknown setting(s) {unknown} (known: {sorted(names)})")
+        return cls(**value)
+
+
+@dataclass
+class ScoreMixture:
+    """A two-component 1-D Gaussian mixture over detection scores; component 1 (the
+    higher mean) is the target class. Fitted by EM, vectorised over the scores."""
+
+    weight: float = 0.5  # π: share of the target class
+    mean: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(2))
+    var: np.ndarray = dataclasses.field(default_factory=lambda: np.ones(2))
+
+    @classmethod
+    def initial(cls, scores: np.ndarray) -> ScoreMixture:
+        """A start from the 25 % / 75 % quantiles (deterministic)."""
+        s = np.asarray(scores, dtype=float)
+        lo, hi = np.quantile(s, [0.25, 0.75])
+        v = max(float(np.var(s)) / 4.0, _var_floor(s))
+        return cls(0.5, np.array([lo, hi], dtype=float), np.array([v, v]))
+
+    def fit(self, scores: np.ndarray, iterations: int = 50) -> ScoreMixture:
+        """``iterations`` EM steps from the current parameters (in place; returns self)."""
+        s = np.asarray(scores, dtype=float).reshape(-1)
+        floor = _var_floor(s)
+        for _ in range(int(iterations)):
+            r = self.responsibility(s)  # (n,) of the target class
+            n1 = r.sum()
+            n0 = s.size - n1
+            if n1 < 1e-9 or n0 < 1e-9:  # one class took everything: nothing to separate
+                break
+            m = np.array([((1 - r) * s).sum() / n0, (r * s).sum() / n1])
+            v = np.array([((1 - r) * (s - m[0]) ** 2).sum() / n0,
+                          (r * (s - m[1]) ** 2).sum() / n1])
+            self.mean, self.var = m, np.maximum(v, floor)
+            self.weight = float(n1 / s.size)
+        if self.mean[0] > self.mean[1]:  # keep component 1 the higher one
+            self.mean, self.var = self.mean[::-1].copy(), self.var[::-1].copy()
+            self.weight = 1.0 - self.weight
+        return self
+
+    def log_densities(self, s: np.ndarray) -> np.ndarray:
+        """``(n, 2)`` log-densities of the clutter (0) and target (1) components."""
+        s = np.asarray(s, dtype=float).reshape(-1, 1)
+        return -0.5 * (np.log(2 * np.pi * self.var) + (s - self.mean) ** 2 / self.var)
+
+    def responsibility(self, s: np.ndarray) -> np.ndarray:
+        """``P(target | s)`` under the mixture, ``(n,)``."""
+        w = np.clip(self.weight, 1e-12, 1 - 1e-12)
+        ld = self.log_densities(s)
+        a = np.log(w) + ld[:, 1] - np.log1p(-w) - ld[:, 0]
+        return 1.0 / (1.0 + np.exp(-np.clip(a, -700, 700)))
+
+    def log_ratio(self, s: np.ndarray) -> np.ndarray:
+        """``log f_T(s) / f_C(s)`` with ``s`` clipped to the span of the two means
+        (monotone, saturating in the tails), ``(n,)``."""
+        lo, hi = float(self.mean[0]), float(self.mean[1])
+        ld = self.log_densities(np.clip(np.asarray(s, dtype=float), lo, hi))
+        return ld[:, 1] - ld[:, 0]
+
+
+def _var_floor(s: np.ndarray) -> float:
+    """A variance floor in the scores' own units: (1 % of the interquartile range)²."""
+    if s.size < 2:
+        return 1e-12
+    q1, q3 = np.quantile(s, [0.25, 0.75])
+    return max((0.01 * float(q3 - q1)) ** 2, 1e-12)
+
+
+class ScoreCalibration:
+    """Online calibration of :class:`ScoreSettings` on one video (per-run state).
+
+    Each frame: :meth:`observe` adds the frame's scores and refits (warm-started EM);
+    :meth:`clutter_scale` gives each detection's factor on ``κ``; :meth:`birth_mask`
+    which detections may spawn births. Deterministic (no randomness).
+    """
+
+    def __init__(self, settings: ScoreSettings):
+        self.settings = settings
+        self._chunks: list[np.ndarray] = []
+        self.count = 0
+        self.frames = 0
+        self.mixture: ScoreMixture | None = None
+
+    def observe(self, scores: np.ndarray) -> None:
+        s = np.asarray(scores, dtype=float).reshape(-1)
+        s = s[np.isfinite(s)]
+        self.frames += 1
+        if s.size:
+            self._chunks.append(s)
+            self.count += s.size
+        if self.count < self.settings.min_samples:
+            return
+        all_s = np.concatenate(self._chunks) if len(self._chunks) > 1 else self._chunks[0]
+        self._chunks = [all_s]
+        if self.mixture is None:
+            self.mixture = ScoreMixture.initial(all_s).fit(all_s, 10 * self.settings.em_iter)
+        elif s.size:
+            self.mixture.fit(all_s, self.settings.em_iter)
+
+    @property
+    def ready(self) -> bool:
+        return self.mixture is not None
+
+    def clutter_scale(self, scores: np.ndarray) -> np.ndarray:
+        """``(f_C(s) / f_T(s))^γ`` per detection, clipped (1 before the first fit)."""
+        s = np.asarray(scores, dtype=float).reshape(-1)
+        if self.mixture is None:
+            return np.ones(s.size)
+        c = np.log(self.settings.max_ratio)
+        lr = np.clip(self.mixture.log_ratio(np.nan_to_num(s, nan=self.mixture.mean[0])), -c, c)
+        return np.exp(-self.settings.temper * lr)
+
+    def birth_mask(self, scores: np.ndarray) -> np.ndarray:
+        """Which detections may spawn newborn particles (all before the first fit)."""
+        s = np.asarray(scores, dtype=float).reshape(-1)
+        if self.mixture is None or self.settings.birth_min_prob <= 0:
+            return np.ones(s.size, dtype=bool)
+        return self.mixture.responsibility(s) >= self.settings.birth_min_prob
+
+    def clutter_rate(self, default: float) -> float:
+        """The calibrated ``λ_c`` (``default`` unless ``clutter_from_scores`` and fitted)."""
+        if not (self.settings.clutter_from_scores and self.mixture is not None):
+            return default
+        return (1.0 - self.mixture.weight) * self.count / max(self.frames, 1)

@@ -1,0 +1,117 @@
+"""Detection scores in the PHD measurement model: settings, the two-class score mixture
+and its online calibration (never from ground truth)."""
+
+import numpy as np
+import pytest
+
+from pgm import FactorGraph, Variable
+from pgm.factors.multitarget import IntensityPrior, PHDLikelihood
+from pgm.factors.scores import ScoreCalibration, ScoreMixture, ScoreSettings
+
+
+def two_class_scores(rng, n=4000, pi=0.7, clutter=(10.0, 4.0), target=(60.0, 15.0)):
+    """Scores of a known mixture: a share ``pi`` from the target class."""
+    is_target = rng.random(n) < pi
+    s = np.where(is_target, rng.normal(*target, n), rng.normal(*clutter, n))
+    return s, is_target
+
+
+def test_the_mixture_recovers_a_known_two_class_score_distribution():
+    s, is_target = two_class_scores(np.random.default_rng(0))
+    m = ScoreMixture.initial(s).fit(s, 200)
+    assert abs(m.weight - 0.7) < 0.03
+    np.testing.assert_allclose(m.mean, [10.0, 60.0], atol=1.5)
+    np.testing.assert_allclose(np.sqrt(m.var), [4.0, 15.0], rtol=0.1)
+    # the posterior separates the classes it was never told about
+    acc = np.mean((m.responsibility(s) >= 0.5) == is_target)
+    assert acc > 0.95
+
+
+def test_the_fit_does_not_depend_on_the_detectors_units():
+    """MOT15 and MOT16 scores differ by scale and offset: EM is affine-equivariant."""
+    s, _ = two_class_scores(np.random.default_rng(1))
+    a = ScoreMixture.initial(s).fit(s, 200)
+    t = 0.05 * s - 1.0  # another detector's units
+    b = ScoreMixture.initial(t).fit(t, 200)
+    assert b.weight == pytest.approx(a.weight, abs=1e-6)
+    np.testing.assert_allclose(b.mean, 0.05 * a.mean - 1.0, rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(a.responsibility(s), b.responsibility(t), atol=1e-6)
+    np.testing.assert_allclose(a.log_ratio(s), b.log_ratio(t), atol=1e-5)
+
+
+def test_the_likelihood_ratio_is_monotone_and_saturates():
+    s, _ = two_class_scores(np.random.default_rng(2))
+    m = ScoreMixture.initial(s).fit(s, 200)
+    grid = np.linspace(-50, 200, 500)
+    lr = m.log_ratio(grid)
+    assert np.all(np.diff(lr) >= -1e-12)
+    assert lr[0] == lr[1] and lr[-1] == lr[-2]  # clipped outside the two means
+
+
+def test_online_calibration_is_score_blind_until_it_has_enough_scores():
+    cal = ScoreCalibration(ScoreSettings(model="mixture", min_samples=100, max_ratio=50.0,
+                                         birth_min_prob=0.5))
+    rng = np.random.default_rng(3)
+    cal.observe(rng.normal(60, 15, 20))
+    assert not cal.ready
+    np.testing.assert_array_equal(cal.clutter_scale([0.0, 100.0]), [1.0, 1.0])
+    assert cal.birth_mask([0.0, 100.0]).all()
+    for _ in range(30):
+        s, _ = two_class_scores(rng, n=8)
+        cal.observe(s)
+    assert cal.ready
+    k = cal.clutter_scale([10.0, 60.0])
+    assert k[0] > 1.0 > k[1]  # low score: more clutter-like; high score: less
+    assert k[1] == pytest.approx(1 / 50.0)  # clipped at max_ratio
+    np.testing.assert_array_equal(cal.birth_mask([10.0, 60.0]), [False, True])
+
+
+def test_clutter_rate_from_the_mixture():
+    cal = ScoreCalibration(ScoreSettings(model="mixture", clutter_from_scores=True))
+    rng = np.random.default_rng(4)
+    for _ in range(200):  # 10 detections a frame, 30 % clutter -> lambda_c about 3
+        s, _ = two_class_scores(rng, n=10)
+        cal.observe(s)
+    assert cal.clutter_rate(99.0) == pytest.approx(3.0, abs=0.3)
+    off = ScoreCalibration(ScoreSettings(model="mixture"))
+    assert off.clutter_rate(2.0) == 2.0
+
+
+@pytest.mark.parametrize("kw, name", [
+    ({"temper": float("nan")}, "scores.temper"),
+    ({"temper": -1.0}, "scores.temper"),
+    ({"max_ratio": 0.5}, "scores.max_ratio"),
+    ({"max_ratio": float("inf")}, "scores.max_ratio"),
+    ({"birth_min_prob": 1.5}, "scores.birth_min_prob"),
+    ({"birth_min_prob": float("nan")}, "scores.birth_min_prob"),
+    ({"min_samples": 1}, "scores.min_samples"),
+    ({"em_iter": 0}, "scores.em_iter"),
+    ({"model": "logistic"}, "scores.model"),
+    ({"clutter_from_scores": "yes"}, "scores.clutter_from_scores"),
+])
+def test_bad_settings_name_the_parameter(kw, name):
+    with pytest.raises(ValueError, match=name):
+        ScoreSettings(**kw)
+
+
+def test_score_settings_are_saved_with_the_factor_and_loaded_without_code(tmp_path):
+    def graph(scores):
+        f = PHDLikelihood("targets", H=[[1.0, 0, 0, 0], [0, 0, 1.0, 0]], R=[4.0, 4.0],
+                          scores=scores)
+        return FactorGraph([Variable("targets", 4, role="set")],
+                           [IntensityPrior("targets", mean=np.zeros(4)), f])
+
+    g = graph({"model": "mixture", "temper": 0.5, "birth_min_prob": 0.2})
+    phd_of = lambda graph: next(f for f in graph.factors.values()  # noqa: E731
+                                if isinstance(f, PHDLikelihood))
+    p = phd_of(g).params()
+    assert p["scores"]["temper"] == 0.5 and p["scores"]["model"] == "mixture"
+    g.save(tmp_path / "m.json")
+    back = FactorGraph.load(tmp_path / "m.json")
+    assert back == g
+    assert phd_of(back).scores == ScoreSettings(
+        model="mixture", temper=0.5, birth_min_prob=0.2)
+    # score-blind factors save exactly as before scores were used
+    assert "scores" not in phd_of(graph(None)).params()
+    with pytest.raises(ValueError, match="unknown setting"):
+        graph({"model": "mixture", "gamma": 1.0})
