@@ -10,8 +10,14 @@ TUD-Campus, TUD-Stadtmitte and MOT16-11 (frames 1-300; moving camera; MOT16
 protocol); with ``--mog2`` also background subtraction on the full
 PETS09-S2L1 video. Scored with :func:`pgm.evaluation.mot.evaluate_mot` (CLEAR / Identity /
 HOTA at IoU 0.5, flag-0 rows as ignore regions; OSPA on foot points). Frames per
-second are inference only (detection and decoding excluded). The peers' rows are
-copied from ``../shared/bench/README.md`` (trackers 2.6.1, same protocol).
+second are inference only (detection and decoding excluded). The peers — SORT,
+ByteTrack and OC-SORT of the ``trackers`` package (2.6.1, default settings; scores outside
+[0, 1] through a logistic) — run in the same script from the same detections in their own
+virtualenv (``bash benchmarks/peers/setup_env.sh``; never a toolkit dependency) and are
+scored by the same :func:`~pgm.evaluation.mot.evaluate_mot` as the toolkit's rows. Without
+that virtualenv the bench README's figures are printed instead, marked so (its scorer
+counts ID switches slightly differently: TrackEval's CLEAR against the ``motrics``
+library's here).
 
 ``--seeds K``: public-detection rows are means over seeds 0..K-1 (default 1: seed 0),
 with the range of MOTA over the seeds in its own column.
@@ -53,14 +59,17 @@ from _common import SHARED_DATA, print_table, single_thread  # noqa: E402
 
 single_thread()
 
+from _peers import SETUP_HINT, peer_python, run_mot_peers  # noqa: E402
+
 from pgm.app.runner import track_multi  # noqa: E402
+from pgm.evaluation.mot import evaluate_mot  # noqa: E402
 from pgm.io.annotations import MotTable, load_mot  # noqa: E402
 from pgm.io.video import open_source  # noqa: E402
 from pgm.models import phd, vb_phd  # noqa: E402
 from pgm.models.phd import video_params  # noqa: E402
 from pgm.observation.detections import Detections, PublicDetections, make_detector  # noqa: E402
 
-PEERS = {  # bench/README.md: MOTA, IDF1, HOTA, IDSW, OSPA(50,1), OSPA(100,2)
+PEERS = {  # bench/README.md (the fallback): MOTA, IDF1, HOTA, IDSW, OSPA(50,1), OSPA(100,2)
     "PETS09-S2L1": {"SORT": (0.612, 0.450, 0.362, 53, 12.2, 32.3),
                     "ByteTrack": (0.594, 0.514, 0.414, 64, 12.7, 34.2),
                     "OC-SORT": (0.657, 0.489, 0.397, 50, 12.5, 32.4)},
@@ -75,6 +84,29 @@ PEERS = {  # bench/README.md: MOTA, IDF1, HOTA, IDSW, OSPA(50,1), OSPA(100,2)
     "MOT16-11": {},
 }
 MODELS = (("PHD", phd), ("VB-PHD", vb_phd))
+
+
+PEER_NAMES = {"sort": "SORT", "bytetrack": "ByteTrack", "ocsort": "OC-SORT"}
+
+
+def peer_rows(seq: str, d: Path, last_frame: int) -> list[list]:
+    """SORT / ByteTrack / OC-SORT run now on ``d``'s public detections and scored like the
+    toolkit's rows over frames ``1..last_frame``; the bench README's figures when the
+    peer virtualenv is missing."""
+    if peer_python() is None:
+        return [[seq, f"{peer} (bench README)", *vals[:4], "-", "-", *vals[4:], "-", "-", "-",
+                 "-"] for peer, vals in PEERS[seq].items()]
+    gt = load_mot(open_source(d).gt_path, kind="gt").until(last_frame)
+    rows = []
+    for name, r in run_mot_peers(d, last_frame=last_frame).items():
+        if "error" in r:
+            print(f"{seq} {name}: {r['error']}", file=sys.stderr)
+            continue
+        m = evaluate_mot(gt, r["table"].until(last_frame), num_frames=last_frame)
+        rows.append([seq, PEER_NAMES.get(name, name), m["mota"], m["idf1"], m["hota"],
+                     f"{m['id_switches']:.1f}", f"{m['fp']:.1f}", f"{m['fn']:.1f}",
+                     m["ospa_50_1"], m["ospa_100_2"], m["ospa2"], r["fps"], "-", "-"])
+    return rows
 
 
 class NoisyDetections:
@@ -200,13 +232,16 @@ def main() -> None:
     ap.add_argument("--sequences", default=None,
                     help="comma-separated subset of the sequences (default: all)")
     args = ap.parse_args()
+    if peer_python() is None:
+        print(SETUP_HINT + "; the bench README's peer figures are printed instead",
+              file=sys.stderr)
     rows = []
     import tempfile
 
     tmp = tempfile.TemporaryDirectory()
     seqs = [SHARED_DATA / q for q in PEERS if (SHARED_DATA / q).is_dir()]
     chosen = set(args.sequences.split(",")) if args.sequences else set(PEERS)
-    for seq, peers in PEERS.items():
+    for seq in PEERS:
         d = SHARED_DATA / seq
         if not d.is_dir() or seq not in chosen:
             continue
@@ -218,6 +253,7 @@ def main() -> None:
             print(f"DBN for {seq}: trained on {', '.join(q.name for q in others)} in "
                   f"{secs:.0f} s; {dbn_check(d, path)}", flush=True)
             runs.append(("VB-PHD + DBN (LOSO)", vb_phd, path))
+        last_frame = None
         for name, module, dbn in runs:
             ms = []
             for seed in range(args.seeds):
@@ -226,6 +262,7 @@ def main() -> None:
                         dbn_calibrate=args.dbn_calibrate, camera_motion=args.camera_motion,
                         scale_aware=args.scale_aware, scores=args.scores)
                 m = r.metrics
+                last_frame = r.n_frames
                 sig = (float(np.median(r.noise_sigma))
                        if r.noise_sigma else np.nan)
                 ms.append([m["mota"], m["idf1"], m["hota"], m["id_switches"], m["fp"], m["fn"],
@@ -235,8 +272,7 @@ def main() -> None:
             rows.append([seq, name, *mean[:3], *(f"{v:.1f}" for v in mean[3:6]), *mean[6:10],
                          f"{ms[:, 0].min():.3f}-{ms[:, 0].max():.3f}",
                          "-" if np.isnan(mean[10]) else f"{mean[10]:.1f}"])
-        for peer, vals in peers.items():
-            rows.append([seq, peer, *vals[:4], "-", "-", *vals[4:], "-", "-", "-", "-"])
+        rows.extend(peer_rows(seq, d, last_frame))
     if args.mog2 and (SHARED_DATA / "PETS09-S2L1-video").is_dir():
         d = SHARED_DATA / "PETS09-S2L1-video"
         for name, module in MODELS:

@@ -1,0 +1,226 @@
+"""Run the peer trackers in their own virtualenv and read their output back.
+
+The peers (OpenCV CSRT / KCF / MIL; SORT / ByteTrack / OC-SORT from ``trackers`` 2.6.1) are
+not toolkit dependencies: ``trackers`` pulls ``opencv-python``, which clashes with the
+toolkit's ``opencv-python-headless``, and CSRT / KCF need the contrib build. They live in
+``.venv-peers/`` (``bash benchmarks/peers/setup_env.sh``) and run as subprocesses
+(``benchmarks/peers/mot_peers.py``, ``sot_peers.py``) that exchange plain files with this
+module; the toolkit scores their output with its own metrics
+(:func:`pgm.evaluation.mot.evaluate_mot`,
+:func:`pgm.evaluation.single_object.single_object_metrics`).
+
+Coordinates: MOT results come back as :class:`pgm.io.annotations.MotTable` read with
+``load_mot(path, kind="det")`` (column 7 is a score; 1-based file boxes become the
+toolkit's 0-based ones, as for ``gt.txt``). Single-object boxes are exchanged in the
+toolkit's 0-based top-left ``(x, y, w, h)``, which are OpenCV's pixel coordinates.
+
+    from _peers import SETUP_HINT, frame_paths, peer_python, run_mot_peers, run_sot_peers
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+import subprocess
+import tempfile
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from pgm.io.annotations import load_mot
+from pgm.io.video import FrameSource, ImageSequenceSource, open_source
+
+__all__ = ["SETUP_HINT", "PEERS_DIR", "peer_python", "run_mot_peers", "run_sot_peers",
+           "frame_paths"]
+
+REPO = Path(__file__).resolve().parents[1]
+PEERS_DIR = Path(__file__).resolve().parent / "peers"
+SETUP_HINT = ("peer trackers not installed: run `bash benchmarks/peers/setup_env.sh` "
+              "(creates .venv-peers/ with trackers 2.6.1 and opencv-contrib-python-headless)")
+_CHECK = "import trackers, cv2; cv2.TrackerCSRT_create"
+
+
+@functools.lru_cache(maxsize=None)
+def _works(python: str) -> bool:
+    """Whether ``python`` imports ``trackers`` and a ``cv2`` with CSRT (checked once)."""
+    try:
+        r = subprocess.run([python, "-c", _CHECK], capture_output=True, timeout=300,
+                           env=_env())
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    return r.returncode == 0
+
+
+def peer_python() -> Path | None:
+    """The peer venv's interpreter, or None when it is missing or broken.
+
+    ``$PGM_PEERS_PYTHON`` if set, else ``.venv-peers/bin/python`` under the repository
+    root; it must ``import trackers, cv2`` with ``cv2.TrackerCSRT_create`` present (checked
+    once per interpreter and process). The path is not resolved: a venv's ``python`` is a
+    symlink to the base interpreter, which would lose the venv.
+    """
+    override = os.environ.get("PGM_PEERS_PYTHON")
+    candidate = Path(override) if override else REPO / ".venv-peers" / "bin" / "python"
+    if not candidate.is_absolute():
+        candidate = Path.cwd() / candidate
+    if not candidate.exists():
+        return None
+    return candidate if _works(str(candidate)) else None
+
+
+def _env() -> dict[str, str]:
+    """The subprocess environment: one thread per library; no toolkit paths leaking in."""
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV")}
+    for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        env.setdefault(var, "1")
+    return env
+
+
+def _tail(text: str, n: int = 600) -> str:
+    text = " ".join(text.split())
+    return text[-n:] if text else "(no output)"
+
+
+def _run(cmd: list[str], timeout: float | None) -> tuple[int, str]:
+    try:
+        r = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env=_env())
+    except subprocess.TimeoutExpired:
+        return -1, f"timed out after {timeout} s"
+    except OSError as exc:
+        return -1, f"could not start {cmd[0]}: {exc}"
+    return r.returncode, r.stderr + r.stdout
+
+
+def run_mot_peers(sequence_dir: str | Path, last_frame: int | None = None,
+                  trackers: Sequence[str] = ("sort", "bytetrack", "ocsort"),
+                  workdir: str | Path | None = None,
+                  timeout: float | None = 1800.0) -> dict[str, dict]:
+    """Run SORT / ByteTrack / OC-SORT on a MOTChallenge sequence's public detections.
+
+    Parameters
+    ----------
+    sequence_dir : path
+        A MOTChallenge folder with ``det/det.txt`` (and ``seqinfo.ini`` for the frame rate).
+    last_frame : int, optional
+        Track frames ``1..last_frame`` (default: ``seqLength``).
+    trackers : sequence of str
+        Names understood by ``mot_peers.py`` (``sort``, ``bytetrack``, ``ocsort``; also
+        ``botsort``, ``cbiou``).
+    workdir : path, optional
+        Where the result files go (``<tracker>.txt``, ``timing.json``); default a new
+        temporary folder, left in place so the returned paths stay valid.
+    timeout : float, optional
+        Seconds for the whole subprocess.
+
+    Returns
+    -------
+    dict
+        ``{name: {"table": MotTable, "fps": float, "path": Path, "frames": int,
+        "seconds": float}}``, or ``{name: {"error": str}}`` for a tracker that failed (or
+        for all of them when the peer venv is missing: the error is :data:`SETUP_HINT`).
+        ``fps`` counts ``tracker.update`` time only.
+    """
+    names = [str(n).lower() for n in trackers]
+    py = peer_python()
+    if py is None:
+        return {n: {"error": SETUP_HINT} for n in names}
+    seq = Path(sequence_dir).resolve()
+    out = (Path(workdir) if workdir is not None
+           else Path(tempfile.mkdtemp(prefix=f"pgm-peers-{seq.name}-")))
+    out.mkdir(parents=True, exist_ok=True)
+    cmd = [str(py), str(PEERS_DIR / "mot_peers.py"), "--sequence", str(seq), "--out", str(out),
+           "--trackers", ",".join(names)]
+    if last_frame is not None:
+        cmd += ["--last-frame", str(int(last_frame))]
+    code, log = _run(cmd, timeout)
+    timing_path = out / "timing.json"
+    timing = json.loads(timing_path.read_text()) if timing_path.is_file() else {}
+    results: dict[str, dict] = {}
+    for name in names:
+        entry = timing.get(name)
+        if entry is None:
+            results[name] = {"error": f"mot_peers.py exit {code}: {_tail(log)}"}
+        elif "error" in entry:
+            results[name] = {"error": str(entry["error"])}
+        else:
+            path = out / f"{name}.txt"
+            results[name] = {"table": load_mot(path, kind="det"),
+                             "fps": float(entry["fps"]) if entry.get("fps") else float("nan"),
+                             "path": path, "frames": int(entry["frames"]),
+                             "seconds": float(entry["seconds"])}
+    return results
+
+
+def run_sot_peers(frames_paths: Iterable[str | Path], init_xywh: Sequence[float],
+                  trackers: Sequence[str] = ("csrt", "kcf", "mil"), seed: int = 0,
+                  timeout: float | None = 1800.0) -> dict[str, dict]:
+    """Run OpenCV's CSRT / KCF / MIL on image files, initialised with ``init_xywh``.
+
+    Parameters
+    ----------
+    frames_paths : iterable of path
+        The image files in order (see :func:`frame_paths`); the first is the init frame.
+    init_xywh : (x, y, w, h)
+        Top-left box on the first frame, toolkit (= OpenCV) 0-based pixel coordinates,
+        e.g. ``gt.boxes[0]`` of :func:`pgm.io.annotations.load_single_gt` when the ground
+        truth annotates frame 1. OpenCV is initialised with it rounded to integers.
+    trackers : sequence of str
+        ``csrt``, ``kcf``, ``mil``.
+    seed : int
+        ``cv2.setRNGSeed`` before each tracker (MIL samples at random; CSRT and KCF are
+        deterministic).
+    timeout : float, optional
+        Seconds for the whole subprocess.
+
+    Returns
+    -------
+    dict
+        ``{name: {"boxes": ndarray (T, 4) top-left xywh, first row = init_xywh,
+        "fps": float, "failed_frames": int}}`` (a failed ``update`` keeps the previous box),
+        or ``{name: {"error": str}}``. ``fps`` is frames 2..T over the ``update`` time.
+    """
+    names = [str(n).lower() for n in trackers]
+    py = peer_python()
+    if py is None:
+        return {n: {"error": SETUP_HINT} for n in names}
+    frames = [str(Path(p).resolve()) for p in frames_paths]
+    init = [float(v) for v in np.asarray(init_xywh, dtype=float).reshape(4)]
+    with tempfile.TemporaryDirectory(prefix="pgm-peers-sot-") as tmp:
+        task, res = Path(tmp) / "task.json", Path(tmp) / "result.json"
+        task.write_text(json.dumps({"frames": frames, "init": init}))
+        code, log = _run([str(py), str(PEERS_DIR / "sot_peers.py"), "--task", str(task),
+                          "--out", str(res), "--trackers", ",".join(names),
+                          "--seed", str(int(seed))], timeout)
+        data = json.loads(res.read_text()) if res.is_file() else {}
+    results: dict[str, dict] = {}
+    for name in names:
+        entry = data.get(name)
+        if entry is None:
+            results[name] = {"error": f"sot_peers.py exit {code}: {_tail(log)}"}
+        elif "error" in entry:
+            results[name] = {"error": str(entry["error"])}
+        else:
+            results[name] = {"boxes": np.asarray(entry["boxes"], dtype=float).reshape(-1, 4),
+                             "fps": float(entry["fps"]) if entry.get("fps") else float("nan"),
+                             "failed_frames": int(entry["failed_frames"])}
+    return results
+
+
+def frame_paths(source: str | Path | FrameSource, start: int = 1,
+                stop: int | None = None) -> list[Path]:
+    """Image files of frames ``start <= n < stop`` (1-based, as ``source.frames``).
+
+    Frame *n* of an image-folder source (MOT ``img1/``, OTB ``img/``, MILTrack ``imgs/``)
+    is ``source.files[n - 1]``, the same pairing with the ground truth that
+    :func:`pgm.io.video.open_source` uses (FaceOcc1: ``img00000.png`` is frame 1;
+    David: ``img00001.png``; Tiger1: ``img00000.png``). Videos have no files: ``ValueError``.
+    """
+    src = open_source(source) if isinstance(source, (str, Path)) else source
+    if not isinstance(src, ImageSequenceSource):
+        raise ValueError(f"{src.path} is not an image-folder source; the OpenCV peers "
+                         "read image files")
+    end = len(src.files) if stop is None else min(int(stop) - 1, len(src.files))
+    return list(src.files[int(start) - 1:end])
