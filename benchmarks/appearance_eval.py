@@ -1,22 +1,30 @@
-"""Single-object accuracy and speed of the appearance cues: the ablation table.
+"""Single-object accuracy and speed: the ablation table, the peers, and the
+leave-one-sequence-out choice of the default.
 
 Every row is a model config of the one engine (a one-node graph unless it says
 "3 nodes"), run over whole sequences with ``--seeds`` seeds; success AUC (OTB, 21
 thresholds) and precision at 20 px over the annotated frames, and inference frames per
-second (decoding excluded). OpenCV's MIL tracker runs in the same process on the same
-frames as the same-run baseline (CSRT and KCF are in the contrib build only; their
-figures are quoted from ``../shared/bench/README.md``).
+second (decoding excluded). The peers run on the same frames from the same first box:
+OpenCV CSRT, KCF and MIL in the peer virtualenv (``bash benchmarks/peers/setup_env.sh``:
+they need ``opencv-contrib``, which the toolkit does not depend on); without it, MIL
+alone runs in this process.
 
-Sequences:
+Sequences (``../shared/data``):
 
-* ``FaceOcc1`` and ``Crossing`` (``../shared/data``), the two single-object sequences;
-  the default configuration (``pgm.models.single_object``) was chosen on them;
-* ``PETS persons``, a held-out check: the ``--persons`` longest ground-truth tracks of
-  ``PETS09-S2L1`` (768x576, people occluding each other and a lamp post), each run as a
-  single-object task from its first to its last annotated frame; the AUC is the mean
-  over the tracks.
+* ``FaceOcc1`` (occlusion), ``Crossing`` (small, low resolution), ``David``
+  (illumination, scale, pose) and ``Tiger1`` (fast motion, blur, rotation);
+* ``PETS persons``, a check no default was chosen on: the ``--persons`` longest
+  ground-truth tracks of ``PETS09-S2L1`` (people occluding each other and a lamp post),
+  each run as a single-object task from its first to its last annotated frame; the AUC
+  is the mean over the tracks.
+
+``--loso`` runs the candidate configurations of ``GRID`` on the four single-object
+sequences and, for each one held out, picks the candidate with the best mean AUC on the
+other three and reports its AUC on the held-out one: how the default
+(``pgm.models.single_object``) was chosen.
 
     python benchmarks/appearance_eval.py [--seeds 5] [--persons 6] [--quick]
+    python benchmarks/appearance_eval.py --loso [--seeds 2]
 """
 
 from __future__ import annotations
@@ -34,49 +42,59 @@ from _common import SHARED_DATA, print_table, single_thread, time_engine  # noqa
 single_thread()
 
 import cv2  # noqa: E402
+from _peers import SETUP_HINT, frame_paths, peer_python, run_sot_peers  # noqa: E402
 
 from pgm.app.runner import init_box_from_gt  # noqa: E402
+from pgm.core.boxes import cxcywh_to_xywh  # noqa: E402
 from pgm.evaluation.single_object import single_object_metrics  # noqa: E402
 from pgm.inference import Engine  # noqa: E402
 from pgm.io.annotations import SingleTrack, load_mot, load_single_gt  # noqa: E402
 from pgm.io.video import open_source  # noqa: E402
 from pgm.models import part_graph, single_object  # noqa: E402
 
-DEFAULT = single_object.APPEARANCE
-SCALE = single_object.SCALE_NOISE
+DEFAULT = dict(appearance=single_object.APPEARANCE, scale_noise=single_object.SCALE_NOISE,
+               jump_prob=single_object.JUMP_PROB)
+OLD = dict(appearance="contrast+template", scale_noise=0.005)
 #: (label, part_graph.Params overrides): the ablation
 CONFIGS = [
     ("colour PF (Pérez et al. 2002)", dict(appearance="colour")),
     ("part graph, 3 nodes x 10, colour", dict(n_parts=3, num_particles=10, appearance="colour")),
     ("fragments", dict(appearance="fragments")),
-    ("gradient", dict(appearance="gradient")),
     ("GMM-KL", dict(appearance="gmm")),
     ("rings (rotation-invariant)", dict(appearance="rings")),
     ("contrast", dict(appearance="contrast")),
     ("template (NCC)", dict(appearance="template")),
-    (f"DEFAULT {DEFAULT}, scale {SCALE}", dict(appearance=DEFAULT, scale_noise=SCALE)),
-    ("  - scale (fixed size)", dict(appearance=DEFAULT)),
-    ("  - template (contrast, scale)", dict(appearance="contrast", scale_noise=SCALE)),
-    ("  - contrast (template, scale)", dict(appearance="template", scale_noise=SCALE)),
-    ("  + fragments", dict(appearance=DEFAULT + "+fragments", scale_noise=SCALE)),
-    ("  + rings", dict(appearance=DEFAULT + "+rings", scale_noise=SCALE)),
-    ("  + gradient", dict(appearance=DEFAULT + "+gradient", scale_noise=SCALE)),
-    ("fragments+rings+contrast (fixed size)", dict(appearance="fragments+rings+contrast")),
-    ("3 nodes x 10, fragments+contrast", dict(n_parts=3, num_particles=10,
-                                              appearance="fragments+contrast")),
+    ("previous default: contrast+template, scale", OLD),
+    ("DEFAULT: cf, scale, jumps", DEFAULT),
+    ("  - jumps", DEFAULT | dict(jump_prob=0.0)),
+    ("  - scale (fixed size)", DEFAULT | dict(scale_noise=0.0)),
+    ("  - filter updates (first frame only)", DEFAULT | dict(appearance="cf(adapt_rate=0)")),
+    ("  - update gate", DEFAULT | dict(appearance="cf(gate=0)")),
+    ("  + template", DEFAULT | dict(appearance="cf+template")),
+    ("  + contrast", DEFAULT | dict(appearance="cf+contrast")),
 ]
-QUICK = {"colour PF (Pérez et al. 2002)", f"DEFAULT {DEFAULT}, scale {SCALE}", "contrast"}
-OPENCV = {"FaceOcc1": "CSRT 0.815 / KCF 0.855", "Crossing": "CSRT 0.771 / KCF 0.100"}
+QUICK = {"colour PF (Pérez et al. 2002)", "previous default: contrast+template, scale",
+         "DEFAULT: cf, scale, jumps"}
+#: candidates for the default, chosen leave-one-sequence-out (--loso)
+GRID = ([(f"cf(lam={lam},padding={pad}), jumps {jp}",
+          dict(appearance=f"cf(lam={lam},padding={pad})", scale_noise=0.005, jump_prob=jp))
+         for lam in (20, 60) for pad in (1.5, 2) for jp in (0.1, 0.4)]
+        + [("cf(lam=60,padding=2)+template, jumps 0.4",
+            dict(appearance="cf(lam=60,padding=2)+template", scale_noise=0.005, jump_prob=0.4)),
+           ("previous default: contrast+template", OLD)])
+SINGLE = ("FaceOcc1", "Crossing", "David", "Tiger1")
 
 
-def sequences(n_persons: int):
-    """``name -> list of tasks (frames, gt, init)``; decoded once."""
+def sequences(n_persons: int, names=SINGLE):
+    """``name -> list of tasks (frames, gt, init, image paths)``; decoded once."""
     out = {}
-    for name in ("FaceOcc1", "Crossing"):
+    for name in names:
         if (SHARED_DATA / name).is_dir():
             src = open_source(SHARED_DATA / name)
             gt = load_single_gt(src.gt_path)
-            out[name] = [(list(src.frames()), gt, init_box_from_gt(gt, 1))]
+            frames = list(src.frames())
+            out[name] = [(frames, gt, init_box_from_gt(gt, frames[0][0]),
+                          frame_paths(src, frames[0][0], frames[-1][0] + 1))]
     pets = SHARED_DATA / "PETS09-S2L1"
     if n_persons > 0 and pets.is_dir():
         table = load_mot(pets / "gt" / "gt.txt", kind="gt")
@@ -93,7 +111,8 @@ def sequences(n_persons: int):
         frames = {n: img for n, img in src.frames() if lo <= n <= hi}
         out["PETS persons"] = [
             ([(n, frames[n]) for n in range(int(t.frames[0]), int(t.frames[-1]) + 1)], t,
-             init_box_from_gt(t, int(t.frames[0]))) for t in tracks]
+             init_box_from_gt(t, int(t.frames[0])),
+             frame_paths(src, int(t.frames[0]), int(t.frames[-1]) + 1)) for t in tracks]
     return out
 
 
@@ -102,7 +121,7 @@ def run_config(tasks, overrides, seeds):
     aucs, precs, fps = [], [], []
     for seed in range(seeds):
         task_auc, task_prec, n_frames, secs = [], [], 0, 0.0
-        for frames, gt, init in tasks:
+        for frames, gt, init, _ in tasks:
             kw = {"n_parts": 1, "num_particles": 100} | overrides
             graph = part_graph.build_graph(part_graph.Params(init_box=tuple(init), **kw))
             boxes, s, _ = time_engine(Engine(graph, np.random.default_rng(seed)), frames)
@@ -117,13 +136,12 @@ def run_config(tasks, overrides, seeds):
     return np.array(aucs), float(np.mean(precs)), float(np.median(fps))
 
 
-def run_mil(tasks):
-    """OpenCV MIL on the same frames: AUC, precision@20, frames per second."""
+def run_mil_here(tasks):
+    """OpenCV MIL in this process (the main OpenCV build has it): AUC, prec@20, fps."""
     aucs, precs, n_frames, secs = [], [], 0, 0.0
-    for frames, gt, init in tasks:
+    for frames, gt, init, _ in tasks:
         tracker = cv2.TrackerMIL_create()
-        c = init
-        box = (int(round(c[0] - c[2] / 2)), int(round(c[1] - c[3] / 2)), int(c[2]), int(c[3]))
+        box = tuple(int(round(v)) for v in cxcywh_to_xywh(np.asarray(init, float)))
         tracker.init(frames[0][1], box)
         out = [list(box)]
         t0 = time.perf_counter()
@@ -135,7 +153,52 @@ def run_mil(tasks):
         m = single_object_metrics(gt, np.array([n for n, _ in frames]), np.array(out, float))
         aucs.append(m["success_auc"])
         precs.append(m["precision_at_20"])
-    return float(np.mean(aucs)), float(np.mean(precs)), n_frames / secs
+    return {"MIL": (float(np.mean(aucs)), float(np.mean(precs)), n_frames / secs)}
+
+
+def run_peers(tasks):
+    """CSRT, KCF and MIL in the peer virtualenv: ``name -> (AUC, prec@20, fps)``."""
+    per: dict[str, list] = {}
+    for frames, gt, init, paths in tasks:
+        res = run_sot_peers(paths, cxcywh_to_xywh(np.asarray(init, float)))
+        for name, r in res.items():
+            if "error" in r:
+                print(f"  {name}: {r['error']}")
+                continue
+            m = single_object_metrics(gt, np.array([n for n, _ in frames]), r["boxes"])
+            per.setdefault(name.upper(), []).append((m["success_auc"], m["precision_at_20"],
+                                                     r["fps"]))
+    return {n: tuple(float(v) for v in np.mean(np.array(rows), axis=0))
+            for n, rows in per.items()}
+
+
+def peer_rows(tasks) -> list[list]:
+    peers = run_peers(tasks) if peer_python() is not None else run_mil_here(tasks)
+    return [[f"OpenCV {n}", f"{auc:.3f}", "", "", f"{prec:.3f}", fps]
+            for n, (auc, prec, fps) in peers.items()]
+
+
+def loso(seqs, seeds: int) -> None:
+    """The leave-one-sequence-out choice of the default over ``GRID``."""
+    names = [n for n in SINGLE if n in seqs]
+    table = {}
+    rows = []
+    for label, overrides in GRID:
+        table[label] = {n: run_config(seqs[n], overrides, seeds)[0].mean() for n in names}
+        rows.append([label] + [f"{table[label][n]:.3f}" for n in names]
+                    + [f"{np.mean(list(table[label].values())):.3f}"])
+        print(f"  {label}: " + " ".join(rows[-1][1:]), file=sys.stderr, flush=True)
+    print_table(["candidate (part_graph.Params)"] + names + ["mean"], rows,
+                title=f"Candidates for the default, success AUC ({seeds} seeds)")
+    picks = []
+    for held in names:
+        others = [n for n in names if n != held]
+        best = max(table, key=lambda k: np.mean([table[k][n] for n in others]))
+        picks.append([held, best, f"{np.mean([table[best][n] for n in others]):.3f}",
+                      f"{table[best][held]:.3f}"])
+    print_table(["held out", "picked on the other three", "AUC there", "AUC held out"], picks,
+                title="Leave-one-sequence-out choice")
+    print(f"held-out mean AUC: {np.mean([float(p[3]) for p in picks]):.3f}")
 
 
 def main() -> None:
@@ -144,25 +207,34 @@ def main() -> None:
     ap.add_argument("--persons", type=int, default=6,
                     help="PETS09-S2L1 person tracks for the held-out check (0: none)")
     ap.add_argument("--quick", action="store_true", help="three rows only")
+    ap.add_argument("--loso", action="store_true",
+                    help="the leave-one-sequence-out choice of the default over GRID")
+    ap.add_argument("--sequences", default=None,
+                    help="comma-separated subset (default: all, 'PETS persons' included)")
     args = ap.parse_args()
-    seqs = sequences(args.persons)
+    seqs = sequences(0 if args.loso else args.persons)
+    if args.sequences:
+        keep = {s.strip() for s in args.sequences.split(",")}
+        seqs = {n: t for n, t in seqs.items() if n in keep}
     if not seqs:
         sys.exit(f"no sequences under {SHARED_DATA}")
+    if args.loso:
+        loso(seqs, args.seeds)
+        return
+    if peer_python() is None:
+        print(SETUP_HINT + "; MIL alone runs here")
     for name, tasks in seqs.items():
-        mil_auc, mil_prec, mil_fps = run_mil(tasks)
-        rows = [["OpenCV MIL (same run)", f"{mil_auc:.3f}", "", "", f"{mil_prec:.3f}",
-                 mil_fps, 1.0]]
+        rows = peer_rows(tasks)
         for label, overrides in CONFIGS:
             if args.quick and label not in QUICK:
                 continue
             auc, prec, fps = run_config(tasks, overrides, args.seeds)
             rows.append([label, f"{auc.mean():.3f}", f"{auc.min():.3f}", f"{auc.max():.3f}",
-                         f"{prec:.3f}", fps, fps / mil_fps])
+                         f"{prec:.3f}", fps])
         n = sum(len(t[0]) for t in tasks)
-        extra = f"; OpenCV (bench README): {OPENCV[name]}" if name in OPENCV else ""
         print_table(["config (100 particles unless stated)", "AUC", "min", "max", "prec@20",
-                     "frames/s", "x MIL fps"], rows,
-                    title=f"{name}: {len(tasks)} task(s), {n} frames, {args.seeds} seeds{extra}")
+                     "frames/s"], rows,
+                    title=f"{name}: {len(tasks)} task(s), {n} frames, {args.seeds} seeds")
         sys.stdout.flush()
 
 

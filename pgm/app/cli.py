@@ -178,7 +178,9 @@ def _model_options(p: argparse.ArgumentParser) -> None:
                         "multiplied: colour (one colour histogram), fragments (3x3 colour "
                         "fragments, median), gradient (oriented gradients), gmm (GMM-KL), "
                         "rings (rotation-invariant), contrast (foreground/background colour "
-                        "log-odds), template (grey NCC; sees scale); e.g. contrast+template")
+                        "log-odds), template (grey NCC; sees scale), cf (online correlation "
+                        "filter; the default's cue); options in parentheses, e.g. "
+                        "'cf(lam=40,padding=2)+template'")
     p.add_argument("--scale-noise", type=float, default=None,
                    help="single-object/colour-pf/part-graph: std of a shared log-scale step "
                         "per frame (0: fixed size; use with a cue that sees scale)")

@@ -23,6 +23,7 @@ from pgm.core.errors import InputError
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
 from pgm.core.readout import readout
+from pgm.evaluation.calibration import reliability
 from pgm.evaluation.single_object import single_object_metrics
 from pgm.inference.engine import Engine, StepRecord
 from pgm.io.annotated_video import AnnotatedVideoWriter
@@ -31,7 +32,8 @@ from pgm.io.video import FrameSource, open_source
 from pgm.observation.camera_motion import CameraMotionEstimator
 from pgm.plotting.annotate import annotate
 
-__all__ = ["TrackResult", "track", "output_box", "init_box_from_gt", "MultiTrackResult",
+__all__ = ["TrackResult", "track", "output_box", "output_target", "confidence_metrics",
+           "init_box_from_gt", "MultiTrackResult",
            "track_multi"]
 
 
@@ -50,6 +52,12 @@ class TrackResult:
     inference_seconds : float
         Time spent in ``engine.step`` (decoding, drawing and writing excluded).
     out_dir : Path or None
+    records : list of StepRecord
+        Kept only with ``keep_records=True``.
+    scores : ndarray (T,)
+        The model's calibrated confidence per frame (the probability that the box
+        overlaps the truth by half; :func:`pgm.core.readout.confidence`), 1 for a model
+        that declares none.
     """
 
     frames: np.ndarray
@@ -58,6 +66,7 @@ class TrackResult:
     inference_seconds: float
     out_dir: Path | None = None
     records: list[StepRecord] = field(default_factory=list)
+    scores: np.ndarray | None = None
 
     @property
     def fps(self) -> float:
@@ -68,11 +77,17 @@ class TrackResult:
 def output_box(graph: FactorGraph, record: StepRecord) -> np.ndarray:
     """The object's top-left ``(x, y, w, h)`` in one step record, from the graph's readout
     (:mod:`pgm.core.readout`; the model config decides what its estimates mean)."""
+    return output_target(graph, record)[0]
+
+
+def output_target(graph: FactorGraph, record: StepRecord) -> tuple[np.ndarray, float]:
+    """The object's top-left ``(x, y, w, h)`` and its score (the model's calibrated
+    confidence, 1 where it declares none) in one step record."""
     targets = readout(graph, record)
     if len(targets) != 1:
         raise ValueError(f"model {graph.name!r} reported {len(targets)} targets; a "
                          f"single-object run needs exactly one")
-    return targets.boxes[0]
+    return targets.boxes[0], float(targets.scores[0])
 
 
 def _xy_columns(graph: FactorGraph, variable: str) -> list[int]:
@@ -149,6 +164,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
 
     frames_done: list[int] = []
     boxes_done: list[np.ndarray] = []
+    scores_done: list[float] = []
     records: list[StepRecord] = []
     seconds = 0.0
     writer = MotWriter(out / "tracks.txt") if out is not None else None
@@ -167,13 +183,14 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
             t0 = time.perf_counter()
             record = engine.step(ctx)
             seconds += time.perf_counter() - t0
-            box = output_box(engine.graph, record)
+            box, score = output_target(engine.graph, record)
             frames_done.append(int(number))
             boxes_done.append(box)
+            scores_done.append(score)
             if keep_records:
                 records.append(record)
             if writer is not None:
-                writer.write(number, [1], box[None], [1.0])
+                writer.write(number, [1], box[None], [score])
             if video is not None:
                 video.write(_annotated_frame(engine, record, image, box,
                                              gt_by_frame.get(int(number)), show_particles))
@@ -188,9 +205,12 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     frames_arr = np.asarray(frames_done)
     boxes_arr = np.asarray(boxes_done)
     # score the annotated frames up to the last frame processed (max_frames may stop early)
+    scores_arr = np.asarray(scores_done)
     metrics = (single_object_metrics(gt.until(frames_arr.max()), frames_arr, boxes_arr)
                if gt is not None else None)
-    result = TrackResult(frames_arr, boxes_arr, metrics, seconds, out, records)
+    if metrics is not None and "confidence" in engine.graph.meta:
+        metrics["confidence"] = confidence_metrics(metrics, frames_arr, scores_arr)
+    result = TrackResult(frames_arr, boxes_arr, metrics, seconds, out, records, scores_arr)
     if out is not None:
         run = {"model": graph.name, "frames": len(frames_done),
                "num_particles": engine.num_particles, "inference_seconds": seconds,
@@ -202,6 +222,20 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
         (out / "run.json").write_text(json.dumps(run, indent=1))
         engine.graph.save(out / "model.json")
     return result
+
+
+def confidence_metrics(metrics: dict[str, Any], frames: np.ndarray,
+                       scores: np.ndarray) -> dict[str, Any]:
+    """The per-frame confidence and its calibration on the scored frames (outcome: IoU
+    at least 0.5), for ``metrics.json``."""
+    at = dict(zip(frames.tolist(), scores.tolist(), strict=True))
+    scored = [(at[f], iou) for f, iou in zip(metrics["frames"], metrics["ious"], strict=True)
+              if f in at]
+    out: dict[str, Any] = {"frames": frames.tolist(), "values": scores.tolist()}
+    if scored:
+        c, iou = np.array(scored, dtype=float).T
+        out["calibration"] = reliability(c, iou >= 0.5)
+    return out
 
 
 def _close(*things) -> None:

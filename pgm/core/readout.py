@@ -12,6 +12,16 @@ A readout is ``fn(graph, record) -> Targets``; ``record`` is the engine's
 :class:`~pgm.inference.StepRecord` (only its ``estimates`` are read by the readouts
 here). Graphs that name none use ``"box"``: the first output variable's estimate is
 ``(cx, cy, w, h)``, one target with identity 1.
+
+A single-object model may also declare a *calibrated confidence* in
+``graph.meta["confidence"] = {"factor": NAME, "intercept": a, "slope": b,
+"spread_slope": c}``: the named factor's ``confidence_feature`` ``r`` (a number it
+computes about its last frame, e.g. the correlation filter's response at the estimate
+relative to its typical peak) and the posterior's spread ``s`` (:func:`posterior_spread`:
+the particles' weighted centre standard deviation over the estimate's size) mapped
+through the logistic ``1 / (1 + exp(-(a + b r + c log s)))``, fitted so that it is the
+probability that the box overlaps the truth by at least half (see
+``benchmarks/confidence.py``). The ``"box"`` readout reports it as the target's score.
 """
 
 from __future__ import annotations
@@ -25,7 +35,8 @@ import numpy as np
 from pgm.core.boxes import cxcywh_to_xywh
 
 __all__ = ["Targets", "register_readout", "get_readout", "readout", "DEFAULT_READOUT",
-           "cxcywh_target", "box_readout"]
+           "cxcywh_target", "box_readout", "confidence", "check_confidence_spec",
+           "posterior_spread"]
 
 DEFAULT_READOUT = "box"
 
@@ -100,13 +111,65 @@ def readout(graph, record) -> Targets:
     return get_readout(graph.meta.get("readout", DEFAULT_READOUT))(graph, record)
 
 
-def cxcywh_target(box: Any) -> Targets:
-    """One target (identity 1, score 1) from a ``(cx, cy, w, h)`` box."""
+def cxcywh_target(box: Any, score: float = 1.0) -> Targets:
+    """One target (identity 1) from a ``(cx, cy, w, h)`` box."""
     return Targets(np.array([1]), cxcywh_to_xywh(np.asarray(box, dtype=float)[:4])[None],
-                   np.ones(1))
+                   np.array([float(score)]))
+
+
+_SPEC_KEYS = {"factor", "intercept", "slope", "spread_slope"}
+
+
+def check_confidence_spec(spec: Any, factors: dict) -> dict:
+    """Validate a ``meta["confidence"]`` declaration against the graph's factors."""
+    if (not isinstance(spec, dict) or not {"factor", "intercept", "slope"} <= set(spec)
+            or not set(spec) <= _SPEC_KEYS):
+        raise ValueError(f"meta['confidence'] must have keys factor, intercept, slope (and "
+                         f"optionally spread_slope), got {spec!r}")
+    if spec["factor"] not in factors:
+        raise ValueError(f"meta['confidence'] names factor {spec['factor']!r}, which the graph "
+                         f"does not have")
+    for k in ("intercept", "slope", "spread_slope"):
+        v = spec.get(k, 0.0)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+            raise ValueError(f"meta['confidence'][{k!r}] must be a finite number, got {v!r}")
+    return spec
+
+
+def posterior_spread(record, variable: str) -> float:
+    """Weighted standard deviation of the particles' centres (columns 0 and 1, the box
+    layout ``(cx, cy, w, h)``) over the estimate's size ``sqrt(w h)``."""
+    belief = record.beliefs[variable]
+    x, w = belief.x, belief.weights
+    est = np.asarray(record.estimates[variable], dtype=float)
+    c = w @ x[:, :2]
+    var = float(w @ np.sum((x[:, :2] - c) ** 2, axis=1))
+    return float(np.sqrt(var) / max(np.sqrt(abs(est[2] * est[3])), 1e-9))
+
+
+def confidence(graph, record=None) -> float | None:
+    """The graph's calibrated confidence for its last step, or None where it declares
+    none (or its factor has not scored a frame yet). ``record`` (the step's record) is
+    needed where the declaration has a ``spread_slope``."""
+    spec = graph.meta.get("confidence")
+    if spec is None:
+        return None
+    check_confidence_spec(spec, graph.factors)
+    feature = getattr(graph.factors[spec["factor"]], "confidence_feature", None)
+    if feature is None or not np.isfinite(feature):
+        return None
+    z = float(spec["intercept"]) + float(spec["slope"]) * float(feature)
+    c = float(spec.get("spread_slope", 0.0))
+    if c != 0.0:
+        if record is None:
+            raise ValueError("this confidence needs the step record (posterior spread)")
+        z += c * np.log(max(posterior_spread(record, graph.output[0]), 1e-6))
+    return float(0.5 * (1.0 + np.tanh(0.5 * z)))  # the logistic, overflow-free
 
 
 @register_readout(DEFAULT_READOUT)
 def box_readout(graph, record) -> Targets:
-    """The first output variable's estimate read as the object's ``(cx, cy, w, h)``."""
-    return cxcywh_target(record.estimates[graph.output[0]])
+    """The first output variable's estimate read as the object's ``(cx, cy, w, h)``; its
+    score is the graph's calibrated :func:`confidence` (1 where it declares none)."""
+    c = confidence(graph, record)
+    return cxcywh_target(record.estimates[graph.output[0]], 1.0 if c is None else c)

@@ -108,7 +108,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
 
     model_attr = "num"
 
-    def __init__(self, variable: str, *, lam: float = 20.0, padding: float = 1.5,
+    def __init__(self, variable: str, *, lam: float = 60.0, padding: float = 2.0,
                  target_px: float = 32.0, n_orient: int = 6, sigma: float = 0.1,
                  reg: float = 1e-2, adapt_rate: float = 0.02, gate: float = 0.5,
                  scales: int = 3, scale_step: float = 1.05, floor: float = -0.2,
@@ -212,19 +212,21 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         box = np.asarray(estimates[self.variables[0]], float)[list(self.box_indices)]
         scale = np.sqrt(max(box[2] * box[3], 1e-12)) / self.ref_scale
         xf = self._spectrum(frame, box[:2], scale)
-        r = self._response(xf)
-        th, tw = r.shape
-        # the estimate sits at the window centre: its response there, and the best within
-        # a tenth of the target (the estimate is a particle mean, not the peak)
-        rad = max(1, int(round(0.1 * self.target_px)))
-        cy, cx = (th - 1) / 2, (tw - 1) / 2
-        y0, y1 = int(np.floor(cy)) - rad, int(np.ceil(cy)) + rad + 1
-        x0, x1 = int(np.floor(cx)) - rad, int(np.ceil(cx)) + rad + 1
-        here = float(r[max(y0, 0):y1, max(x0, 0):x1].max())
+        here = self._centre_max(self._response(xf))
         self.last_response = here / self.peak
         if self.adapt_rate > 0 and here >= self.gate * self.peak:
             self._train(xf, self.adapt_rate)
             self.peak = (1 - self.adapt_rate) * self.peak + self.adapt_rate * here
+
+    def _centre_max(self, r: np.ndarray) -> float:
+        """The best response within a tenth of the target of the window centre (where the
+        estimate sits; it is a particle mean, not the peak)."""
+        th, tw = r.shape
+        rad = max(1, int(round(0.1 * self.target_px)))
+        cy, cx = (th - 1) / 2, (tw - 1) / 2
+        y0, y1 = int(np.floor(cy)) - rad, int(np.ceil(cy)) + rad + 1
+        x0, x1 = int(np.floor(cx)) - rad, int(np.ceil(cx)) + rad + 1
+        return float(r[max(y0, 0):y1, max(x0, 0):x1].max())
 
     # -- scoring -----------------------------------------------------------------------
     def _maps(self, x: np.ndarray, ctx: FrameContext):

@@ -279,4 +279,33 @@ def test_no_model_runs_the_best_single_object_configuration(scene_dir, tmp_path,
     assert code == 0 and "using model single-object" in err
     saved = json.loads((tmp_path / "model.json").read_text())
     kinds = sorted(f["type"] for f in saved["factors"] if f["kind"] == "likelihood")
-    assert kinds == ["ColourContrastLikelihood", "TemplateLikelihood"]
+    assert kinds == ["CorrelationFilterLikelihood"]
+    assert set(saved["meta"]["confidence"]) == {"factor", "intercept", "slope", "spread_slope"}
+    scores = np.loadtxt(tmp_path / "tracks.txt", delimiter=",")[:, 6]
+    assert len(scores) == 5 and np.all((scores >= 0) & (scores <= 1))
+
+
+def test_multi_target_scores_flag_is_saved_in_the_model(mot_dir, tmp_path, capsys):
+    def phd_params(out):
+        model = json.loads((out / "model.json").read_text())
+        text = json.dumps(model)
+        assert "PHDLikelihood" in text
+        facs = model["factors"] if isinstance(model.get("factors"), list) else \
+            list(model["factors"].values())
+        return next(f["params"] for f in facs if f["type"] == "PHDLikelihood")
+
+    for choice in ("off", "mixture"):
+        out = tmp_path / choice
+        code, _, err = run_cli(capsys, "track", mot_dir, "--model", "phd", "--out", out,
+                               "--quiet", "--no-video", "--scores", choice)
+        assert code == 0, err
+        p = phd_params(out)
+        if choice == "off":
+            assert "scores" not in p
+        else:
+            assert p["scores"]["model"] == "mixture"
+    with pytest.raises(SystemExit) as exc:
+        main(["track", str(mot_dir), "--model", "phd", "--out", str(tmp_path / "x"),
+              "--scores", "logistic"])
+    assert exc.value.code == 2
+    assert_one_line_error(2, capsys.readouterr().err, "--scores")

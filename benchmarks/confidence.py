@@ -1,0 +1,134 @@
+"""Is the single-object tracker's confidence calibrated? Reliability diagram and ECE,
+leave-one-sequence-out.
+
+The default single-object model (``pgm.models.single_object``) reports per frame the
+probability that its box overlaps the truth by at least half: its correlation filter's
+response at the estimate (relative to the filter's typical peak on that video) and the
+log of the posterior's spread (particles' centre standard deviation over the box size)
+mapped through a logistic (:func:`pgm.core.readout.confidence`). This script
+
+1. runs the model over the four single-object sequences of ``../shared/data``
+   (FaceOcc1, Crossing, David, Tiger1) and the ``--persons`` longest person tracks of
+   PETS09-S2L1 run as single-object tasks (one group: people crossing each other and a
+   lamp post, where the tracker does fail — a calibration needs failures to learn from)
+   with ``--seeds`` seeds and collects, at every annotated frame, the two features and
+   the outcome (IoU ≥ 0.5);
+2. for each group, fits the logistic on the others and scores the held-out one:
+   how well it ranks hits above misses (AUROC, where the group has both), its
+   reliability diagram, expected calibration error (ECE, 10 bins) and Brier score,
+   against the shipped coefficients and against a constant (the pooled hit rate of the
+   other three: what a tracker with no confidence signal can do);
+3. prints the logistic fitted on all groups (what ``single_object.CONFIDENCE`` ships).
+
+    python benchmarks/confidence.py [--seeds 2] [--persons 6]
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import SHARED_DATA, print_table, single_thread  # noqa: E402
+
+single_thread()
+
+from appearance_eval import sequences  # noqa: E402
+from sklearn.linear_model import LogisticRegression  # noqa: E402
+from sklearn.metrics import roc_auc_score  # noqa: E402
+
+from pgm.app.runner import output_target  # noqa: E402
+from pgm.core.frame import FrameContext  # noqa: E402
+from pgm.core.readout import posterior_spread  # noqa: E402
+from pgm.evaluation.calibration import reliability  # noqa: E402
+from pgm.evaluation.single_object import single_object_metrics  # noqa: E402
+from pgm.inference import Engine  # noqa: E402
+from pgm.models import single_object  # noqa: E402
+
+SEQUENCES = ("FaceOcc1", "Crossing", "David", "Tiger1")
+
+
+def collect(tasks, seeds: int):
+    """``(features (K, 2), outcome, shipped confidence)`` at the annotated frames of every
+    task, all seeds."""
+    feats, hits, shipped = [], [], []
+    for seed in range(seeds):
+        for frames, gt, init, _ in tasks:
+            graph = single_object.build_graph(single_object.Params(init_box=tuple(init)))
+            engine = Engine(graph, np.random.default_rng(seed))
+            factor = engine.graph.factors[engine.graph.meta["confidence"]["factor"]]
+            numbers, boxes, f_seq, c_seq = [], [], [], []
+            for number, img in frames:
+                record = engine.step(FrameContext(number, img))
+                box, score = output_target(engine.graph, record)
+                numbers.append(number)
+                boxes.append(box)
+                f_seq.append([factor.confidence_feature,
+                              np.log(max(posterior_spread(record, "object"), 1e-6))])
+                c_seq.append(score)
+            m = single_object_metrics(gt, np.array(numbers), np.array(boxes))
+            at = {n: k for k, n in enumerate(numbers)}
+            idx = [at[f] for f in m["frames"]]
+            feats.append(np.array(f_seq)[idx])
+            shipped.append(np.array(c_seq)[idx])
+            hits.append(np.array(m["ious"]) >= 0.5)
+    return np.concatenate(feats), np.concatenate(hits), np.concatenate(shipped)
+
+
+def fit(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
+    """Logistic ``P(hit | r, log s) = σ(a + b r + c log s)`` (scikit-learn's default mild
+    L2 penalty, C = 1: a sequence where every frame is a hit has no finite optimum)."""
+    lr = LogisticRegression(C=1.0).fit(x, y.astype(int))
+    return float(lr.intercept_[0]), float(lr.coef_[0, 0]), float(lr.coef_[0, 1])
+
+
+def sigmoid(z):
+    return 0.5 * (1.0 + np.tanh(0.5 * z))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--seeds", type=int, default=2)
+    ap.add_argument("--persons", type=int, default=6,
+                    help="PETS09-S2L1 person tracks as one more group (0: none)")
+    args = ap.parse_args()
+    data = {n: collect(tasks, args.seeds) for n, tasks in sequences(args.persons).items()}
+    if len(data) < 2:
+        sys.exit(f"need at least two of {SEQUENCES} under {SHARED_DATA}")
+    rows, pooled_c, pooled_y = [], [], []
+    for held, (x, y, shipped) in data.items():
+        xs = np.concatenate([d[0] for n, d in data.items() if n != held])
+        ys = np.concatenate([d[1] for n, d in data.items() if n != held])
+        a, b, k = fit(xs, ys)
+        c = sigmoid(a + x @ np.array([b, k]))
+        r = reliability(c, y)
+        r_ship = reliability(shipped, y)
+        r_const = reliability(np.full(len(y), ys.mean()), y)
+        pooled_c.append(c)
+        pooled_y.append(y)
+        auroc = f"{roc_auc_score(y, c):.2f}" if 0 < y.mean() < 1 else "-"
+        rows.append([held, len(y), f"{y.mean():.3f}", f"{c.mean():.3f}", auroc, f"{r['ece']:.3f}",
+                     f"{r['brier']:.3f}", f"{r_const['ece']:.3f}", f"{r_const['brier']:.3f}",
+                     f"{r_ship['ece']:.3f}", f"{a:.2f} / {b:.2f} / {k:.2f}"])
+    print_table(["held-out group", "frames", "hit rate", "mean conf", "AUROC", "ECE", "Brier",
+                 "ECE const", "Brier const", "ECE shipped", "fit on others a / b / c"], rows,
+                title=f"Leave-one-sequence-out calibration ({args.seeds} seeds; outcome: "
+                      f"IoU >= 0.5 at annotated frames)")
+    r = reliability(np.concatenate(pooled_c), np.concatenate(pooled_y))
+    print_table(["confidence bin", "frames", "mean confidence", "hit rate", "gap"],
+                [[f"{b['lo']:.1f}-{b['hi']:.1f}", b["n"], f"{b['confidence']:.3f}",
+                  f"{b['hit_rate']:.3f}", f"{b['hit_rate'] - b['confidence']:+.3f}"]
+                 for b in r["bins"]],
+                title=f"Reliability diagram, held-out predictions pooled: ECE {r['ece']:.3f}, "
+                      f"Brier {r['brier']:.3f}")
+    a, b, k = fit(np.concatenate([d[0] for d in data.values()]),
+                  np.concatenate([d[1] for d in data.values()]))
+    print(f"\nfitted on all {len(data)} groups: intercept {a:.3f}, slope {b:.3f}, "
+          f"spread_slope {k:.3f} (shipped: {single_object.CONFIDENCE})")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,54 @@
+"""Calibration of a probability: reliability diagram, expected calibration error, Brier.
+
+A tracker that reports a confidence ``c`` per frame claims that the box overlaps the
+truth (IoU ≥ 0.5) with probability ``c``. Binning the frames by ``c`` and comparing each
+bin's mean confidence with its hit rate gives the reliability diagram; the expected
+calibration error (ECE) is the frame-weighted mean absolute gap over the bins
+(Guo et al. [#guo2017]), and the Brier score the mean squared error of ``c`` against the
+0/1 outcome.
+
+.. [#guo2017] C. Guo, G. Pleiss, Y. Sun and K. Q. Weinberger, "On calibration of modern
+   neural networks", Proc. ICML 2017, PMLR 70, 1321–1330.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+__all__ = ["reliability"]
+
+
+def reliability(confidence: Any, outcome: Any, n_bins: int = 10) -> dict[str, Any]:
+    """Reliability diagram of ``confidence`` in [0, 1] against 0/1 ``outcome``.
+
+    Returns a JSON-serialisable dict: ``n``, ``ece``, ``brier``, ``mean_confidence``,
+    ``hit_rate`` and ``bins`` (one entry per non-empty equal-width bin: ``lo``, ``hi``,
+    ``n``, ``confidence`` (mean), ``hit_rate``).
+    """
+    c = np.asarray(confidence, dtype=float).reshape(-1)
+    y = np.asarray(outcome, dtype=float).reshape(-1)
+    if c.shape != y.shape:
+        raise ValueError(f"{c.size} confidences but {y.size} outcomes")
+    if c.size == 0:
+        raise ValueError("no frames to assess calibration on")
+    if not np.all(np.isfinite(c)) or np.any((c < 0) | (c > 1)):
+        raise ValueError("confidences must be finite and in [0, 1]")
+    if np.any((y != 0) & (y != 1)):
+        raise ValueError("outcomes must be 0 or 1")
+    if int(n_bins) < 1:
+        raise ValueError(f"n_bins must be positive, got {n_bins}")
+    edges = np.linspace(0.0, 1.0, int(n_bins) + 1)
+    idx = np.clip(np.searchsorted(edges, c, side="right") - 1, 0, int(n_bins) - 1)
+    bins, ece = [], 0.0
+    for b in range(int(n_bins)):
+        sel = idx == b
+        if not sel.any():
+            continue
+        mc, hr = float(c[sel].mean()), float(y[sel].mean())
+        ece += sel.mean() * abs(mc - hr)
+        bins.append({"lo": float(edges[b]), "hi": float(edges[b + 1]), "n": int(sel.sum()),
+                     "confidence": mc, "hit_rate": hr})
+    return {"n": int(c.size), "ece": float(ece), "brier": float(np.mean((c - y) ** 2)),
+            "mean_confidence": float(c.mean()), "hit_rate": float(y.mean()), "bins": bins}

@@ -1,0 +1,59 @@
+"""The default single-object model's calibrated confidence: in tracks.txt and
+metrics.json, and it drops when the object is hidden."""
+
+import json
+
+import numpy as np
+import pytest
+
+from pgm.app.runner import track
+from pgm.core.readout import check_confidence_spec, confidence
+from pgm.io.annotations import SingleTrack, load_mot
+from pgm.models import colour_pf, single_object
+from tests.pgm.observation.test_correlation import scene
+
+
+def hidden_object_frames(n_seen=12, n_hidden=6):
+    """A textured object drifting right, then covered by a flat grey patch."""
+    rng = np.random.default_rng(5)
+    frames, boxes = [], []
+    for k in range(n_seen + n_hidden):
+        cx = 110.0 + 1.5 * k
+        img = scene(rng, (cx, 100))
+        if k >= n_seen:
+            img[62:138, 80:170] = 128
+        frames.append((k + 1, np.repeat(img[:, :, None], 3, axis=2)))
+        boxes.append([cx - 20, 100 - 28, 40, 56])
+    return frames, SingleTrack(np.arange(1, len(frames) + 1), np.array(boxes, float))
+
+
+def test_confidence_is_written_and_drops_when_the_object_is_hidden(tmp_path):
+    frames, gt = hidden_object_frames()
+    graph = single_object.build_graph(single_object.Params(init_box=(110.0, 100, 40, 56)))
+    res = track(frames, graph, rng=np.random.default_rng(0), out_dir=tmp_path, gt=gt,
+                write_video=False, progress=False)
+    s = res.scores
+    assert s.shape == (len(frames),) and np.all((s >= 0) & (s <= 1))
+    assert s[1:12].mean() > 0.8 and s[13:].mean() < s[1:12].mean() - 0.3
+    table = load_mot(tmp_path / "tracks.txt", kind="det")
+    np.testing.assert_allclose(table.conf, s, atol=1e-3)
+    conf = json.loads((tmp_path / "metrics.json").read_text())["confidence"]
+    assert conf["frames"] == list(range(1, len(frames) + 1))
+    np.testing.assert_allclose(conf["values"], s)
+    assert conf["calibration"]["n"] == len(frames)
+    assert 0 <= conf["calibration"]["ece"] <= 1
+
+
+def test_models_without_a_confidence_report_one_and_bad_declarations_are_refused():
+    frames, _ = hidden_object_frames(3, 0)
+    graph = colour_pf.build_graph(colour_pf.Params(init_box=(110.0, 100, 40, 56)))
+    res = track(frames, graph, rng=np.random.default_rng(0), progress=False)
+    np.testing.assert_array_equal(res.scores, 1.0)
+    assert confidence(graph) is None
+    factors = single_object.build_graph(single_object.Params(init_box=(9.0, 9, 4, 4))).factors
+    name = next(iter(factors))
+    for bad in ({"factor": "nope", "intercept": 0, "slope": 1},
+                {"factor": name, "intercept": float("nan"), "slope": 1},
+                {"factor": name, "intercept": 0}, "x"):
+        with pytest.raises(ValueError, match="confidence"):
+            check_confidence_spec(bad, factors)

@@ -1,0 +1,37 @@
+"""Reliability diagram, ECE and Brier on a hand-worked example."""
+
+import numpy as np
+import pytest
+
+from pgm.evaluation.calibration import reliability
+
+
+def test_hand_worked_reliability():
+    # bin [0.1, 0.2): two frames at 0.15, one hit -> gap |0.15 - 0.5| = 0.35
+    # bin [0.8, 0.9): four frames at 0.85, three hits -> gap |0.85 - 0.75| = 0.10
+    # bin [0.9, 1.0]: two frames at 1.0, two hits -> gap 0
+    c = [0.15, 0.15, 0.85, 0.85, 0.85, 0.85, 1.0, 1.0]
+    y = [1, 0, 1, 1, 1, 0, 1, 1]
+    r = reliability(c, y)
+    assert [b["n"] for b in r["bins"]] == [2, 4, 2]
+    assert r["bins"][0]["lo"] == pytest.approx(0.1) and r["bins"][2]["hi"] == 1.0
+    assert r["ece"] == pytest.approx((2 * 0.35 + 4 * 0.10 + 0) / 8)
+    brier = (0.85**2 + 0.15**2 + 3 * 0.15**2 + 0.85**2 + 0 + 0) / 8
+    assert r["brier"] == pytest.approx(brier)
+    assert r["hit_rate"] == pytest.approx(6 / 8)
+
+
+def test_a_calibrated_forecaster_has_a_small_ece():
+    rng = np.random.default_rng(0)
+    c = rng.uniform(0, 1, 20000)
+    y = rng.uniform(0, 1, 20000) < c
+    r = reliability(c, y)
+    # per bin the hit rate's standard error is about sqrt(0.25 / 2000) ~ 0.011
+    assert r["ece"] < 0.03
+    assert reliability(np.full(20000, 0.9), y)["ece"] == pytest.approx(0.9 - y.mean())
+
+
+def test_bad_input_is_refused():
+    for c, y in (([0.5], [1, 0]), ([1.5], [1]), ([np.nan], [1]), ([0.5], [2]), ([], [])):
+        with pytest.raises(ValueError):
+            reliability(c, y)
