@@ -25,7 +25,7 @@ contrast × template) on the four single-object sequences of ``../shared/data``
 best mean success AUC on the *other three*. Three of the four folds pick this
 configuration (held-out AUC 0.886 FaceOcc1, 0.773 Crossing, 0.696 Tiger1); the fold
 holding out David picks the filter with the template cue, which scores 0.406 there
-(this configuration: 0.667). Held-out mean AUC 0.690, against 0.683 for the best OpenCV
+(this configuration: 0.667). Held-out mean AUC 0.690, against 0.682 for the best OpenCV
 tracker (CSRT) on the same four sequences. The PETS09-S2L1 person tracks that
 ``appearance_eval.py`` also reports were used for no choice. The confidence's logistic
 is fitted on the four sequences and those person tracks together (the person tracks

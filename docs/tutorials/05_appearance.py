@@ -5,8 +5,8 @@ Tutorial 5 — appearance: composing cues, and a learned person likelihood
 Several likelihood factors on one variable multiply — declaring them is all it takes.
 This tutorial composes colour, fragment, oriented-gradient, GMM-KL, rotation-invariant,
 colour-contrast and template (NCC) cues on a one-node tracker and compares them on a synthetic
-occlusion scene (the ``single-object`` model that ``pgm track`` runs by default is one
-of these compositions), then trains the
+occlusion scene (the ``single-object`` model that ``pgm track`` runs by default uses
+another cue, a correlation filter: tutorial 06), then trains the
 deep-belief-network person likelihood of the VB-PHD paper [#feng2015] on one synthetic crowd and
 uses it as an appearance factor of a PHD filter on another. Run it as a script::
 
@@ -84,7 +84,7 @@ for graph in (tracker(ColourHistogramLikelihood("object")),
               tracker(ColourContrastLikelihood("object")),
               tracker(FragmentsLikelihood("object"), RotationInvariantLikelihood("object"),
                       ColourContrastLikelihood("object")),
-              # the default single-object model's cues (it adds a scale variable)
+              # the previous default single-object model's cues
               tracker(ColourContrastLikelihood("object"), TemplateLikelihood("object"))):
     r = track(source, graph, rng=np.random.default_rng(0), gt=gt, num_particles=100,
               progress=False)

@@ -94,7 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("source", help="video file, image folder, MOTChallenge or OTB sequence folder")
     t.add_argument("--model", default=None,
                    help=f"model name ({', '.join(sorted(MODELS))}) or a saved model .json; "
-                        f"default: single-object (the best single-object configuration), or "
+                        f"default: single-object (the correlation-filter tracker), or "
                         f"vb-phd when --detections/--detector is given")
     init = t.add_mutually_exclusive_group()
     init.add_argument("--init", help="box in frame 1: X,Y,W,H (top-left, 1-based like MOT/OTB)")
