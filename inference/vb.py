@@ -14,6 +14,10 @@ target's belief and the noise belief each frame, dispatched on the target's beli
   then ``α = α̂ + ½ Σ_z W_z``, ``β = β̂ + ½ Σ_z Σ_j ω_jz (z − Hx_j)²`` over persistent
   particles; the first pass uses ``α = α̂ + ½ min(|Z|, p_D Σ_j w_j)``, ``β = β̂``.
 
+With ``VBNoise(tie=...)`` the tied components share one variance: their statistics are
+summed (``α`` gains ``|group|/2`` per unit of association weight) and the ELBO counts each
+group's KL once.
+
 Both stop when the relative change of ``R̂ = β/α`` is below ``tol`` or after
 ``max_iter`` passes, and record the ELBO after every state update
 (``record.info[factor]["elbo"]``); it never decreases.
@@ -152,6 +156,9 @@ def _vb_gaussian(engine: Engine, factor, frame) -> dict[str, Any] | None:
             if factor.likelihood in (None, f.name)]
     if len(liks) != 1:
         raise ValueError(f"factor {factor.name!r}: needs one likelihood on {target!r}")
+    if getattr(factor, "tie", None) is not None:
+        raise ValueError(f"factor {factor.name!r}: tied noise components are implemented "
+                         f"for the VB-PHD (Intensity) rule only")
     z = _measurement(liks[0], frame)
     if z is None:
         return None
@@ -162,6 +169,28 @@ def _vb_gaussian(engine: Engine, factor, frame) -> dict[str, Any] | None:
 
 
 # -- the VB-PHD filter ------------------------------------------------------------------------
+def tie_matrix(factor, k: int) -> tuple[np.ndarray | None, np.ndarray | float, np.ndarray]:
+    """``(T, counts, reps)`` of a :class:`VBNoise` factor's tied components: ``T[i, j] = 1``
+    where components ``i`` and ``j`` share one variance, ``counts`` the size of each
+    component's group and ``reps`` one component per group; ``(None, 1.0, all)`` untied."""
+    tie = getattr(factor, "tie", None)
+    if tie is None:
+        return None, 1.0, np.arange(k)
+    tie = np.asarray(tie)
+    if tie.shape != (k,):
+        raise ValueError(f"factor {factor.name!r}: tie has {tie.size} entries for {k} "
+                         f"measurement components")
+    T = (tie[:, None] == tie[None, :]).astype(float)
+    return T, T.sum(axis=0), np.unique(tie, return_index=True)[1]
+
+
+def _kl_of(q: InverseGamma, p: InverseGamma, reps: np.ndarray) -> float:
+    """``KL(q‖p)`` counting each tied group once (its components are equal)."""
+    if reps.size == q.dim:
+        return q.kl(p)
+    return InverseGamma(q.alpha[reps], q.beta[reps]).kl(InverseGamma(p.alpha[reps], p.beta[reps]))
+
+
 def _noise_prior(engine: Engine, noise: str) -> InverseGamma:
     priors = engine.graph.factors_of(noise, "prior")
     if not priors:
@@ -185,11 +214,17 @@ def _vb_phd_fixed_point(engine: Engine, factor, frame, inv: np.ndarray,
     n_groups, k = len(q_pred), phd.H.shape[0]
     a_hat = np.array([q.alpha for q in q_pred]).reshape(n_groups, k)
     b_hat = np.array([q.beta for q in q_pred]).reshape(n_groups, k)
+    # tied components share one variance: T (k, k) averages a group's prior and sums its
+    # statistics; each measurement then counts once per tied component (tie_count)
+    T, tie_count, reps = tie_matrix(factor, k)
+    if T is not None:
+        a_hat, b_hat = a_hat @ T / tie_count, b_hat @ T / tie_count
+        q_pred = [InverseGamma(a_hat[g], b_hat[g]) for g in range(n_groups)]
     z = phd.measurements(frame)
     w_pred = np.exp(b.log_weights) if b.num else np.zeros(0)
     mass = np.bincount(inv, weights=w_pred, minlength=n_groups)
     # first pass: sum_z W_z unknown -> min(|Z|, p_D x predicted mass), beta = beta_hat
-    alpha = a_hat + 0.5 * np.minimum(z.shape[0], phd.p_detect * mass)[:, None]
+    alpha = a_hat + 0.5 * np.minimum(z.shape[0], phd.p_detect * mass)[:, None] * tie_count
     beta = b_hat.copy()
     sq_dist = phd.sq_dist(b.x, z)  # (k, M, N), once per frame: reused by every iteration
     elbo: list[float] = []
@@ -204,24 +239,24 @@ def _vb_phd_fixed_point(engine: Engine, factor, frame, inv: np.ndarray,
             res = _update(engine, target, phd, frame, prec[0], logv[0], sq=sq_dist)
         else:
             res = _update(engine, target, phd, frame, prec[inv], logv[inv], sq=sq_dist)
-        elbo.append(float(np.sum(np.log(res["L"])))
-                    - sum(q.kl(p) for q, p in zip(qs, q_pred, strict=True)))
+        elbo.append(float(np.sum(np.log(res["L"])))  # KL once per tied group
+                    - sum(_kl_of(q, p, reps) for q, p in zip(qs, q_pred, strict=True)))
         omega, W = res["omega"], res["W"]
         if factor.strict_counts:
             omega = omega * (W >= 0.5)[None, :]
         sq = np.zeros_like(beta)
         om = np.ascontiguousarray(omega.T)  # (M, N), a view of the corrector's buffer
         if n_groups == 1:  # shared noise: plain sums
-            alpha = a_hat + 0.5 * omega.sum()
+            alpha = a_hat + 0.5 * omega.sum() * tie_count
             for i in range(k):  # k components, vectorised over particles x measurements
                 sq[0, i] = np.vdot(om, sq_dist[i])
         else:
             alpha = a_hat + 0.5 * np.bincount(inv, weights=omega.sum(axis=1),
-                                              minlength=n_groups)[:, None]
+                                              minlength=n_groups)[:, None] * tie_count
             for i in range(k):
                 sq[:, i] = np.bincount(inv, weights=np.einsum("mn,mn->n", om, sq_dist[i]),
                                        minlength=n_groups)
-        beta = b_hat + 0.5 * sq
+        beta = b_hat + 0.5 * (sq if T is None else sq @ T)
         new_r = beta / alpha
         change = float(np.max(np.abs(new_r - r_hat) / r_hat)) if new_r.size else 0.0
         r_hat = new_r

@@ -32,7 +32,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from pgm.core.graph import FactorGraph
+from pgm.core.numerics import check_finite_param
 from pgm.core.variable import Variable
 from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, VBNoise
 
@@ -58,6 +61,14 @@ class Params(phd.Params):
     per_track_noise : bool
         One noise belief per track (particles carry lineage labels) instead of one
         shared by all targets.
+    isotropic_noise : bool
+        One variance for both foot-point coordinates (x and y tied, :class:`VBNoise`'s
+        ``tie``), learned from twice as many squared residuals; the log-height of the
+        scale-aware state keeps its own. Off by default (one variance per axis, as in
+        [#feng2015]); :func:`pgm.models.phd.video_params` turns it on for video, where
+        the detector's foot-point error is isotropic in units of the person's height
+        and a per-axis variance is inflated along the walking direction by
+        association mixing where people cross.
     """
 
     rho: float = 0.8
@@ -66,10 +77,16 @@ class Params(phd.Params):
     vb_tol: float = 1e-3
     vb_max_iter: int = 10
     per_track_noise: bool = False
+    isotropic_noise: bool = False
 
 
 def build_graph(params: Params, name: str = "vb-phd") -> FactorGraph:
     """The PHD graph with a shared inverse-Gamma noise variable and a VB conjugate factor."""
+    for field in ("rho", "alpha0", "alpha_min", "vb_tol"):
+        check_finite_param(field, getattr(params, field))
+    for field in ("per_track_noise", "isotropic_noise"):
+        if not isinstance(getattr(params, field), (bool, np.bool_)):
+            raise ValueError(f"{field} must be a bool, got {getattr(params, field)!r}")
     base = phd.build_graph(params, name=name)
     if params.scale_aware:  # relative position variances and the log-height's
         noise = Variable("noise", 3, role="noise", labels=("var_x", "var_y", "var_log_h"))
@@ -81,7 +98,9 @@ def build_graph(params: Params, name: str = "vb-phd") -> FactorGraph:
         InverseGammaPrior("noise", sigma=sigma, alpha=params.alpha0),
         NoiseForgetting("noise", rho=params.rho, alpha_min=params.alpha_min),
         VBNoise("noise", "targets", tol=params.vb_tol, max_iter=params.vb_max_iter,
-                per_track=params.per_track_noise),
+                per_track=params.per_track_noise,
+                tie=([0, 0, 1] if params.scale_aware else [0, 0])
+                if params.isotropic_noise else None),
     ]
     return FactorGraph(list(base.variables.values()) + [noise], factors, name=name,
                        meta=base.meta)

@@ -506,13 +506,28 @@ class VBNoise(ConjugateFactor):
         a lineage label (one per birth), each label has its own inverse-Gamma belief,
         and each label's statistics are summed over its own particles (Algorithm 1 of
         [#feng2015] carries ``(α, β)`` per particle; this is its per-track form).
+    tie : sequence of int, optional
+        Tied measurement components: one group label per component, and components with
+        the same label share one variance (e.g. ``(0, 0)``: one isotropic variance for a
+        foot point's x and y; ``(0, 0, 1)`` with a log-height). A tied group's belief is
+        one inverse-Gamma whose statistics are summed over its components, so it learns
+        from ``|group|`` times as many squared residuals; its prior is the average of its
+        components' priors. Default None: every component has its own variance. The
+        VB-PHD (intensity) rule only.
     """
 
     def __init__(self, noise: str, target: str, *, likelihood: str | None = None,
                  tol: float = 1e-3, max_iter: int = 10, strict_counts: bool = False,
-                 per_track: bool = False, name: str | None = None):
+                 per_track: bool = False, tie=None, name: str | None = None):
         super().__init__(noise, target, likelihood=likelihood, name=name)
         self.per_track = bool(per_track)
+        self.tie = None
+        if tie is not None:
+            arr = np.asarray(tie)
+            if arr.ndim != 1 or arr.size == 0 or not np.issubdtype(arr.dtype, np.integer):
+                raise ValueError(f"factor {self.name!r}: tie must be a sequence of integer "
+                                 f"group labels, got {tie!r}")
+            self.tie = tuple(int(v) for v in arr)
         self.tol = float(check_finite_param(f"{self.name}.tol", tol, nonneg=True))
         self.max_iter = int(max_iter)
         if self.max_iter < 1:
@@ -526,4 +541,11 @@ class VBNoise(ConjugateFactor):
             p["strict_counts"] = True
         if self.per_track:
             p["per_track"] = True
+        if self.tie is not None:  # untied factors save as before
+            p["tie"] = list(self.tie)
         return p
+
+    def check(self, variables: dict[str, Variable]) -> None:
+        super().check(variables)
+        if self.tie is not None:
+            self._check_dim(variables, self.variables[0], len(self.tie), "tie")
