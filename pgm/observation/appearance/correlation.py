@@ -187,7 +187,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
             self.den = (1 - rate) * self.den + rate * den
 
     def _response(self, zf: np.ndarray) -> np.ndarray:
-        lam = self.reg * float(self.den.mean())
+        lam = self.reg * float(self.den.mean()) + 1e-12  # a flat window has no energy
         return sfft.irfft2(np.sum(np.conj(self.num) * zf, axis=0) / (self.den + lam),
                            s=self.hann.shape)
 
@@ -202,7 +202,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         self.num = None
         xf = self._spectrum(ctx, box[:2], np.sqrt(box[2] * box[3]) / self.ref_scale)
         self._train(xf, 1.0)
-        self.peak = float(self._response(xf).max())
+        self.peak = max(float(self._response(xf).max()), 1e-12)
         self.last_response = 1.0
 
     def update(self, estimates, scores, frame=None) -> None:
