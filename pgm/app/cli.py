@@ -14,7 +14,13 @@
     pgm demo --out DIR
 
 Bad input (a missing or corrupt video, a malformed box or ground-truth file, a bad
-parameter) gets a one-line ``pgm: error: ...`` and exit code 2, never a traceback.
+parameter, a path the file system refuses, a run larger than the memory cap) gets a
+one-line ``pgm: error: ...`` and exit code 2, never a traceback: :func:`main` is the one
+place that maps failures to messages (through :func:`pgm.core.errors.user_message`).
+SIGINT and SIGTERM stop a run the same way (rows kept, video finalised, ``run.json``
+says ``"complete": false``; exit 130 or 143). Warnings are one line each,
+``pgm: warning: ...`` (the ``logging`` logger ``pgm``); FFmpeg's and OpenCV's own log
+lines are silenced.
 The CLI sits on top of everything and may import :mod:`pgm.models`: imports otherwise go
 one way, ``models → inference → pgm``, and a test of the code base enforces it.
 """
@@ -23,13 +29,16 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import os
+import signal
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
 
-from pgm.core.errors import InputError
+from pgm.core.errors import InputError, Interrupted, one_line, user_message
 
 __all__ = ["main", "build_parser", "parse_box"]
 
@@ -70,14 +79,44 @@ def _positive_int(name: str):
     return _int_at_least(name, 1)
 
 
+def _int_in(name: str, low: int, high: int):
+    """An argparse type: an integer in ``[low, high]``."""
+    at_least = _int_at_least(name, low)
+
+    def conv(text: str) -> int:
+        v = at_least(text)
+        if v > high:
+            raise argparse.ArgumentTypeError(f"{name} must be between {low} and {high}, "
+                                             f"got {v}")
+        return v
+
+    return conv
+
+
+def _finite_float(name: str, low: float = 0.0):
+    """An argparse type: a finite number ``>= low``."""
+    def conv(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") \
+                from None
+        if not np.isfinite(v) or v < low:
+            raise argparse.ArgumentTypeError(f"{name} must be a finite number >= {low:g}, "
+                                             f"got {text!r}")
+        return v
+
+    return conv
+
+
 _nonneg_int = _int_at_least("seed", 0)
 
 
 class _Parser(argparse.ArgumentParser):
-    """An argument parser whose errors are one line (``pgm track: error: ...``), exit 2."""
+    """An argument parser whose errors are one line (``pgm: error: ...``), exit 2."""
 
     def error(self, message: str):
-        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {' '.join(message.split())} "
+        self.exit(EXIT_BAD_INPUT, f"pgm: error: {' '.join(message.split())} "
                                   f"(see {self.prog} --help)\n")
 
 
@@ -130,6 +169,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="phd/vb-phd: 'public' (the sequence's det/det.txt, default), "
                         "'public:MIN_SCORE' or 'mog2' (background subtraction)")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
+    t.add_argument("--memory-limit", default=None, metavar="SIZE",
+                   help="refuse a run whose estimated memory exceeds SIZE (e.g. 8G); "
+                        "default: PGM_MEMORY_LIMIT, else 80%% of the physical memory")
 
     e = sub.add_parser("eval", help="score a tracks.txt against ground truth")
     e.add_argument("--gt", required=True, help="ground truth (OTB, MILTrack or MOT gt.txt)")
@@ -165,7 +207,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _model_options(p: argparse.ArgumentParser) -> None:
     """Options that set a model config's ``Params`` fields (used where the model has them)."""
-    p.add_argument("--parts", type=_positive_int("--parts"), default=None,
+    p.add_argument("--parts", type=_int_in("--parts", 1, 3), default=None,
                    help="part-graph: number of bands (2 for a person, 3 for a face)")
     p.add_argument("--split", choices=("rows", "cols"), default=None,
                    help="part-graph: horizontal (rows, default) or vertical bands")
@@ -181,36 +223,105 @@ def _model_options(p: argparse.ArgumentParser) -> None:
                         "log-odds), template (grey NCC; sees scale), cf (online correlation "
                         "filter; the default's cue); options in parentheses, e.g. "
                         "'cf(lam=40,padding=2)+template'")
-    p.add_argument("--scale-noise", type=float, default=None,
+    p.add_argument("--scale-noise", type=_finite_float("--scale-noise"), default=None,
                    help="single-object/colour-pf/part-graph: std of a shared log-scale step "
                         "per frame (0: fixed size; use with a cue that sees scale)")
 
 
 # -- commands ---------------------------------------------------------------------------
-def _load_model_graph(model: str, init_box_cxcywh: np.ndarray, num_particles: int | None,
-                      args: argparse.Namespace | None = None):
+MODEL_OPTIONS = {"parts": "n_parts", "split": "split", "topology": "topology",
+                 "fusion": "fusion", "appearance": "appearance", "scale_noise": "scale_noise"}
+MULTI_TARGET_OPTIONS = ("dbn", "per_track_noise", "scale_aware", "scores")
+
+
+def _flag(opt: str) -> str:
+    return "--" + opt.replace("_", "-")
+
+
+def _given(args: argparse.Namespace | None, opt: str) -> bool:
+    value = getattr(args, opt, None) if args is not None else None
+    return value is not None and value is not False
+
+
+def load_model_file(path: str | Path):
+    """A saved ``model.json`` as a :class:`~pgm.core.graph.FactorGraph` (plain JSON, no
+    code runs); every malformation is an :class:`InputError` naming the file."""
+    from pgm.core.graph import FactorGraph
+
+    p = Path(path)
+    if p.is_dir():
+        raise InputError(f"model file {p} is a folder")
+    try:
+        return FactorGraph.load(p)
+    except InputError:
+        raise
+    except ValueError as exc:
+        msg = one_line(exc)
+        raise InputError(msg if str(p) in msg else f"model file {p}: {msg}") from None
+    except (KeyError, TypeError, AttributeError, IndexError, RecursionError,
+            OverflowError) as exc:
+        raise InputError(f"model file {p} is malformed: {type(exc).__name__}: "
+                         f"{one_line(exc)[:120]}") from None
+
+
+def _is_multi_target(graph) -> bool:
+    return any(v.role == "set" for v in graph.variables.values())
+
+
+def _reject_model_options(args: argparse.Namespace | None, what: str) -> None:
+    for opt in MODEL_OPTIONS:
+        if _given(args, opt):
+            raise InputError(f"{_flag(opt)} does not apply to {what}")
+
+
+def _load_model_graph(model: str, init_box_cxcywh: np.ndarray | None,
+                      num_particles: int | None, args: argparse.Namespace | None = None):
+    """The graph of a model name (``Params`` from the options) or of a saved ``.json``."""
     import dataclasses
 
-    from pgm.core.graph import FactorGraph
     from pgm.models import get_model
 
     if model.endswith(".json"):
-        return FactorGraph.load(model)
+        graph = load_model_file(model)
+        _reject_model_options(args, f"a saved model ({model}): its factors are fixed; "
+                                    f"build one with --model NAME and the option instead")
+        return graph
     module = get_model(model)
     fields = {f.name for f in dataclasses.fields(module.Params)}
-    kwargs = {"init_box": tuple(float(v) for v in init_box_cxcywh)}
-    if num_particles is not None:
+    kwargs = {}
+    if "init_box" in fields and init_box_cxcywh is not None:
+        kwargs["init_box"] = tuple(float(v) for v in init_box_cxcywh)
+    if num_particles is not None and "num_particles" in fields:
         kwargs["num_particles"] = num_particles
-    options = {"parts": "n_parts", "split": "split", "topology": "topology",
-               "fusion": "fusion", "appearance": "appearance", "scale_noise": "scale_noise"}
-    for opt, field in options.items():
-        value = getattr(args, opt, None) if args is not None else None
-        if value is None:
+    for opt, field in MODEL_OPTIONS.items():
+        if not _given(args, opt):
             continue
         if field not in fields:
-            raise InputError(f"--{opt} does not apply to model {model!r}")
-        kwargs[field] = value
+            raise InputError(f"{_flag(opt)} does not apply to model {model!r}")
+        kwargs[field] = getattr(args, opt)
     return module.build_graph(module.Params(**kwargs))
+
+
+def _with_init_box(graph, box_cxcywh: np.ndarray, path: str):
+    """A saved single-object graph moved to start on ``box_cxcywh``: its one Gaussian
+    prior over ``(cx, cy, w, h)`` gets the box as its mean (everything else is kept)."""
+    from pgm.core.graph import FactorGraph
+    from pgm.factors.gaussian import GaussianPrior
+
+    priors = [f for f in graph.factors.values() if f.kind == "prior"]
+    ok = (len(priors) == 1 and isinstance(priors[0], GaussianPrior)
+          and priors[0].mean_.size == 4)
+    if not ok:
+        raise InputError(f"cannot move saved model {path} to a new initial box: it has "
+                         f"{len(priors)} priors (one over cx, cy, w, h is needed); leave out "
+                         f"--init/--gt to start where it was saved, or build it with "
+                         f"--model NAME")
+    old = priors[0]
+    new = GaussianPrior(old.variables[0], mean=np.asarray(box_cxcywh, dtype=float),
+                        cov=old.cov, name=old.name)
+    factors = [new if f is old else f for f in graph.factors.values()]
+    return FactorGraph(list(graph.variables.values()), factors, name=graph.name,
+                       meta=graph.meta)
 
 
 def _check_box_in_image(box_xywh: np.ndarray, size: tuple[int, int]) -> None:
@@ -221,15 +332,21 @@ def _check_box_in_image(box_xywh: np.ndarray, size: tuple[int, int]) -> None:
                          f"{w_img}x{h_img} image")
 
 
+def _fmt(value, spec: str) -> str:
+    return "n/a" if value is None else format(value, spec)
+
+
 def _print_metrics(metrics: dict, stream=None) -> None:
     stream = sys.stdout if stream is None else stream
     rows = [("frames scored", f"{metrics['n_frames']}"),
-            ("success AUC", f"{metrics['success_auc']:.3f}"),
-            ("precision@20px", f"{metrics['precision_at_20']:.3f}"),
-            ("mean IoU", f"{metrics['mean_iou']:.3f}"),
-            ("mean centre error (px)", f"{metrics['mean_centre_error']:.2f}")]
+            ("success AUC", _fmt(metrics["success_auc"], ".3f")),
+            ("precision@20px", _fmt(metrics["precision_at_20"], ".3f")),
+            ("mean IoU", _fmt(metrics["mean_iou"], ".3f")),
+            ("mean centre error (px)", _fmt(metrics["mean_centre_error"], ".2f"))]
+    if metrics.get("n_missing"):
+        rows.append(("frames without a box", f"{metrics['n_missing']}"))
     if "fps" in metrics:
-        rows.append(("frames per second", f"{metrics['fps']:.1f}"))
+        rows.append(("frames per second", _fmt(metrics["fps"], ".1f")))
     width = max(len(r[0]) for r in rows)
     for k, v in rows:
         print(f"{k:<{width}}  {v}", file=stream)
@@ -238,7 +355,14 @@ def _print_metrics(metrics: dict, stream=None) -> None:
 MULTI_TARGET_MODELS = ("phd", "vb-phd")
 
 
-def cmd_track_multi(args, source) -> int:
+def _memory_limit(args) -> float | None:
+    from pgm.app.runner import _parse_bytes
+
+    text = getattr(args, "memory_limit", None)
+    return None if text is None else _parse_bytes(text, "--memory-limit")
+
+
+def cmd_track_multi(args, source, saved=None) -> int:
     from pgm.app.runner import track_multi
     from pgm.core.rng import as_generator
     from pgm.io.annotations import load_mot
@@ -246,8 +370,15 @@ def cmd_track_multi(args, source) -> int:
     from pgm.models.phd import video_params
     from pgm.observation.detections import PublicDetections, make_detector
 
+    what = f"the multi-target model {args.model!r}"
     if args.init is not None:
-        raise InputError(f"--init does not apply to the multi-target model {args.model!r}")
+        raise InputError(f"--init does not apply to {what}")
+    _reject_model_options(args, what)
+    if saved is not None:
+        for opt in ("per_track_noise", "scale_aware", "scores"):
+            if _given(args, opt):
+                raise InputError(f"{_flag(opt)} does not apply to a saved model "
+                                 f"({args.model}): its settings are fixed")
     if args.detections is not None and args.detector is not None:
         raise InputError("give either --detections FILE or --detector SPEC, not both")
     if args.detections is not None:
@@ -256,34 +387,41 @@ def cmd_track_multi(args, source) -> int:
         detector = make_detector(args.detector or "public", source)
     gt_path = args.gt or source.gt_path
     gt = load_mot(gt_path, kind="gt") if gt_path is not None else None
-    module = get_model(args.model)
-    width, height = source.size
-    kwargs = {}
-    if args.particles is not None:
-        kwargs["particles_per_target"] = args.particles
-    if args.per_track_noise:
-        if args.model != "vb-phd":
-            raise InputError("--per-track-noise applies to vb-phd only")
-        kwargs["per_track_noise"] = True
-    table = getattr(detector, "table", None)  # public detections: their median height
-    if table is not None and len(table):
-        kwargs["typical_height"] = float(np.median(table.boxes[:, 3]))
-    if args.scale_aware:
-        kwargs["scale_aware"] = True
-    if args.scores is not None:
-        kwargs["score_model"] = args.scores
-    graph = module.build_graph(video_params(module.Params, width, height, source.fps,
-                                            **kwargs))
+    engine_kwargs = None
+    if saved is not None:
+        graph = saved
+        if args.particles is not None:
+            engine_kwargs = {"num_particles": args.particles}
+    else:
+        module = get_model(args.model)
+        width, height = source.size
+        kwargs = {}
+        if args.particles is not None:
+            kwargs["particles_per_target"] = args.particles
+        if args.per_track_noise:
+            if args.model != "vb-phd":
+                raise InputError("--per-track-noise applies to vb-phd only")
+            kwargs["per_track_noise"] = True
+        table = getattr(detector, "table", None)  # public detections: their median height
+        if table is not None and len(table):
+            kwargs["typical_height"] = float(np.median(table.boxes[:, 3]))
+        if args.scale_aware:
+            kwargs["scale_aware"] = True
+        if args.scores is not None:
+            kwargs["score_model"] = args.scores
+        graph = module.build_graph(video_params(module.Params, width, height, source.fps,
+                                                **kwargs))
     if args.dbn is not None:
         from pgm.observation.appearance.dbn import DBNLikelihood
 
-        graph = graph.with_factors(DBNLikelihood("targets", model=args.dbn,
+        graph = graph.with_factors(DBNLikelihood(graph.output[0], model=args.dbn,
                                                  name="appearance:dbn"),
                                    name=graph.name + "+dbn")
     result = track_multi(source, graph, detector, rng=as_generator(args.seed), out_dir=args.out,
                          gt=gt, write_video=not args.no_video, show_particles=args.show_particles,
                          progress=not args.quiet, max_frames=args.max_frames,
-                         camera_motion=args.camera_motion)
+                         camera_motion=args.camera_motion, engine_kwargs=engine_kwargs,
+                         memory_limit_bytes=_memory_limit(args))
     print(f"tracked {result.n_frames} frames at {result.fps:.1f} frames/s (inference only; "
           f"detector {result.n_frames / max(result.detector_seconds, 1e-9):.0f} frames/s) -> "
           f"{Path(args.out) / 'tracks.txt'}")
@@ -304,7 +442,7 @@ def _print_mot_metrics(m: dict, stream=None) -> None:
         if key in m:
             v = m[key]
             print(f"{label:<{width}}  {v:.3f}" if isinstance(v, float) else
-                  f"{label:<{width}}  {v}", file=stream)
+                  f"{label:<{width}}  {'n/a' if v is None else v}", file=stream)
 
 
 def cmd_track(args) -> int:
@@ -313,7 +451,12 @@ def cmd_track(args) -> int:
     from pgm.io.annotations import load_single_gt
     from pgm.io.video import open_source
 
+    if Path(args.out).exists() and not Path(args.out).is_dir():
+        raise InputError(f"--out {args.out} exists and is not a folder")
     source = open_source(args.source)
+    saved = None
+    if args.model is not None and args.model.endswith(".json"):
+        saved = load_model_file(args.model)
     if args.model is None:
         from pgm.models import DEFAULT_SINGLE_OBJECT
 
@@ -321,33 +464,45 @@ def cmd_track(args) -> int:
         args.model = "vb-phd" if multi else DEFAULT_SINGLE_OBJECT
         if not args.quiet:
             print(f"pgm: using model {args.model} (no --model given)", file=sys.stderr)
-    if args.model in MULTI_TARGET_MODELS:
-        return cmd_track_multi(args, source)
+    if args.model in MULTI_TARGET_MODELS or (saved is not None and _is_multi_target(saved)):
+        return cmd_track_multi(args, source, saved)
+    what = f"the single-object model {args.model!r}"
     if args.detections is not None or args.detector is not None:
         raise InputError(f"--detections/--detector apply to {', '.join(MULTI_TARGET_MODELS)}, "
                          f"not to {args.model!r}")
+    for opt in MULTI_TARGET_OPTIONS:
+        if _given(args, opt):
+            raise InputError(f"{_flag(opt)} applies to {', '.join(MULTI_TARGET_MODELS)}, "
+                             f"not to {what}")
     gt = None
     gt_path = args.gt
     if gt_path is None and args.init is None and source.gt_path is not None:
         gt_path = str(source.gt_path)
-        print(f"pgm: using the sequence's ground truth {gt_path}", file=sys.stderr)
+        if not args.quiet:
+            print(f"pgm: using the sequence's ground truth {gt_path}", file=sys.stderr)
     if gt_path is not None:
         gt = load_single_gt(gt_path)
+    box_xywh = None
     if args.init is not None:
         box_xywh = parse_box(args.init)
     elif gt is not None:
         c = init_box_from_gt(gt, 1)
         box_xywh = np.array([c[0] - c[2] / 2, c[1] - c[3] / 2, c[2], c[3]])
-    else:
+    elif saved is None:
         raise InputError("give the initial box with --init X,Y,W,H or a ground truth with --gt")
-    _check_box_in_image(box_xywh, source.size)
-    init_c = np.array([box_xywh[0] + box_xywh[2] / 2, box_xywh[1] + box_xywh[3] / 2,
-                       box_xywh[2], box_xywh[3]])
+    init_c = None
+    if box_xywh is not None:
+        _check_box_in_image(box_xywh, source.size)
+        init_c = np.array([box_xywh[0] + box_xywh[2] / 2, box_xywh[1] + box_xywh[3] / 2,
+                           box_xywh[2], box_xywh[3]])
     graph = _load_model_graph(args.model, init_c, args.particles, args)
+    if saved is not None and init_c is not None:
+        graph = _with_init_box(graph, init_c, args.model)
     result = track(source, graph, rng=as_generator(args.seed), out_dir=args.out, gt=gt,
                    num_particles=args.particles, write_video=not args.no_video,
                    show_particles=args.show_particles, progress=not args.quiet,
-                   max_frames=args.max_frames, camera_motion=args.camera_motion)
+                   max_frames=args.max_frames, camera_motion=args.camera_motion,
+                   memory_limit_bytes=_memory_limit(args))
     print(f"tracked {len(result.frames)} frames at {result.fps:.1f} frames/s "
           f"(inference only) -> {Path(args.out) / 'tracks.txt'}")
     if result.metrics is not None:
@@ -360,6 +515,8 @@ def cmd_eval(args) -> int:
     from pgm.io.annotations import detect_gt_format, load_mot, load_single_gt, load_tracks
 
     pred = load_tracks(args.pred)
+    if len(pred) == 0:
+        raise InputError(f"--pred {args.pred} holds no rows: nothing to evaluate")
     if detect_gt_format(args.gt) == "mot":
         gt_table = load_mot(args.gt, kind="gt")
         if np.unique(gt_table.ids).size > 1 or np.unique(pred.ids).size > 1:
@@ -385,11 +542,13 @@ def cmd_eval(args) -> int:
 
 
 def cmd_graph(args) -> int:
+    from pgm.io.outputs import prepare_output_file
+
     out = Path(args.out)
     if out.suffix.lower() not in (".png", ".svg", ".pdf", ".dot"):
         raise InputError(f"--out must end in .png, .svg, .pdf or .dot, got {out.name}")
     graph = _load_model_graph(args.model, np.array([50.0, 50.0, 20.0, 30.0]), None, args)
-    out.parent.mkdir(parents=True, exist_ok=True)
+    out = prepare_output_file(out)
     graph.draw(out)
     print(f"wrote {out}")
     return 0
@@ -399,12 +558,12 @@ def cmd_demo(args) -> int:
     from pgm.app.runner import track
     from pgm.core.rng import as_generator
     from pgm.io.annotations import load_single_gt
+    from pgm.io.outputs import prepare_run_folder
     from pgm.io.video import open_source
     from pgm.models import colour_pf, part_graph, single_object
     from pgm.synthetic import demo_scene
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = prepare_run_folder(args.out)
     seq = demo_scene(seed=args.seed, n_frames=args.frames)
     scene_dir = out / "scene"
     seq.write_otb(scene_dir, obj_index=0)
@@ -420,7 +579,7 @@ def cmd_demo(args) -> int:
              single_object.build_graph(single_object.Params(init_box=box)))]
     results = []
     for label, folder, graph in runs:
-        folder.mkdir(parents=True, exist_ok=True)
+        folder = prepare_run_folder(folder)
         graph.draw(folder / "graph.png")
         (folder / "graph.dot").write_text(graph.to_dot())
         results.append((label, track(open_source(scene_dir), graph, rng=as_generator(args.seed),
@@ -441,17 +600,20 @@ def cmd_demo(args) -> int:
 
 def cmd_learn(args) -> int:
     from pgm.core.rng import as_generator
+    from pgm.io.outputs import prepare_output_file
     from pgm.observation.appearance.dbn import DBN, training_set
     from pgm.observation.appearance.features import PatchFeatures
 
+    out = Path(args.out)
+    if out.suffix.lower() != ".npz":
+        raise InputError(f"--out must end in .npz, got {out.name}")
+    out = prepare_output_file(out)
     rng = as_generator(args.seed)
     feats = PatchFeatures()
     X, y = training_set(args.train, rng, every=args.every, features=feats)
     net = DBN()
     net.features_ = feats.to_dict()
     net.fit(X, y, rng, finetune_epochs=args.epochs)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
     net.save(out)
     p = net.predict_proba(X)
     acc = float(np.mean((p > 0.5) == y))
@@ -463,30 +625,85 @@ def cmd_learn(args) -> int:
 COMMANDS = {"track": cmd_track, "eval": cmd_eval, "graph": cmd_graph, "demo": cmd_demo,
             "learn": cmd_learn}
 
+EXIT_INTERNAL = 1
+
+
+class _OneLine(logging.Formatter):
+    """``pgm: warning: <message>``, the message squashed to one line."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        return f"pgm: {record.levelname.lower()}: {one_line(record.getMessage())}"
+
+
+def _quiet_native_logs() -> None:
+    """FFmpeg (through OpenCV) and OpenCV print their own lines to the terminal
+    (``moov atom not found``); the toolkit reports those failures itself, in one line."""
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET, read on first use
+    os.environ.setdefault("OPENCV_LOG_LEVEL", "SILENT")
+    try:
+        import cv2
+
+        cv2.setLogLevel(0)  # LOG_LEVEL_SILENT
+    except (ImportError, AttributeError):  # pragma: no cover - cv2 is a dependency
+        pass
+
+
+def _raise_interrupted(signum, frame):  # noqa: ARG001 - signal handler signature
+    raise Interrupted(signum)
+
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``pgm`` console script; returns the exit code."""
+    """Entry point of the ``pgm`` console script; returns the exit code.
+
+    The one place where failures become messages: an expected failure
+    (:func:`pgm.core.errors.user_message`) prints ``pgm: error: <one line>`` and returns 2;
+    SIGINT/SIGTERM print one line and return 130/143; anything else is a bug, printed as
+    ``pgm: internal error: ...`` and returned as 1 (``--debug`` or ``PGM_DEBUG=1`` shows
+    the traceback).
+    """
+    _quiet_native_logs()
     parser = build_parser()
     args = parser.parse_args(argv)
     debug = args.debug or os.environ.get("PGM_DEBUG") == "1"
+    log = logging.getLogger("pgm")
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_OneLine())
+    log.addHandler(handler)
+    old_propagate, log.propagate = log.propagate, False
+    if log.level == logging.NOTSET:
+        log.setLevel(logging.INFO)
+    handlers = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        try:
+            handlers[sig] = signal.signal(sig, _raise_interrupted)
+        except (ValueError, OSError):  # not the main thread: leave signals alone
+            pass
     try:
-        return COMMANDS[args.command](args)
-    except KeyboardInterrupt:
-        print("pgm: interrupted; results written so far are kept", file=sys.stderr)
-        return 130
-    except (InputError, ValueError, FileNotFoundError) as exc:
+        with warnings.catch_warnings():
+            warnings.showwarning = (lambda message, category, filename, lineno, file=None,
+                                    line=None: log.warning(one_line(message)))
+            return COMMANDS[args.command](args)
+    except KeyboardInterrupt as exc:
+        name = exc.name if isinstance(exc, Interrupted) else "SIGINT"
+        print(f"pgm: interrupted by {name}; results written so far are kept (run.json says "
+              f"\"complete\": false)", file=sys.stderr)
+        return 128 + (exc.signum if isinstance(exc, Interrupted) else signal.SIGINT)
+    except Exception as exc:  # noqa: BLE001 - every failure ends as one line
         if debug:
             raise
-        msg = " ".join(str(exc).split())  # one line
-        print(f"pgm: error: {msg}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except Exception as exc:  # noqa: BLE001 - last resort: one line, not a traceback
-        if debug:
-            raise
-        msg = " ".join(str(exc).split())
-        print(f"pgm: internal error: {type(exc).__name__}: {msg} (rerun with --debug for "
-              f"the traceback)", file=sys.stderr)
-        return 1
+        msg = user_message(exc)
+        if msg is not None:
+            print(f"pgm: error: {msg}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        print(f"pgm: internal error: {type(exc).__name__}: {one_line(exc)} (rerun with "
+              f"--debug for the traceback)", file=sys.stderr)
+        return EXIT_INTERNAL
+    finally:
+        for sig, old in handlers.items():
+            signal.signal(sig, old)
+        log.removeHandler(handler)
+        log.propagate = old_propagate
+        sys.stdout.flush()
 
 
 if __name__ == "__main__":

@@ -10,7 +10,8 @@ excluded).
 
 from __future__ import annotations
 
-import json
+import os
+import re
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -19,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from pgm.core.errors import InputError
+from pgm.core.errors import InputError, Interrupted, user_message
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
 from pgm.core.readout import readout
@@ -28,13 +29,14 @@ from pgm.evaluation.single_object import single_object_metrics
 from pgm.inference.engine import Engine, StepRecord
 from pgm.io.annotated_video import AnnotatedVideoWriter
 from pgm.io.annotations import MotWriter, SingleTrack, load_single_gt
+from pgm.io.outputs import prepare_run_folder, write_json, write_run_status
 from pgm.io.video import FrameSource, open_source
 from pgm.observation.camera_motion import CameraMotionEstimator
 from pgm.plotting.annotate import annotate
 
 __all__ = ["TrackResult", "track", "output_box", "output_target", "confidence_metrics",
            "init_box_from_gt", "MultiTrackResult",
-           "track_multi"]
+           "track_multi", "estimate_memory", "memory_limit", "check_memory"]
 
 
 @dataclass
@@ -122,7 +124,8 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
           write_video: bool = True, show_particles: bool = False, progress: bool = True,
           max_frames: int | None = None, keep_records: bool = False,
           engine_kwargs: dict[str, Any] | None = None, camera_motion: str = "auto",
-          on_frame: Callable[[StepRecord], None] | None = None) -> TrackResult:
+          on_frame: Callable[[StepRecord], None] | None = None,
+          memory_limit_bytes: float | None = None) -> TrackResult:
     """Track one object through ``source`` with the tracker ``graph``.
 
     Parameters
@@ -144,6 +147,18 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
         Global-motion compensation (:mod:`pgm.observation.camera_motion`): ``"auto"``
         moves the particles through the camera's motion on frames where it is
         significant.
+    memory_limit_bytes : float, optional
+        Refuse the run (:class:`InputError`) when :func:`estimate_memory` exceeds this;
+        default :func:`memory_limit`.
+
+    Notes
+    -----
+    The output folder is prepared by :func:`pgm.io.outputs.prepare_run_folder` (an
+    earlier run's results are removed). ``run.json`` says ``"complete": false`` until
+    the run has finished and ``metrics.json`` and ``model.json`` are written; an
+    interrupted or failed run leaves it ``false`` with ``"stopped"`` saying why, and
+    writes neither ``metrics.json`` nor ``model.json``. Every frame must have the first
+    frame's size.
     """
     if num_particles is not None and (isinstance(num_particles, bool)
                                       or not isinstance(num_particles, (int, np.integer))
@@ -151,17 +166,24 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
         raise InputError(f"number of particles must be a positive integer, got {num_particles}")
     if isinstance(gt, (str, Path)):
         gt = load_single_gt(gt)
+    if isinstance(source, (str, Path)):
+        source = open_source(source)
     frames_iter, fps, total = _frames_of(source)
     if max_frames is not None:
         total = min(total, max_frames) if total is not None else max_frames
+    size = getattr(source, "size", None) if isinstance(source, FrameSource) else None
+    check_memory(graph, size, num_particles=num_particles, limit=memory_limit_bytes)
     engine = Engine(graph, rng, num_particles=num_particles, **(engine_kwargs or {}))
     motion = CameraMotionEstimator(camera_motion)
-    out = Path(out_dir) if out_dir is not None else None
+    out = prepare_run_folder(out_dir) if out_dir is not None else None
+    run = {"model": graph.name, "source": str(getattr(source, "path", "")) or None,
+           "num_particles": engine.num_particles, "camera_motion": camera_motion}
     if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
+        write_run_status(out, {**run, "frames": 0}, complete=False, stopped="running")
     gt_by_frame = ({int(f): b for f, b in zip(gt.frames, gt.boxes, strict=True)}
                    if gt is not None else {})
 
+    first: tuple[int, int] | None = None
     frames_done: list[int] = []
     boxes_done: list[np.ndarray] = []
     scores_done: list[float] = []
@@ -179,6 +201,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
         for k, (number, image) in enumerate(frames_iter):
             if max_frames is not None and k >= max_frames:
                 break
+            first = _check_frame_size(first, image, number)
             ctx = FrameContext(number, image, camera_motion=motion(image))
             t0 = time.perf_counter()
             record = engine.step(ctx)
@@ -198,9 +221,16 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
                 on_frame(record)
             if bar is not None:
                 bar.update(1)
-    finally:
+    except BaseException as exc:
         _close(bar, writer, video)
+        if out is not None:
+            _record_stop(out, {**run, "frames": len(frames_done),
+                               "last_frame": frames_done[-1] if frames_done else None}, exc)
+        raise
+    _close(bar, writer, video)
     if not frames_done:
+        if out is not None:
+            _record_stop(out, {**run, "frames": 0}, InputError("the source has no frames"))
         raise InputError("the source has no frames")
     frames_arr = np.asarray(frames_done)
     boxes_arr = np.asarray(boxes_done)
@@ -212,15 +242,14 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
         metrics["confidence"] = confidence_metrics(metrics, frames_arr, scores_arr)
     result = TrackResult(frames_arr, boxes_arr, metrics, seconds, out, records, scores_arr)
     if out is not None:
-        run = {"model": graph.name, "frames": len(frames_done),
-               "num_particles": engine.num_particles, "inference_seconds": seconds,
-               "fps": result.fps, "camera_motion": camera_motion,
-               "camera_motion_frames": motion.frames_moved}
+        run.update({"frames": len(frames_done), "last_frame": int(frames_arr[-1]),
+                    "inference_seconds": seconds, "fps": result.fps,
+                    "camera_motion_frames": motion.frames_moved,
+                    "video": video is not None})
         if metrics is not None:
-            metrics = {**metrics, "fps": result.fps}
-            (out / "metrics.json").write_text(json.dumps(metrics, indent=1))
-        (out / "run.json").write_text(json.dumps(run, indent=1))
-        engine.graph.save(out / "model.json")
+            write_json(out / "metrics.json", {**metrics, "fps": result.fps})
+        write_json(out / "model.json", engine.graph.to_dict())
+        write_run_status(out, run, complete=True)  # last: the folder is now complete
     return result
 
 
@@ -262,6 +291,124 @@ def _annotated_frame(engine: Engine, record: StepRecord, image: np.ndarray, box:
                     text=f"{engine.graph.name} frame {record.frame} {ess}")
 
 
+def _check_frame_size(first: tuple[int, int] | None, image: np.ndarray,
+                      number: int) -> tuple[int, int]:
+    """Every frame must have the first frame's ``(width, height)`` (also for an iterable
+    of frames that is no :class:`FrameSource`); returns that size."""
+    h, w = image.shape[:2]
+    if first is not None and (w, h) != tuple(first):
+        raise InputError(f"frame {number} is {w}x{h} but the sequence's frames are "
+                         f"{first[0]}x{first[1]}; every frame must have the same size")
+    return (int(w), int(h)) if first is None else first
+
+
+def _record_stop(out: Path, info: dict[str, Any], exc: BaseException) -> None:
+    """``run.json`` of a run that did not finish: ``"complete": false`` and why."""
+    if isinstance(exc, Interrupted):
+        why = f"interrupted by {exc.name}"
+    elif isinstance(exc, KeyboardInterrupt):
+        why = "interrupted by SIGINT"
+    else:
+        msg = user_message(exc)
+        why = f"error: {msg}" if msg is not None else f"internal error: {type(exc).__name__}"
+    try:
+        write_run_status(out, info, complete=False, stopped=why)
+    except (OSError, ValueError):  # the original failure matters more than this record
+        pass
+
+
+# -- memory ---------------------------------------------------------------------------
+#: bytes of the interpreter, numpy, OpenCV and torch before any work (measured ~120 MB)
+MEMORY_BASE = 200e6
+#: bytes per particle of one variable, per factor that touches it (measured: 300-850 B
+#: per particle and likelihood for the single-object models, x2 for safety)
+MEMORY_PER_PARTICLE_FACTOR = 1024.0
+#: bytes per particle of a ``set`` variable (PHD; measured ~70 B, x2)
+MEMORY_PER_SET_PARTICLE = 160.0
+#: bytes per frame pixel per appearance likelihood (integral histograms, colour bins,
+#: gradient channels, FFTs of the frame cache)
+MEMORY_PER_PIXEL_FACTOR = 64.0
+#: targets assumed for a multi-target run whose detections are not known in advance
+DEFAULT_TARGETS = 20
+
+
+def estimate_memory(graph: FactorGraph, frame_size: tuple[int, int] | None, *,
+                    num_particles: int | None = None, targets: int | None = None) -> float:
+    """Bytes a run of ``graph`` needs, estimated before it starts.
+
+    ``base + Σ_v N_v (k_v + 1) c + W H (L + 1) p``: for each variable ``v`` its particle
+    count ``N_v`` (``num_particles``, else the graph's engine settings; per target ×
+    ``targets`` for a ``set`` variable), ``k_v`` the factors on it and ``c`` the bytes
+    per particle and factor (:data:`MEMORY_PER_PARTICLE_FACTOR`,
+    :data:`MEMORY_PER_SET_PARTICLE`); ``L`` the likelihood factors and ``p``
+    :data:`MEMORY_PER_PIXEL_FACTOR` bytes per pixel of the ``(W, H)`` frame. The
+    constants are twice the peak resident memory measured on the five models (50 to
+    400 000 particles, 320×240 and 640×480 frames), so the estimate errs high.
+    """
+    settings = graph.meta.get("engine", {}) if isinstance(graph.meta, dict) else {}
+    default = settings.get("num_particles", 100) if isinstance(settings, dict) else 100
+    total = MEMORY_BASE
+    n_lik = 0
+    for name, var in graph.variables.items():
+        if num_particles is not None:
+            n = num_particles
+        elif isinstance(default, dict):
+            n = default.get(name, 100)
+        else:
+            n = default
+        facs = graph.factors_of(name)
+        n_lik += sum(1 for f in facs if f.kind == "likelihood")
+        if var.role == "set":
+            n_targets = targets if targets is not None else DEFAULT_TARGETS
+            total += float(n) * max(n_targets, 1) * (len(facs) + 1) * MEMORY_PER_SET_PARTICLE
+        elif var.role in ("part", "latent") or var.dim > 0:
+            total += float(n) * (len(facs) + 1) * MEMORY_PER_PARTICLE_FACTOR
+    if frame_size is not None:
+        total += float(frame_size[0]) * float(frame_size[1]) * (n_lik + 1) \
+            * MEMORY_PER_PIXEL_FACTOR
+    return total
+
+
+_UNITS = {"": 1, "k": 1e3, "m": 1e6, "g": 1e9, "t": 1e12}
+
+
+def _parse_bytes(text: str, what: str) -> float:
+    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:e[+-]?[0-9]+)?)\s*([kmgt]?)i?b?\s*", text.lower())
+    if m is None or not np.isfinite(float(m.group(1))) or float(m.group(1)) <= 0:
+        raise InputError(f"{what} must be a positive size such as 4G or 500M, got {text!r}")
+    return float(m.group(1)) * _UNITS[m.group(2)]
+
+
+def memory_limit() -> float:
+    """The memory a run may use, in bytes: ``PGM_MEMORY_LIMIT`` (e.g. ``8G``) when set,
+    else 80 % of the physical memory (``SC_PHYS_PAGES``; unlimited where it is not
+    known). Not the memory free at the moment: a run is refused only when it cannot fit
+    on the machine, never because another process is busy."""
+    env = os.environ.get("PGM_MEMORY_LIMIT")
+    if env:
+        return _parse_bytes(env, "PGM_MEMORY_LIMIT")
+    try:
+        return 0.8 * os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (OSError, ValueError, AttributeError):
+        return float("inf")
+
+
+def check_memory(graph: FactorGraph, frame_size: tuple[int, int] | None, *,
+                 num_particles: int | None = None, targets: int | None = None,
+                 limit: float | None = None) -> float:
+    """Raise :class:`InputError` when :func:`estimate_memory` exceeds ``limit`` (default
+    :func:`memory_limit`), naming both; returns the estimate."""
+    need = estimate_memory(graph, frame_size, num_particles=num_particles, targets=targets)
+    cap = memory_limit() if limit is None else float(limit)
+    if need > cap:
+        size = f" and {frame_size[0]}x{frame_size[1]} frames" if frame_size else ""
+        raise InputError(f"this run needs about {need / 1e9:.3g} GB ({graph.name!r} with its "
+                         f"particle counts{size}) but the memory cap is {cap / 1e9:.3g} GB; "
+                         f"use fewer --particles (the cap: --memory-limit, PGM_MEMORY_LIMIT or "
+                         f"80% of the physical memory)")
+    return need
+
+
 # -------------------------------------------------------------------------------------
 # many targets
 # -------------------------------------------------------------------------------------
@@ -288,7 +435,8 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
                 gt=None, write_video: bool = True, show_particles: bool = False,
                 progress: bool = True, max_frames: int | None = None,
                 engine_kwargs: dict[str, Any] | None = None,
-                camera_motion: str = "auto") -> MultiTrackResult:
+                camera_motion: str = "auto",
+                memory_limit_bytes: float | None = None) -> MultiTrackResult:
     """Track every target through ``source`` with a set-variable graph (PHD, VB-PHD).
 
     ``detector(frame_number, image) -> Detections`` gives each frame's measurements
@@ -296,6 +444,8 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
     its associated detections. Writes ``tracks.txt`` (MOTChallenge rows with
     identities, flushed per frame), ``annotated.mp4`` and, given ground truth (a
     :class:`~pgm.io.annotations.MotTable` or a ``gt.txt`` path), ``metrics.json``.
+    The output folder, ``run.json``'s ``"complete"`` flag, the memory check and the
+    frame-size check are those of :func:`track`.
     """
     from pgm.evaluation.mot import evaluate_mot
     from pgm.io.annotations import MotTable, load_mot
@@ -305,13 +455,20 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
     if isinstance(source, (str, Path)):
         source = open_source(source)
     var = graph.output[0]
+    size = source.size
+    table = getattr(detector, "table", None)
+    targets = None
+    if table is not None and len(table):
+        targets = int(np.max(np.unique(table.frames, return_counts=True)[1]))
+    check_memory(graph, size, targets=targets, limit=memory_limit_bytes)
     engine = Engine(graph, rng, **(engine_kwargs or {}))
     motion = CameraMotionEstimator(camera_motion)
     motion_secs = 0.0
     noise = [v for v in engine.graph.variables.values() if v.role == "noise"]
-    out = Path(out_dir) if out_dir is not None else None
+    out = prepare_run_folder(out_dir) if out_dir is not None else None
+    run = {"model": graph.name, "source": str(source.path), "camera_motion": camera_motion}
     if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
+        write_run_status(out, {**run, "frames": 0}, complete=False, stopped="running")
     writer = MotWriter(out / "tracks.txt") if out is not None else None
     video = (AnnotatedVideoWriter(out / "annotated.mp4", source.fps)
              if out is not None and write_video else None)
@@ -322,6 +479,7 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
 
         bar = tqdm(total=total, unit="frame", desc=graph.name, leave=False)
     rows_f, rows_i, rows_b, rows_c = [], [], [], []
+    first: tuple[int, int] | None = None
     secs = det_secs = 0.0
     n = 0
     sigmas: list[float] = []
@@ -329,6 +487,7 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
         for k, (number, image) in enumerate(source.frames()):
             if max_frames is not None and k >= max_frames:
                 break
+            first = _check_frame_size(first, image, number)
             t0 = time.perf_counter()
             dets = detector(number, image)
             det_secs += time.perf_counter() - t0
@@ -364,9 +523,16 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
                                      text=f"{graph.name} frame {number} {targets.text}"))
             if bar is not None:
                 bar.update(1)
-    finally:
+    except BaseException as exc:
         _close(bar, writer, video)
+        if out is not None:
+            _record_stop(out, {**run, "frames": n,
+                               "last_frame": int(number) if n else None}, exc)
+        raise
+    _close(bar, writer, video)
     if n == 0:
+        if out is not None:
+            _record_stop(out, {**run, "frames": 0}, InputError("the source has no frames"))
         raise InputError("the source has no frames")
     table = MotTable(np.asarray(rows_f, dtype=np.int64), np.asarray(rows_i, dtype=np.int64),
                      np.asarray(rows_b, dtype=float).reshape(-1, 4),
@@ -380,13 +546,13 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
     result = MultiTrackResult(table, metrics, secs, det_secs, n, out, sigmas)
     if out is not None:
         if metrics is not None:
-            (out / "metrics.json").write_text(json.dumps(metrics, indent=1))
-        run = {"model": graph.name, "frames": n, "inference_seconds": secs,
-               "detector_seconds": det_secs, "fps": result.fps,
-               "camera_motion": camera_motion, "camera_motion_frames": motion.frames_moved,
-               "camera_motion_seconds": motion_secs}
+            write_json(out / "metrics.json", metrics)
+        run.update({"frames": n, "last_frame": int(number), "inference_seconds": secs,
+                    "detector_seconds": det_secs, "fps": result.fps,
+                    "camera_motion_frames": motion.frames_moved,
+                    "camera_motion_seconds": motion_secs, "video": video is not None})
         if sigmas:
             run["noise_sigma_per_frame"] = sigmas
-        (out / "run.json").write_text(json.dumps(run, indent=1))
-        engine.graph.save(out / "model.json")
+        write_json(out / "model.json", engine.graph.to_dict())
+        write_run_status(out, run, complete=True)  # last: the folder is now complete
     return result

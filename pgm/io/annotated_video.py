@@ -34,6 +34,8 @@ class AnnotatedVideoWriter:
         h, w = image.shape[:2]
         if self._writer is None:
             self.path.parent.mkdir(parents=True, exist_ok=True)
+            if self.path.is_symlink():  # replaced, never followed
+                self.path.unlink()
             self._writer = cv2.VideoWriter(str(self.path), cv2.VideoWriter_fourcc(*"mp4v"),
                                            self.fps, (w, h))
             if not self._writer.isOpened():

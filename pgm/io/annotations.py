@@ -61,9 +61,10 @@ def _read_lines(path: Path) -> list[str]:
 
 
 def _parse_table(path: Path, lines: list[str], *, min_cols: int, max_cols: int | None,
-                 sep: re.Pattern[str] = _SPLIT, what: str = "values") -> tuple[np.ndarray,
-                                                                               np.ndarray]:
-    """Parse numeric rows; returns ``(values (n, width), line_numbers (n,))``.
+                 sep: re.Pattern[str] = _SPLIT, what: str = "values"
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Parse numeric rows; returns ``(values (n, width), line_numbers (n,), lengths (n,))``
+    (``lengths``: the numbers on each line, to tell a written ``nan`` from a padded one).
 
     Blank lines are an error (they would shift the line-to-frame pairing); rows shorter
     than the widest row are padded with NaN. ``line_numbers`` are 1-based.
@@ -100,7 +101,7 @@ def _parse_table(path: Path, lines: list[str], *, min_cols: int, max_cols: int |
         row_idx = np.repeat(np.arange(len(rows)), lengths)
         col_idx = np.arange(values.size) - np.repeat(np.cumsum(lengths) - lengths, lengths)
         table[row_idx, col_idx] = values
-    return table, np.arange(1, len(rows) + 1)
+    return table, np.arange(1, len(rows) + 1), lengths
 
 
 # --------------------------------------------------------------------------- single object
@@ -201,7 +202,7 @@ def load_single_gt(path: str | Path, fmt: str = "auto", *, obj_id: int | None = 
     if fmt == "mot":
         return _single_from_mot(p, obj_id)
     lines = _read_lines(p)
-    table, _ = _parse_table(p, lines, min_cols=4, max_cols=4, what="numbers (x, y, w, h)")
+    table, _, _ = _parse_table(p, lines, min_cols=4, max_cols=4, what="numbers (x, y, w, h)")
     boxes = table[:, :4]
     frames = np.arange(1, len(lines) + 1, dtype=np.int64)
     valid = np.all(np.isfinite(boxes), axis=1) & (boxes[:, 2] > 0) & (boxes[:, 3] > 0)
@@ -375,8 +376,9 @@ def load_mot(path: str | Path, *, kind: str = "gt", min_score: float | None = No
     ------
     InputError
         Missing file, fewer than 6 columns, a non-numeric value, a non-integer frame or
-        id, a frame number below 1, or a non-positive or non-finite box (named with the
-        file and line number); ``min_score`` with ``kind='gt'``.
+        id, a frame number below 1, a non-positive or non-finite box, a written
+        non-finite score (``nan``, ``inf``; a missing column 7 reads as 1) (named with
+        the file and line number); ``min_score`` with ``kind='gt'``.
     """
     p = Path(path)
     if kind not in ("gt", "det"):
@@ -384,7 +386,7 @@ def load_mot(path: str | Path, *, kind: str = "gt", min_score: float | None = No
     if min_score is not None and kind != "det":
         raise InputError(f"min_score applies to detections (kind='det') only, for {p}")
     lines = _read_lines(p)
-    table, lineno = _parse_table(p, lines, min_cols=6, max_cols=None,
+    table, lineno, lengths = _parse_table(p, lines, min_cols=6, max_cols=None,
                                  what="comma-separated columns")
     if table.shape[1] < 7:
         table = np.concatenate([table, np.full((table.shape[0], 7 - table.shape[1]),
@@ -396,6 +398,9 @@ def load_mot(path: str | Path, *, kind: str = "gt", min_score: float | None = No
         (~np.isfinite(ids_f) | (ids_f != np.round(ids_f)), "id must be an integer"),
         (~np.all(np.isfinite(boxes), axis=1), "box is not finite"),
         (~((boxes[:, 2] > 0) & (boxes[:, 3] > 0)), "box width and height must be > 0"),
+        ((lengths >= 7) & ~np.isfinite(conf),
+         "score/flag (column 7) is not finite" if kind == "det" else
+         "flag (column 7) is not finite"),
     )
     for bad, message in checks:
         if np.any(bad):
@@ -488,8 +493,9 @@ class MotWriter:
 
     Boxes are given 0-based top-left and written 1-based (``x + 1, y + 1``), numbers
     with up to 3 decimals. The file is created (parent folders too) and truncated on
-    construction, and flushed after each :meth:`write`, so an interrupted run keeps
-    every frame it finished. Use as a context manager or call :meth:`close`.
+    construction (a symbolic link at ``path`` is replaced, not followed), and flushed
+    after each :meth:`write`, so an interrupted run keeps every frame it finished. Use
+    as a context manager or call :meth:`close`.
 
     Parameters
     ----------
@@ -509,6 +515,8 @@ class MotWriter:
         self.decimals = int(decimals)
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
+            if self.path.is_symlink():  # replaced, never followed (its target is kept)
+                self.path.unlink()
             self._fh: IO[str] | None = open(self.path, "w", encoding="utf-8", newline="\n")
         except OSError as exc:
             raise InputError(f"cannot write {self.path}: {' '.join(str(exc).split())}"

@@ -30,9 +30,9 @@ never all held in memory.
 from __future__ import annotations
 
 import configparser
+import logging
 import math
 import re
-import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Iterator
 from pathlib import Path
@@ -62,6 +62,12 @@ DEFAULT_FPS: float = 25.0
 """Frame rate reported for image folders that do not declare one."""
 
 _DIGITS = re.compile(r"(\d+)")
+_log = logging.getLogger(__name__)
+
+MIN_FPS: float = 0.01
+"""Lowest frame rate accepted from ``seqinfo.ini`` (one frame per 100 s)."""
+MAX_FPS: float = 10000.0
+"""Highest frame rate accepted from ``seqinfo.ini`` (a high-speed camera)."""
 
 
 def natural_key(name: str) -> tuple:
@@ -260,8 +266,22 @@ class ImageSequenceSource(FrameSource):
                ) -> Iterator[tuple[int, np.ndarray]]:
         start, stop = _check_range(start, stop, self.path)
         end = len(self.files) if stop is None else min(stop - 1, len(self.files))
+        first: tuple[int, int] | None = None
         for k in range(start, end + 1):
-            yield k, _read_image(self.files[k - 1])
+            image = _read_image(self.files[k - 1])
+            first = _check_same_size(first, image, f"image {self.files[k - 1]} (frame {k})")
+            yield k, image
+
+
+def _check_same_size(first: tuple[int, int] | None, image: np.ndarray,
+                     what: str) -> tuple[int, int]:
+    """The ``(width, height)`` every frame must have (the first frame's); an
+    :class:`InputError` for a frame of another size."""
+    size = (int(image.shape[1]), int(image.shape[0]))
+    if first is not None and size != first:
+        raise InputError(f"{what} is {size[0]}x{size[1]} but the sequence's frames are "
+                         f"{first[0]}x{first[1]}; every frame must have the same size")
+    return size if first is None else first
 
 
 def _one_line(exc: BaseException) -> str:
@@ -317,8 +337,7 @@ class VideoSource(FrameSource):
         finally:
             cap.release()
         if fps is None:
-            fps = container_fps if math.isfinite(container_fps) and container_fps > 0 \
-                else DEFAULT_FPS
+            fps = container_fps if MIN_FPS <= container_fps <= MAX_FPS else DEFAULT_FPS
         super().__init__(path, fps=fps, **kwargs)
         first = _as_bgr(first)
         self._size: tuple[int, int] = (int(first.shape[1]), int(first.shape[0]))
@@ -356,6 +375,7 @@ class VideoSource(FrameSource):
                ) -> Iterator[tuple[int, np.ndarray]]:
         start, stop = _check_range(start, stop, self.path)
         cap = self._open()
+        first: tuple[int, int] | None = None
         try:
             k = 1
             while k < start:  # grab() skips without converting the frame
@@ -367,10 +387,12 @@ class VideoSource(FrameSource):
                 if not ok or image is None:
                     expected = self._count
                     if expected is not None and k <= expected:
-                        warnings.warn(f"video {self.video_path} ended after {k - 1} frames;"
-                                      f" the container says {expected}", stacklevel=2)
+                        _log.warning("video %s ended after %d frames; the container says %d",
+                                     self.video_path, k - 1, expected)
                     return
-                yield k, _as_bgr(image)
+                image = _as_bgr(image)
+                first = _check_same_size(first, image, f"frame {k} of video {self.video_path}")
+                yield k, image
                 k += 1
         finally:
             cap.release()
@@ -401,6 +423,11 @@ def _seqinfo_number(info: dict[str, str], key: str, ini: Path, *, integer: bool)
     if not math.isfinite(value) or value <= 0 or (integer and value != int(value)):
         kind = "a positive integer" if integer else "a positive number"
         raise InputError(f"malformed seqinfo.ini {ini}: {key}={raw!r} is not {kind}")
+    if integer and value > 1e9:
+        raise InputError(f"malformed seqinfo.ini {ini}: {key}={raw!r} is implausibly large")
+    if key == "frameRate" and not MIN_FPS <= value <= MAX_FPS:
+        raise InputError(f"malformed seqinfo.ini {ini}: frameRate={raw!r} is outside "
+                         f"[{MIN_FPS:g}, {MAX_FPS:g}] frames per second")
     return value
 
 
@@ -432,9 +459,9 @@ def _open_mot(folder: Path) -> FrameSource:
         raise InputError(f"MOT sequence folder {folder} has no image folder {im_dir}/")
     files = _list_images(img_folder, im_ext)
     if seq_length is not None and int(seq_length) != len(files):
-        warnings.warn(f"{ini} says seqLength={int(seq_length)} but {img_folder} has"
-                      f" {len(files)} {im_ext} images; using"
-                      f" {min(len(files), int(seq_length))}", stacklevel=3)
+        _log.warning("%s says seqLength=%d but %s has %d %s images; using %d", ini,
+                     int(seq_length), img_folder, len(files), im_ext,
+                     min(len(files), int(seq_length)))
         files = files[: int(seq_length)]
     return ImageSequenceSource(folder, files, fps=fps, **common)
 

@@ -109,6 +109,9 @@ class Detections:
         scores = np.asarray(self.scores, dtype=float).reshape(-1)
         if scores.shape[0] != boxes.shape[0]:
             raise ValueError(f"{boxes.shape[0]} boxes but {scores.shape[0]} scores")
+        if not np.all(np.isfinite(scores)):
+            raise InputError("detection scores must be finite (a NaN or infinite score is "
+                             "never read as 1)")
         object.__setattr__(self, "boxes", _readonly(boxes))
         object.__setattr__(self, "scores", _readonly(scores))
 

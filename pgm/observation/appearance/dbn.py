@@ -30,6 +30,7 @@ References
 from __future__ import annotations
 
 import json
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -187,23 +188,112 @@ class DBN:
 
     @classmethod
     def load(cls, path: str | Path) -> DBN:
-        """Read a file written by :meth:`save` (``allow_pickle=False``)."""
+        """Read a file written by :meth:`save` (``allow_pickle=False``: never runs code).
+
+        Every problem — not an ``.npz`` archive, a missing or malformed header key, a
+        missing weight array, weights of inconsistent shapes, non-finite numbers — is an
+        :class:`InputError` naming the file and the cause.
+        """
         p = Path(path)
         if not p.is_file():
             raise InputError(f"DBN file not found: {p}")
+
+        def bad(why: str) -> InputError:
+            return InputError(f"{p} is not a pgm DBN file: {why}")
+
+        try:
+            with open(p, "rb") as fh:
+                magic = fh.read(6)
+        except OSError as exc:
+            raise InputError(f"cannot read DBN file {p}: {exc.strerror or exc}") from None
+        if not magic.startswith(b"PK\x03\x04"):
+            what = ("a Python pickle, which is never loaded" if magic[:1] == b"\x80"
+                    else "a single .npy array" if magic == b"\x93NUMPY"
+                    else "empty" if not magic else "not an .npz archive")
+            raise bad(what)
         try:
             with np.load(p, allow_pickle=False) as f:
+                missing = [k for k in ["header"] + [f"w{k}" for k in range(6)]
+                           if k not in f.files]
+                if missing:
+                    raise bad(f"no {', '.join(missing)} in the archive")
                 header = json.loads(str(f["header"]))
-                weights = [np.asarray(f[f"w{k}"], dtype=float) for k in range(6)]
-        except (ValueError, KeyError, OSError, json.JSONDecodeError) as exc:
-            raise InputError(f"{p} is not a pgm DBN file: {exc}") from None
+                weights = [np.array(f[f"w{k}"]) for k in range(6)]
+        except InputError:
+            raise
+        except (ValueError, OSError, EOFError, json.JSONDecodeError, UnicodeDecodeError,
+                zipfile.BadZipFile) as exc:
+            why = " ".join(str(exc).split()) or type(exc).__name__
+            if "pickle" in why.lower():
+                why = "it holds pickled Python objects, which are never loaded"
+            raise bad(why) from None
+        return cls._from_parts(header, weights, bad)
+
+    @classmethod
+    def _from_parts(cls, header: Any, weights: list[np.ndarray], bad) -> DBN:
+        """Validate a loaded header and weight list (see :meth:`load`)."""
+        if not isinstance(header, dict):
+            raise bad("the header is not a JSON object")
         if header.get("format") != FORMAT:
-            raise InputError(f"{p} is not a pgm DBN file (format {header.get('format')!r})")
-        net = cls(tuple(header["hidden"]))
+            raise bad(f"format {header.get('format')!r}, expected {FORMAT!r}")
+        for key in ("hidden", "platt", "prior"):
+            if key not in header:
+                raise bad(f"the header has no {key!r}")
+
+        def numbers(key: str, n: int) -> list[float]:
+            v = header[key]
+            if (not isinstance(v, list) or len(v) != n
+                    or not all(isinstance(e, (int, float)) and not isinstance(e, bool)
+                               for e in v)):
+                raise bad(f"header {key!r} must be a list of {n} numbers, got {v!r:.60}")
+            if not all(np.isfinite(v)):
+                raise bad(f"header {key!r} is not finite: {v!r}")
+            return [float(e) for e in v]
+
+        hidden = numbers("hidden", 2)
+        if not all(h == int(h) and 1 <= h <= 1 << 16 for h in hidden):
+            raise bad(f"header 'hidden' must be two layer sizes in [1, 65536], got "
+                      f"{header['hidden']!r}")
+        h1, h2 = (int(h) for h in hidden)
+        platt = numbers("platt", 2)
+        prior = header["prior"]
+        if (isinstance(prior, bool) or not isinstance(prior, (int, float))
+                or not 0 < prior < 1):
+            raise bad(f"header 'prior' must be a number in (0, 1), got {prior!r:.60}")
+        features = header.get("features", {})
+        if not isinstance(features, dict):
+            raise bad("header 'features' is not a JSON object")
+        try:
+            n_orient = int(features.get("n_orient", 9))
+            cells = tuple(int(c) for c in features.get("cells", (2, 4)))
+        except (TypeError, ValueError):
+            raise bad(f"header 'features' is malformed: {features!r:.80}") from None
+        if n_orient < 1 or len(cells) != 2 or min(cells) < 1:
+            raise bad(f"header 'features' is malformed: {features!r:.80}")
+        for k, w in enumerate(weights):
+            if w.dtype.kind not in "fiu":
+                raise bad(f"weight array w{k} has dtype {w.dtype}, not numbers")
+        weights = [w.astype(float) for w in weights]
+        W1, c1, W2, c2, w, b = weights
+        d = W1.shape[0] if W1.ndim == 2 else -1
+        want = [("w0", W1, (d, h1)), ("w1", c1, (h1,)), ("w2", W2, (h1, h2)),
+                ("w3", c2, (h2,)), ("w4", w, (h2, 1)), ("w5", b, (1,))]
+        for key, arr, shape in want:
+            if arr.shape != shape or d < 1:
+                raise bad(f"weight array {key} has shape {arr.shape}, expected "
+                          f"{tuple('d' if s == -1 else s for s in shape)} for hidden "
+                          f"layers ({h1}, {h2})")
+            if not np.all(np.isfinite(arr)):
+                raise bad(f"weight array {key} holds NaN or infinite values")
+        dim = PatchFeatures(n_orient=n_orient, cells=cells).dim
+        if d != dim:
+            raise bad(f"weight array w0 has {d} input rows but the header's features give "
+                      f"{dim}")
+        net = cls((h1, h2))
         net.weights_ = weights
-        net.platt_ = tuple(header["platt"])
-        net.prior_ = float(header["prior"])
-        net.features_ = dict(header.get("features", {}))
+        net.platt_ = tuple(platt)
+        net.prior_ = float(prior)
+        net.features_ = dict(features)
         return net
 
 

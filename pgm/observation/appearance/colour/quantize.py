@@ -28,6 +28,7 @@ LAYOUTS = ("perez", "hsv", "rgb")
 _S_MIN = 26
 _V_MIN = 52
 _MAX_BINS = 1 << 16
+_MIN_SIDE = 8  # regions narrower than this are padded before OpenCV sees them
 
 
 def _check_count(name: str, value: Any, hi: int) -> int:
@@ -212,6 +213,14 @@ def _grey_channel(img: np.ndarray) -> np.ndarray | None:
 def _quantize_bgr(img: np.ndarray, canon: tuple[str, int, int, int]) -> np.ndarray:
     """Bins of a validated (h, w, 3) uint8 BGR image, which may be a strided view
     (a region of a frame: ``cv2.cvtColor`` reads views in place)."""
+    h, w = img.shape[:2]
+    if h < _MIN_SIDE or w < _MIN_SIDE:
+        # OpenCV's Python bindings read a (k, 1) or (1, 1) array next to a number as a
+        # Scalar pair of the wrong size (a 1x1 or 4x1 box failed in ``cv2.compare``);
+        # quantise an edge-padded copy instead and crop (pixels are binned independently)
+        pad = ((0, max(_MIN_SIDE - h, 0)), (0, max(_MIN_SIDE - w, 0)), (0, 0))
+        return np.ascontiguousarray(_quantize_bgr(np.pad(img, pad, mode="edge"),
+                                                  canon)[:h, :w])
     lay, a, b, c = canon
     n_bins = _bin_count(canon)
     k = np.arange(256)

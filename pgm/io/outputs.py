@@ -1,0 +1,126 @@
+"""Output folders that never lie: one run's results, written honestly.
+
+A run writes ``tracks.txt`` and ``annotated.mp4`` as it goes, and ``metrics.json``,
+``model.json`` and the final ``run.json`` only when it has finished. The rules:
+
+* :func:`prepare_run_folder` creates the folder (or checks it is one) and **removes
+  the previous run's results** from it — the five names of :data:`RUN_OUTPUTS`, and
+  nothing else — so a new ``tracks.txt`` never sits next to an older run's
+  ``metrics.json``. A symbolic link with one of those names is removed, never followed.
+* :func:`write_run_status` writes ``run.json`` atomically (a temporary file renamed over
+  it): ``"complete": false`` from the start of a run, with ``"stopped"`` saying why when
+  it was interrupted or failed, and ``"complete": true`` once every result is written.
+  A folder whose ``run.json`` is missing or says ``false`` holds a partial run.
+* :func:`write_json` writes any JSON result atomically.
+
+Every refusal of the file system (a file where the folder should be, no permission,
+a read-only parent) is an :class:`~pgm.core.errors.InputError` naming the path.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from pgm.core.errors import InputError
+
+__all__ = ["RUN_OUTPUTS", "prepare_run_folder", "prepare_output_file", "write_json",
+           "write_run_status"]
+
+def _umask() -> int:
+    old = os.umask(0o022)
+    os.umask(old)
+    return old
+
+
+_FILE_MODE = 0o666 & ~_umask()  # what open() would give a new file
+
+#: the files one run writes into its output folder (removed before the next run there)
+RUN_OUTPUTS = ("tracks.txt", "annotated.mp4", "metrics.json", "run.json", "model.json")
+
+
+def _why(exc: OSError) -> str:
+    return exc.strerror or " ".join(str(exc).split()) or type(exc).__name__
+
+
+def prepare_run_folder(path: str | Path) -> Path:
+    """Create the output folder ``path`` (parents too) and remove an earlier run's
+    results from it (:data:`RUN_OUTPUTS`; other files are left alone). Returns it."""
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"output folder {out} exists and is not a folder")
+    blocker = next((a for a in out.parents if a.exists() and not a.is_dir()), None)
+    if blocker is not None:
+        raise InputError(f"cannot create output folder {out}: {blocker} is a file, not a "
+                         f"folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create output folder {out}: {_why(exc)}") from None
+    for name in RUN_OUTPUTS:
+        p = out / name
+        if p.is_symlink() or p.exists():
+            if p.is_dir() and not p.is_symlink():
+                raise InputError(f"output folder {out} holds a folder named {name}; "
+                                 f"remove it or choose another --out")
+            try:
+                p.unlink()
+            except OSError as exc:
+                raise InputError(f"cannot remove the earlier {p}: {_why(exc)}") from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise InputError(f"cannot write into output folder {out}: permission denied")
+    return out
+
+
+def prepare_output_file(path: str | Path, what: str = "--out") -> Path:
+    """Check that ``path`` can become a file (not a folder; parent creatable)."""
+    p = Path(path)
+    if p.is_dir():
+        raise InputError(f"{what} {p} is a folder; give a file name")
+    blocker = next((a for a in p.parents if a.exists() and not a.is_dir()), None)
+    if blocker is not None:
+        raise InputError(f"cannot write {what} {p}: {blocker} is a file, not a folder")
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create folder {p.parent} for {what}: {_why(exc)}") from None
+    if p.is_symlink():
+        try:
+            p.unlink()  # replaced, never followed
+        except OSError as exc:
+            raise InputError(f"cannot replace {p}: {_why(exc)}") from None
+    return p
+
+
+def write_json(path: str | Path, data: Any) -> Path:
+    """Write ``data`` as JSON to ``path`` atomically (a temporary file in the same folder,
+    renamed over ``path``: a reader sees the old file or the whole new one; a symbolic
+    link at ``path`` is replaced, not followed)."""
+    p = Path(path)
+    text = json.dumps(data, indent=1)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as fh:
+                fh.write(text)
+            os.chmod(tmp, _FILE_MODE)
+            os.replace(tmp, p)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+    except OSError as exc:
+        raise InputError(f"cannot write {p}: {_why(exc)}") from None
+    return p
+
+
+def write_run_status(out: Path, info: dict[str, Any], *, complete: bool,
+                     stopped: str | None = None) -> Path:
+    """Write ``out/run.json``: ``info`` with ``"complete"`` (and ``"stopped"``: why a
+    run that did not finish ended)."""
+    data = {"complete": bool(complete), **info}
+    if stopped is not None:
+        data["stopped"] = stopped
+    return write_json(Path(out) / "run.json", data)
