@@ -33,13 +33,14 @@ ALLOWED = {
     "pgm.core": {"pgm.core"},
     "pgm.factors": {"pgm.core", "pgm.factors"},
     "pgm.io": {"pgm.core", "pgm.io"},
+    "pgm.dynamics": {"pgm.core", "pgm.dynamics"},
     "pgm.plotting": {"pgm.core", "pgm.plotting"},
     "pgm.synthetic": {"pgm.core", "pgm.io", "pgm.synthetic"},
     "pgm.evaluation": {"pgm.core", "pgm.io", "pgm.evaluation"},
     "pgm.observation": {"pgm.core", "pgm.factors", "pgm.io", "pgm.observation"},
     "pgm.inference": {"pgm.core", "pgm.factors", "pgm.inference"},
     "pgm.models": {"pgm.core", "pgm.factors", "pgm.observation", "pgm.inference",
-                   "pgm.models"},
+                   "pgm.dynamics", "pgm.models"},
     "pgm.app": None,  # the application layer may import everything
 }
 #: function-level imports allowed against the direction, each with its reason

@@ -1,0 +1,29 @@
+"""Learned motion models (dynamics) for the per-target chains of the trackers.
+
+:mod:`pgm.dynamics.gpdm` is the Gaussian-process dynamical model of seed 003 (SPEC §4),
+with the fixes the SPEC requires; its :func:`~pgm.dynamics.gpdm.predict` samples future
+boxes and falls back to constant velocity when a track is too young.
+
+This subpackage imports numpy, scipy, torch and :mod:`pgm.core` only (a test enforces
+it), so model configs, the CLI and benchmarks can all call it.
+"""
+
+from .gpdm import (
+    GPDM,
+    GPDMSettings,
+    Trajectory,
+    apply_differences,
+    box_differences,
+    dynamics_kernel,
+    fit_gpdm,
+    gt_trajectories,
+    learn_gpdm,
+    load_gpdm,
+    observation_kernel,
+    predict,
+    predict_constant_velocity,
+)
+
+__all__ = ["GPDM", "GPDMSettings", "Trajectory", "apply_differences", "box_differences",
+           "dynamics_kernel", "fit_gpdm", "gt_trajectories", "learn_gpdm", "load_gpdm",
+           "observation_kernel", "predict", "predict_constant_velocity"]
