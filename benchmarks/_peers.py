@@ -94,6 +94,22 @@ def _run(cmd: list[str], timeout: float | None) -> tuple[int, str]:
     return r.returncode, r.stderr + r.stdout
 
 
+def _collect(names, data: dict, script: str, code: int, log: str, read) -> dict[str, dict]:
+    """Per tracker: ``read(name, entry)`` plus its ``fps`` where the script reported a
+    result, its error where it reported one, the script's exit and log tail otherwise."""
+    results: dict[str, dict] = {}
+    for name in names:
+        entry = data.get(name)
+        if entry is None:
+            results[name] = {"error": f"{script} exit {code}: {_tail(log)}"}
+        elif "error" in entry:
+            results[name] = {"error": str(entry["error"])}
+        else:
+            results[name] = {**read(name, entry),
+                             "fps": float(entry["fps"]) if entry.get("fps") else float("nan")}
+    return results
+
+
 def run_mot_peers(sequence_dir: str | Path, last_frame: int | None = None,
                   trackers: Sequence[str] = ("sort", "bytetrack", "ocsort"),
                   workdir: str | Path | None = None,
@@ -138,19 +154,12 @@ def run_mot_peers(sequence_dir: str | Path, last_frame: int | None = None,
     code, log = _run(cmd, timeout)
     timing_path = out / "timing.json"
     timing = json.loads(timing_path.read_text()) if timing_path.is_file() else {}
-    results: dict[str, dict] = {}
-    for name in names:
-        entry = timing.get(name)
-        if entry is None:
-            results[name] = {"error": f"mot_peers.py exit {code}: {_tail(log)}"}
-        elif "error" in entry:
-            results[name] = {"error": str(entry["error"])}
-        else:
-            path = out / f"{name}.txt"
-            results[name] = {"table": load_mot(path, kind="det"),
-                             "fps": float(entry["fps"]) if entry.get("fps") else float("nan"),
-                             "path": path, "frames": int(entry["frames"]),
-                             "seconds": float(entry["seconds"])}
+    def read(name, entry):
+        path = out / f"{name}.txt"
+        return {"table": load_mot(path, kind="det"), "path": path,
+                "frames": int(entry["frames"]), "seconds": float(entry["seconds"])}
+
+    results = _collect(names, timing, "mot_peers.py", code, log, read)
     return results
 
 
@@ -195,17 +204,9 @@ def run_sot_peers(frames_paths: Iterable[str | Path], init_xywh: Sequence[float]
                           "--out", str(res), "--trackers", ",".join(names),
                           "--seed", str(int(seed))], timeout)
         data = json.loads(res.read_text()) if res.is_file() else {}
-    results: dict[str, dict] = {}
-    for name in names:
-        entry = data.get(name)
-        if entry is None:
-            results[name] = {"error": f"sot_peers.py exit {code}: {_tail(log)}"}
-        elif "error" in entry:
-            results[name] = {"error": str(entry["error"])}
-        else:
-            results[name] = {"boxes": np.asarray(entry["boxes"], dtype=float).reshape(-1, 4),
-                             "fps": float(entry["fps"]) if entry.get("fps") else float("nan"),
-                             "failed_frames": int(entry["failed_frames"])}
+    results = _collect(names, data, "sot_peers.py", code, log, lambda name, entry: {
+        "boxes": np.asarray(entry["boxes"], dtype=float).reshape(-1, 4),
+        "failed_frames": int(entry["failed_frames"])})
     return results
 
 

@@ -162,7 +162,8 @@ def files(tmp_path_factory):
 
 
 T = "track"
-# (case, argv with {placeholders} for files and {out} for a fresh output path, needle)
+# (case, argv whose {names} are formatted with the files written above and {out} with a
+# fresh output path, text the one-line message must contain)
 MATRIX = [
     # -- track: sources
     ("missing source", [T, "{empty_dir}/nope.mp4", "--init", "1,1,5,5"], "no such file"),
