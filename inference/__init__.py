@@ -1,6 +1,6 @@
 """pgm.inference: the generic engine and its algorithms (SMC, particle BP, VB, PHD)."""
 
-from . import pbp, phd, resampling, vb
+from . import pbp, phd, plates, resampling, vb
 from .engine import (
     DEFAULT_RULES,
     Engine,
@@ -11,7 +11,8 @@ from .engine import (
     message_order,
 )
 from .kalman import KalmanResult, kalman_filter, linear_gaussian_matrices
+from .plates import PlateEngine, make_engine
 
 __all__ = ["Engine", "RuleTable", "DEFAULT_RULES", "Schedule", "StepRecord", "derive_schedule",
            "kalman_filter", "KalmanResult", "linear_gaussian_matrices", "resampling", "pbp",
-           "message_order", "phd", "vb"]
+           "message_order", "phd", "vb", "plates", "PlateEngine", "make_engine"]

@@ -8,6 +8,7 @@ from pgm.core.beliefs import Intensity, Particles
 from pgm.core.errors import DegenerateWeightsError, InputError
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
+from pgm.core.plate import Lifecycle, Plate
 from pgm.core.variable import ROLES, Variable
 from pgm.factors import (
     AR2Transition,
@@ -21,6 +22,7 @@ from pgm.factors import (
     PriorFactor,
     TransitionFactor,
 )
+from pgm.factors.plates import DetectionLikelihood, InteractionFactor, MutualExclusion
 
 __version__ = "0.1.0"
 
@@ -28,5 +30,6 @@ __all__ = [
     "Variable", "ROLES", "Factor", "PriorFactor", "TransitionFactor", "LikelihoodFactor",
     "CouplingFactor", "ConjugateFactor", "GaussianPrior", "LinearGaussianTransition",
     "AR2Transition", "LinearGaussianLikelihood", "FactorGraph", "FrameContext", "Particles",
-    "Intensity", "InputError", "DegenerateWeightsError", "__version__",
+    "Intensity", "InputError", "DegenerateWeightsError", "__version__", "Plate", "Lifecycle",
+    "InteractionFactor", "MutualExclusion", "DetectionLikelihood",
 ]

@@ -265,7 +265,7 @@ def load_model_file(path: str | Path):
 
 
 def _is_multi_target(graph) -> bool:
-    return any(v.role == "set" for v in graph.variables.values())
+    return bool(graph.plates) or any(v.role == "set" for v in graph.variables.values())
 
 
 def _reject_model_options(args: argparse.Namespace | None, what: str) -> None:
@@ -352,7 +352,10 @@ def _print_metrics(metrics: dict, stream=None) -> None:
         print(f"{k:<{width}}  {v}", file=stream)
 
 
-MULTI_TARGET_MODELS = ("phd", "vb-phd")
+MULTI_TARGET_MODELS = ("phd", "vb-phd", "multi-pf")
+#: multi-target models declared as a plate (one sub-graph per target) and their options
+PLATE_MODELS = ("multi-pf",)
+PLATE_OPTIONS = ("parts", "appearance", "scale_noise")
 
 
 def _memory_limit(args) -> float | None:
@@ -373,7 +376,14 @@ def cmd_track_multi(args, source, saved=None) -> int:
     what = f"the multi-target model {args.model!r}"
     if args.init is not None:
         raise InputError(f"--init does not apply to {what}")
-    _reject_model_options(args, what)
+    plate = args.model in PLATE_MODELS or (saved is not None and bool(saved.plates))
+    for opt in MODEL_OPTIONS:
+        if _given(args, opt) and (saved is not None or not plate or opt not in PLATE_OPTIONS):
+            raise InputError(f"{_flag(opt)} does not apply to {what}")
+    if plate:
+        for opt in ("dbn", "per_track_noise", "scale_aware", "scores"):
+            if _given(args, opt):
+                raise InputError(f"{_flag(opt)} applies to phd, vb-phd, not to {what}")
     if saved is not None:
         for opt in ("per_track_noise", "scale_aware", "scores"):
             if _given(args, opt):
@@ -392,6 +402,17 @@ def cmd_track_multi(args, source, saved=None) -> int:
         graph = saved
         if args.particles is not None:
             engine_kwargs = {"num_particles": args.particles}
+    elif plate:
+        import dataclasses
+
+        module = get_model(args.model)
+        kwargs = {opt_field: getattr(args, opt) for opt, opt_field in MODEL_OPTIONS.items()
+                  if _given(args, opt)}
+        if args.particles is not None:
+            kwargs["num_particles"] = args.particles
+        if "fps" in {f.name for f in dataclasses.fields(module.Params)}:
+            kwargs["fps"] = float(source.fps)
+        graph = module.build_graph(module.Params(**kwargs))
     else:
         module = get_model(args.model)
         width, height = source.size

@@ -27,6 +27,7 @@ from pgm.core.readout import readout
 from pgm.evaluation.calibration import reliability
 from pgm.evaluation.single_object import single_object_metrics
 from pgm.inference.engine import Engine, StepRecord
+from pgm.inference.plates import make_engine
 from pgm.io.annotated_video import AnnotatedVideoWriter
 from pgm.io.annotations import MotWriter, SingleTrack, load_single_gt
 from pgm.io.outputs import prepare_run_folder, write_json, write_run_status
@@ -338,7 +339,7 @@ def estimate_memory(graph: FactorGraph, frame_size: tuple[int, int] | None, *,
 
     ``base + Σ_v N_v (k_v + 1) c + W H (L + 1) p``: for each variable ``v`` its particle
     count ``N_v`` (``num_particles``, else the graph's engine settings; per target ×
-    ``targets`` for a ``set`` variable), ``k_v`` the factors on it and ``c`` the bytes
+    ``targets`` for a ``set`` variable or a plate's), ``k_v`` the factors on it and ``c`` the bytes
     per particle and factor (:data:`MEMORY_PER_PARTICLE_FACTOR`,
     :data:`MEMORY_PER_SET_PARTICLE`); ``L`` the likelihood factors and ``p``
     :data:`MEMORY_PER_PIXEL_FACTOR` bytes per pixel of the ``(W, H)`` frame. The
@@ -349,6 +350,7 @@ def estimate_memory(graph: FactorGraph, frame_size: tuple[int, int] | None, *,
     default = settings.get("num_particles", 100) if isinstance(settings, dict) else 100
     total = MEMORY_BASE
     n_lik = 0
+    plated = graph.plate_variables
     for name, var in graph.variables.items():
         if num_particles is not None:
             n = num_particles
@@ -362,7 +364,9 @@ def estimate_memory(graph: FactorGraph, frame_size: tuple[int, int] | None, *,
             n_targets = targets if targets is not None else DEFAULT_TARGETS
             total += float(n) * max(n_targets, 1) * (len(facs) + 1) * MEMORY_PER_SET_PARTICLE
         elif var.role in ("part", "latent") or var.dim > 0:
-            total += float(n) * (len(facs) + 1) * MEMORY_PER_PARTICLE_FACTOR
+            k = max(targets if targets is not None else DEFAULT_TARGETS, 1) if name in plated \
+                else 1
+            total += float(n) * k * (len(facs) + 1) * MEMORY_PER_PARTICLE_FACTOR
     if frame_size is not None:
         total += float(frame_size[0]) * float(frame_size[1]) * (n_lik + 1) \
             * MEMORY_PER_PIXEL_FACTOR
@@ -437,7 +441,9 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
                 engine_kwargs: dict[str, Any] | None = None,
                 camera_motion: str = "auto",
                 memory_limit_bytes: float | None = None) -> MultiTrackResult:
-    """Track every target through ``source`` with a set-variable graph (PHD, VB-PHD).
+    """Track every target through ``source`` with a set-variable graph (PHD, VB-PHD) or a
+    plate graph (one sub-graph per target: ``multi-pf``, ``gpdm``; run by
+    :class:`~pgm.inference.plates.PlateEngine`).
 
     ``detector(frame_number, image) -> Detections`` gives each frame's measurements
     (their foot points); boxes are reported at the track's foot point with the size of
@@ -461,7 +467,7 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
     if table is not None and len(table):
         targets = int(np.max(np.unique(table.frames, return_counts=True)[1]))
     check_memory(graph, size, targets=targets, limit=memory_limit_bytes)
-    engine = Engine(graph, rng, **(engine_kwargs or {}))
+    engine = make_engine(graph, rng, **(engine_kwargs or {}))
     motion = CameraMotionEstimator(camera_motion)
     motion_secs = 0.0
     noise = [v for v in engine.graph.variables.values() if v.role == "noise"]
@@ -511,7 +517,11 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
                 writer.write(number, ids, boxes, conf)
             if video is not None:
                 particles = None
-                if show_particles:
+                if show_particles and graph.plates:
+                    x = engine.beliefs(var)[0]
+                    particles = ({var: x[..., _xy_columns(engine.graph, var)].reshape(-1, 2)}
+                                 if x.size else None)
+                elif show_particles:
                     b = record.beliefs[var]
                     particles = ({var: b.x[:, _xy_columns(engine.graph, var)]}
                                  if b.num else None)

@@ -11,6 +11,7 @@ kind            role in inference
 ``likelihood``  links a variable to the current frame / measurements
 ``coupling``    links two variables in the same frame (parts of one object)
 ``conjugate``   links a ``noise`` variable to a likelihood it parameterises (VB)
+``interaction`` links the replicas of a plate to each other (mutual exclusion, ...)
 =============== ======================================================================
 
 Each factor is a small object with the few vectorised methods the algorithms need
@@ -38,7 +39,7 @@ from pgm.core.variable import Variable
 
 __all__ = ["Factor", "factor_from_dict", "registered_factor_types", "KINDS"]
 
-KINDS = ("prior", "transition", "likelihood", "coupling", "conjugate")
+KINDS = ("prior", "transition", "likelihood", "coupling", "conjugate", "interaction")
 _REGISTRY: dict[str, type[Factor]] = {}
 
 

@@ -31,6 +31,7 @@ from typing import Any
 import networkx as nx
 
 from pgm.core.factor import Factor, factor_from_dict
+from pgm.core.plate import Plate
 from pgm.core.variable import Variable
 
 __all__ = ["FactorGraph"]
@@ -50,12 +51,17 @@ class FactorGraph:
     meta : dict, optional
         JSON-ready extra information: which variable is the tracker's output
         (``meta["output"]``), suggested engine settings (``meta["engine"]``), ...
+    plates : iterable of Plate, optional
+        Sub-graphs replicated once per target (:mod:`pgm.core.plate`); a graph with a
+        plate runs on :class:`pgm.inference.plates.PlateEngine`. At most one plate.
     """
 
     def __init__(self, variables: Iterable[Variable], factors: Iterable[Factor],
-                 name: str = "model", meta: dict[str, Any] | None = None):
+                 name: str = "model", meta: dict[str, Any] | None = None,
+                 plates: Iterable[Plate] = ()):
         self.name = str(name)
         self.meta: dict[str, Any] = dict(meta or {})
+        self.plates: tuple[Plate, ...] = tuple(plates)
         self.variables: dict[str, Variable] = {}
         for v in variables:
             if not isinstance(v, Variable):
@@ -91,7 +97,38 @@ class FactorGraph:
                     raise ValueError(f"factor {f.name!r} names unknown variable {var!r} "
                                      f"(declared: {sorted(self.variables)})")
                 self.nx.add_edge(f.name, var)
+        self._check_plates()
         self.validate()
+
+    def _check_plates(self) -> None:
+        for p in self.plates:
+            if not isinstance(p, Plate):
+                raise ValueError(f"graph {self.name!r}: {p!r} is not a Plate")
+        if len(self.plates) > 1:
+            raise ValueError(f"graph {self.name!r}: {len(self.plates)} plates declared; one "
+                             f"plate per graph is supported")
+        inside = self.plate_variables
+        for p in self.plates:
+            for v in p.variables:
+                if v not in self.variables:
+                    raise ValueError(f"plate {p.name!r} names unknown variable {v!r} "
+                                     f"(declared: {sorted(self.variables)})")
+        for f in self.factors.values():
+            n_in = sum(v in inside for v in f.variables)
+            if f.kind == "interaction" and n_in != len(f.variables):
+                raise ValueError(f"interaction factor {f.name!r} links replicas of a plate, "
+                                 f"but {[v for v in f.variables if v not in inside]} is in "
+                                 f"no plate")
+            if 0 < n_in < len(f.variables):
+                raise ValueError(
+                    f"factor {f.name!r} links variables inside the plate with "
+                    f"{[v for v in f.variables if v not in inside]} outside it; parameters "
+                    f"shared by every replica belong in the factor's parameters")
+
+    @property
+    def plate_variables(self) -> set[str]:
+        """Names of the variables inside a plate."""
+        return {v for p in self.plates for v in p.variables}
 
     # -- validation --------------------------------------------------------------------
     def validate(self) -> None:
@@ -150,22 +187,28 @@ class FactorGraph:
         """A new graph with ``factors`` added (validated like any graph), e.g. one more
         appearance likelihood on an existing model. The factors are shared, not copied."""
         return type(self)(list(self.variables.values()), list(self.factors.values())
-                          + list(factors), name=name or self.name, meta=self.meta)
+                          + list(factors), name=name or self.name, meta=self.meta,
+                          plates=self.plates)
 
     def __repr__(self) -> str:
         kinds = {}
         for f in self.factors.values():
             kinds[f.kind] = kinds.get(f.kind, 0) + 1
+        plates = "".join(f", plate {p.name!r}[{p.size_label}]={list(p.variables)}"
+                         for p in self.plates)
         return (f"FactorGraph({self.name!r}, variables={list(self.variables)}, "
-                f"factors={kinds})")
+                f"factors={kinds}{plates})")
 
     # -- serialisation -----------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready declaration with every factor's parameters."""
-        return {"format": "pgm-factor-graph", "version": FORMAT_VERSION, "name": self.name,
-                "meta": self.meta,
-                "variables": [v.to_dict() for v in self.variables.values()],
-                "factors": [f.to_dict() for f in self.factors.values()]}
+        d = {"format": "pgm-factor-graph", "version": FORMAT_VERSION, "name": self.name,
+             "meta": self.meta,
+             "variables": [v.to_dict() for v in self.variables.values()],
+             "factors": [f.to_dict() for f in self.factors.values()]}
+        if self.plates:
+            d["plates"] = [p.to_dict() for p in self.plates]
+        return d
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> FactorGraph:
@@ -177,9 +220,11 @@ class FactorGraph:
         try:
             variables = [Variable.from_dict(v) for v in d["variables"]]
             factors = [factor_from_dict(f) for f in d["factors"]]
+            plates = [Plate.from_dict(p) for p in d.get("plates") or []]
         except (KeyError, TypeError) as exc:
             raise ValueError(f"malformed factor-graph declaration: {exc}") from None
-        return cls(variables, factors, name=d.get("name", "model"), meta=d.get("meta"))
+        return cls(variables, factors, name=d.get("name", "model"), meta=d.get("meta"),
+                   plates=plates)
 
     def save(self, path: str | Path) -> None:
         """Write the declaration with its parameters to a JSON file."""

@@ -91,6 +91,17 @@ class GaussianPrior(PriorFactor):
     def mean(self) -> np.ndarray:
         return self.mean_.copy()
 
+    def born_at(self, values: dict[str, float], labels) -> GaussianPrior:
+        """The same prior with the mean's components named in ``values`` replaced (a plate
+        replica starting on its own box); the covariance is kept."""
+        mean = self.mean_.copy()
+        labels = list(labels or ())
+        for key, val in values.items():
+            if key not in labels:
+                raise ValueError(f"prior {self.name!r}: no component {key!r} in {labels}")
+            mean[labels.index(key)] = float(val)
+        return GaussianPrior(self.variables[0], mean=mean, cov=self.cov, name=self.name)
+
     def log_prob(self, x: np.ndarray) -> np.ndarray:
         """Gaussian log-density (requires a non-singular ``cov``)."""
         from scipy.stats import multivariate_normal
@@ -215,6 +226,11 @@ class AR2Transition(TransitionFactor):
         noise is ``jump_scale`` times wider (a two-component Gaussian mixture; 0: none).
         The narrow component keeps the particles dense on slow motion, the wide one
         keeps hypotheses at the distances a fast object covers in one frame.
+    relative : bool
+        Scale-aware noise: ``noise_std`` is in units of each particle's own box height
+        (component ``size_indices[1]`` of ``x_{t-1}``), and the log-scale step is not
+        clamped to a reference size — one setting for a person near the camera and one
+        far away (plate models). Default False (pixels).
     """
 
     order = 2
@@ -222,8 +238,12 @@ class AR2Transition(TransitionFactor):
     def __init__(self, variable: str, *, noise_std, damping: float = 0.5,
                  scale_noise: float = 0.0, reference_size=None,
                  scale_clamp=(0.5, 2.0), size_indices=(2, 3), jump_prob: float = 0.0,
-                 jump_scale: float = 1.0, name: str | None = None):
+                 jump_scale: float = 1.0, relative: bool = False, name: str | None = None):
         super().__init__(variable, name=name)
+        if not isinstance(relative, (bool, np.bool_)):
+            raise ValueError(f"factor {self.name!r}: relative must be true or false, got "
+                             f"{relative!r}")
+        self.relative = bool(relative)
         self.jump_prob = float(check_finite_param(f"{self.name}.jump_prob", jump_prob,
                                                   nonneg=True))
         if self.jump_prob >= 1:
@@ -243,7 +263,7 @@ class AR2Transition(TransitionFactor):
         self.size_indices = tuple(int(i) for i in size_indices)
         self.reference_size = (None if reference_size is None
                                else np.asarray(reference_size, dtype=float))
-        if self.scale_noise > 0:
+        if self.scale_noise > 0 and not self.relative:
             if self.reference_size is None or self.reference_size.shape != (2,):
                 raise ValueError(f"factor {self.name!r}: scale_noise needs reference_size=(w0, h0)")
             check_finite_param(f"{self.name}.reference_size", self.reference_size, positive=True)
@@ -255,6 +275,10 @@ class AR2Transition(TransitionFactor):
                      scale_clamp=list(self.scale_clamp), size_indices=list(self.size_indices))
         if self.jump_prob > 0:
             p.update(jump_prob=self.jump_prob, jump_scale=self.jump_scale)
+        if self.relative:
+            p.update(relative=True, size_indices=list(self.size_indices))
+            p.pop("reference_size", None)
+            p.pop("scale_clamp", None)
         return p
 
     def check(self, variables: dict[str, Variable]) -> None:
@@ -264,6 +288,8 @@ class AR2Transition(TransitionFactor):
         x1 = past[0]
         x2 = past[1] if len(past) > 1 else past[0]
         noise = rng.standard_normal(x1.shape) * self.noise_std
+        if self.relative:
+            noise *= np.maximum(x1[:, self.size_indices[1]], 1e-6)[:, None]
         if self.jump_prob > 0:
             noise *= np.where(rng.random(x1.shape[0]) < self.jump_prob, self.jump_scale,
                               1.0)[:, None]
@@ -271,6 +297,10 @@ class AR2Transition(TransitionFactor):
         if self.scale_noise > 0:
             iw, ih = self.size_indices
             step = np.exp(self.scale_noise * rng.standard_normal(x.shape[0]))
+            if self.relative:
+                x[:, iw] = np.maximum(x[:, iw], 1e-6) * step
+                x[:, ih] = np.maximum(x[:, ih], 1e-6) * step
+                return x
             lo, hi = self.scale_clamp
             w = np.clip(x[:, iw] * step, lo * self.reference_size[0], hi * self.reference_size[0])
             s = w / np.maximum(x[:, iw], 1e-12)
@@ -280,9 +310,9 @@ class AR2Transition(TransitionFactor):
         return x
 
     def log_prob(self, x: np.ndarray, *past: np.ndarray) -> np.ndarray:
-        if self.scale_noise > 0 or np.any(self.noise_std == 0):
-            raise ValueError(f"factor {self.name!r}: log_prob needs positive noise on every "
-                             f"component and no scale step")
+        if self.relative or self.scale_noise > 0 or np.any(self.noise_std == 0):
+            raise ValueError(f"factor {self.name!r}: log_prob needs positive noise in pixels on "
+                             f"every component and no scale step")
         x1 = past[0]
         x2 = past[1] if len(past) > 1 else past[0]
         r = (x - x1 - self.damping * (x1 - x2)) / self.noise_std

@@ -36,6 +36,12 @@ class PriorFactor(Factor):
     def mean(self) -> np.ndarray:
         """Mean value, shape ``(d,)`` (used to initialise templates)."""
 
+    def born_at(self, values: dict[str, float], labels) -> PriorFactor:
+        """This prior re-centred on a new target: the components named in ``values``
+        (e.g. ``cx, cy, w, h``) set, for a plate replica born on a detection."""
+        raise ValueError(f"prior {self.name!r} ({type(self).__name__}) cannot be re-centred "
+                         f"on a new target; give it a born_at method")
+
 
 class TransitionFactor(Factor):
     """``p(x_t | x_{t-1}, ..., x_{t-order})`` for one variable."""

@@ -3,8 +3,11 @@
 Variables are circles coloured by role; factors are small squares coloured by kind.
 Unary factors sit around their variable (prior on the left, transition above, drawn
 with a loop to ``t-1``, likelihoods below next to a shaded circle for the observed
-frame ``z_t``); a factor linking several variables sits between them. Output is
-PNG/SVG/PDF through matplotlib (no Graphviz binary needed) or DOT text.
+frame ``z_t``); a factor linking several variables sits between them. A plate (one
+sub-graph per target) is a box around its variables and their factors labelled with its
+size (``K``), as in the textbooks; a factor between the replicas (kind
+``"interaction"``) sits on the box's edge with a dashed link to the other replicas.
+Output is PNG/SVG/PDF through matplotlib (no Graphviz binary needed) or DOT text.
 """
 
 from __future__ import annotations
@@ -22,9 +25,9 @@ __all__ = ["to_dot", "draw", "layout", "ROLE_COLOURS", "KIND_COLOURS"]
 ROLE_COLOURS = {"part": "#8ecae6", "state": "#b7e4c7", "latent": "#ffd6a5",
                 "noise": "#e0aaff", "set": "#ffadad"}
 KIND_COLOURS = {"prior": "#6c757d", "transition": "#1d3557", "likelihood": "#e63946",
-                "coupling": "#f4a261", "conjugate": "#7b2cbf"}
+                "coupling": "#f4a261", "conjugate": "#7b2cbf", "interaction": "#2a9d8f"}
 _UNARY_ANGLE = {"prior": 5 * np.pi / 6, "transition": np.pi / 2, "likelihood": -np.pi / 2,
-                "conjugate": np.pi / 6, "coupling": 0.0}
+                "conjugate": np.pi / 6, "coupling": 0.0, "interaction": 0.0}
 
 
 def _dot_id(name: str) -> str:
@@ -37,6 +40,14 @@ def to_dot(graph: FactorGraph) -> str:
     for v in graph.variables.values():
         lines.append(f"  {_dot_id(v.name)} [shape=circle, style=filled, "
                      f"fillcolor=\"{ROLE_COLOURS[v.role]}\", label=\"{v.name}\\n({v.role})\"];")
+    for p in graph.plates:
+        members = set(p.variables) | {f.name for f in graph.factors.values()
+                                      if f.kind != "interaction"
+                                      and all(v in p.variables for v in f.variables)}
+        lines.append(f"  subgraph {_dot_id('cluster_' + p.name)} {{")
+        lines.append(f"    label=\"{p.name} ({p.size_label})\"; labelloc=b; labeljust=r;")
+        lines += [f"    {_dot_id(n)};" for n in sorted(members)]
+        lines.append("  }")
     for f in graph.factors.values():
         lines.append(f"  {_dot_id(f.name)} [shape=square, style=filled, width=0.25, "
                      f"fixedsize=true, label=\"\", fillcolor=\"{KIND_COLOURS[f.kind]}\", "
@@ -106,6 +117,25 @@ def layout(graph: FactorGraph) -> dict[str, np.ndarray]:
             if f.kind == "conjugate":
                 centre = centre + np.array([0.0, 0.6])
             out[f.name] = centre
+    for (_x0, _y0, _x1, y1), p in zip(plate_boxes(graph, out), graph.plates, strict=True):
+        for f in graph.factors.values():  # on the plate's top edge, right of the variable
+            if f.kind == "interaction" and f.variables[0] in p.variables:
+                out[f.name] = np.array([out[f.variables[0]][0] + 1.2, y1])
+    return out
+
+
+def plate_boxes(graph: FactorGraph, pos: dict[str, np.ndarray]
+                ) -> list[tuple[float, float, float, float]]:
+    """``(x0, y0, x1, y1)`` of each plate: around its variables and their factors (not the
+    observed frames, not the interaction factors, which sit on its edge)."""
+    out = []
+    for p in graph.plates:
+        names = list(p.variables) + [f.name for f in graph.factors.values()
+                                     if f.kind != "interaction"
+                                     and all(v in p.variables for v in f.variables)]
+        pts = np.array([pos[n] for n in names if n in pos])
+        lo, hi = pts.min(axis=0) - 0.75, pts.max(axis=0) + 0.75
+        out.append((float(lo[0]), float(lo[1]), float(hi[0] + 0.4), float(hi[1])))
     return out
 
 
@@ -133,6 +163,19 @@ def draw(graph: FactorGraph, path: str | Path | None = None, ax=None,
         h = max(3.5, (ys.max() - ys.min()) * 1.2 + 2.5)
         fig, ax = plt.subplots(figsize=(w, h))
     r_var, s_fac = 0.45, 0.28
+    for (x0, y0, x1, y1), p in zip(plate_boxes(graph, pos), graph.plates, strict=True):
+        ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fc="none", ec="#333", lw=1.4,
+                               zorder=0.5))
+        ax.text(x1 - 0.12, y0 + 0.12, p.size_label, ha="right", va="bottom", fontsize=12,
+                style="italic", zorder=4)
+        ax.text(x0 + 0.12, y1 - 0.12, p.name, ha="left", va="top", fontsize=8, color="#333",
+                zorder=4)
+    for f in graph.factors_by_kind("interaction"):
+        q = pos[f.name]
+        ax.plot([q[0], q[0] + 0.6], [q[1], q[1] + 0.6], color="#2a9d8f", lw=1.2, ls="--",
+                zorder=1)
+        ax.text(q[0] + 0.65, q[1] + 0.65, "j≠k", ha="left", va="bottom", fontsize=7,
+                color="#2a9d8f")
     for f in graph.factors.values():
         for v in f.variables:
             ax.plot(*zip(pos[f.name], pos[v], strict=True), color="#444", lw=1.2, zorder=1)
@@ -156,7 +199,11 @@ def draw(graph: FactorGraph, path: str | Path | None = None, ax=None,
         label = type(f).__name__
         if f.kind == "likelihood" and label.endswith("Likelihood") and label != "Likelihood":
             label = label[:-len("Likelihood")]  # the colour already says "likelihood"
-        ax.text(p[0], p[1] - 0.32, label, ha="center", va="top", fontsize=7, zorder=4)
+        if f.kind == "interaction":  # on the plate's edge: label outside it
+            ax.text(p[0] - 0.2, p[1] + 0.25, label, ha="right", va="bottom", fontsize=7,
+                    zorder=4)
+        else:
+            ax.text(p[0], p[1] - 0.32, label, ha="center", va="top", fontsize=7, zorder=4)
     for v in graph.variables.values():
         p = pos[v.name]
         ax.add_patch(Circle(p, r_var, fc=ROLE_COLOURS[v.role], ec="k", lw=1.5, zorder=3))
@@ -168,8 +215,8 @@ def draw(graph: FactorGraph, path: str | Path | None = None, ax=None,
     ax.autoscale_view()
     xs = np.array([p[0] for p in pos.values()])
     ys = np.array([p[1] for p in pos.values()])
-    ax.set_xlim(xs.min() - 1.5, xs.max() + 1.8)
-    ax.set_ylim(ys.min() - 1.0, ys.max() + 1.0)
+    ax.set_xlim(xs.min() - 1.5, xs.max() + (2.4 if graph.plates else 1.8))
+    ax.set_ylim(ys.min() - 1.0, ys.max() + (1.6 if graph.plates else 1.0))
     ax.axis("off")
     kinds = sorted({f.kind for f in graph.factors.values()})
     handles = [Rectangle((0, 0), 1, 1, fc=KIND_COLOURS[k], ec="k") for k in kinds]

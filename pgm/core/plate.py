@@ -1,0 +1,174 @@
+"""Plates: a sub-graph replicated once per tracked target.
+
+A :class:`Plate` marks some variables of a :class:`~pgm.FactorGraph` (and with them
+every factor whose scope lies inside it) as one *replica per target*, as the plate
+notation of the textbooks draws a box labelled ``K`` around them. The graph is declared
+once, for one target; the plate engine (:class:`pgm.inference.plates.PlateEngine`)
+keeps the replicas' beliefs batched along a leading target axis ``(K, N, d)``, adds a
+replica when a target is born and removes it when its track ends.
+
+What is shared and what is per replica:
+
+* a factor's *parameters* live once, in the declaration (the learned dynamics of a
+  GPDM, the noise of a transition): every replica uses the same factor object unless
+  the factor learns per target;
+* a factor that *learns* from the image (a colour template, a correlation filter) is
+  copied per replica at its birth, so each target keeps its own appearance;
+* the prior of each plate variable is re-centred on the target's birth box
+  (``prior.born_at``);
+* factors *between* replicas are of kind ``"interaction"`` (e.g.
+  :class:`~pgm.factors.plates.MutualExclusion`): one factor, read by every replica
+  against the others.
+
+The track life cycle (confirmation after ``confirm_hits`` detections, coasting, a lost
+stage for re-identification, an existence score, identities) is the plate's
+:class:`Lifecycle`, declared with it and saved with the graph.
+
+>>> p = Plate("target", ["box"])
+>>> Plate.from_dict(p.to_dict()) == p
+True
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, fields
+from typing import Any
+
+__all__ = ["Plate", "Lifecycle"]
+
+
+def _check_number(name: str, value: Any, low: float, high: float = float("inf"),
+                  integer: bool = False) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"plate lifecycle: {name} must be a number, got {value!r}")
+    if integer and int(value) != value:
+        raise ValueError(f"plate lifecycle: {name} must be an integer, got {value!r}")
+    if not (low <= value <= high):  # also false for NaN
+        raise ValueError(f"plate lifecycle: {name} must be in [{low}, {high}], got {value!r}")
+
+
+@dataclass(frozen=True)
+class Lifecycle:
+    """How replicas of a plate start and end (the track layer of a plate).
+
+    Each frame the replicas' estimated boxes are matched to the frame's detections
+    (Hungarian assignment on ``1 − IoU``, a match needs IoU ≥ ``match_iou``). A
+    detection that matches no replica and overlaps none by more than ``birth_iou`` (and
+    scores at least ``birth_min_score``) starts a new replica, *tentative* until it has
+    been matched ``confirm_hits`` frames; a tentative replica is removed at its first
+    miss. A confirmed replica without a match is reported for ``max_coast`` frames
+    (coasting), kept unreported until ``max_lost`` frames (lost: a later match brings it
+    back under its old identity) and then removed. The existence score is the logistic
+    of a log-odds that gains ``hit_log_odds`` per match and loses ``miss_log_odds`` per
+    miss (clamped to ±10).
+
+    Attributes
+    ----------
+    confirm_hits, max_coast, max_lost : int
+    match_iou, birth_iou : float
+        IoU thresholds in [0, 1].
+    birth_min_score : float
+        Detections scoring below it never start a replica (``-inf``: all do).
+    hit_log_odds, miss_log_odds : float
+    """
+
+    confirm_hits: int = 3
+    max_coast: int = 5
+    max_lost: int = 30
+    match_iou: float = 0.3
+    birth_iou: float = 0.3
+    birth_min_score: float = float("-inf")
+    hit_log_odds: float = 1.0
+    miss_log_odds: float = 1.0
+
+    def __post_init__(self) -> None:
+        _check_number("confirm_hits", self.confirm_hits, 1, integer=True)
+        _check_number("max_coast", self.max_coast, 0, integer=True)
+        _check_number("max_lost", self.max_lost, self.max_coast, integer=True)
+        _check_number("match_iou", self.match_iou, 0.0, 1.0)
+        _check_number("birth_iou", self.birth_iou, 0.0, 1.0)
+        if isinstance(self.birth_min_score, bool) or not isinstance(
+                self.birth_min_score, (int, float)) or self.birth_min_score != self.birth_min_score:
+            raise ValueError(f"plate lifecycle: birth_min_score must be a number, got "
+                             f"{self.birth_min_score!r}")
+        _check_number("hit_log_odds", self.hit_log_odds, 0.0)
+        _check_number("miss_log_odds", self.miss_log_odds, 0.0)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready settings (``-inf`` written as ``null``)."""
+        d = asdict(self)
+        if d["birth_min_score"] == float("-inf"):
+            d["birth_min_score"] = None
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any] | None) -> Lifecycle:
+        """Inverse of :meth:`to_dict`; unknown keys are a ``ValueError``."""
+        d = dict(d or {})
+        known = {f.name for f in fields(cls)}
+        unknown = set(d) - known
+        if unknown:
+            raise ValueError(f"plate lifecycle: unknown settings {sorted(unknown)} "
+                             f"(known: {sorted(known)})")
+        if d.get("birth_min_score", 0.0) is None:
+            d["birth_min_score"] = float("-inf")
+        return cls(**d)
+
+
+@dataclass(frozen=True)
+class Plate:
+    """A set of variables replicated once per target.
+
+    Parameters
+    ----------
+    name : str
+        The plate's name (e.g. ``"target"``).
+    variables : sequence of str
+        The variables inside the plate.
+    size_label : str
+        The letter the drawing writes in the plate's corner (``"K"``).
+    lifecycle : Lifecycle
+        Births and deaths of replicas.
+    """
+
+    name: str
+    variables: tuple[str, ...]
+    size_label: str = "K"
+    lifecycle: Lifecycle = field(default_factory=Lifecycle)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f"plate name must be a non-empty string, got {self.name!r}")
+        if isinstance(self.variables, str):
+            raise ValueError(f"plate {self.name!r}: variables must be a list of names, not "
+                             f"the string {self.variables!r}")
+        names = tuple(self.variables)
+        if not names:
+            raise ValueError(f"plate {self.name!r} holds no variable")
+        for v in names:
+            if not isinstance(v, str) or not v:
+                raise ValueError(f"plate {self.name!r}: variable names must be strings, got "
+                                 f"{v!r}")
+        if len(set(names)) != len(names):
+            raise ValueError(f"plate {self.name!r} lists a variable twice: {list(names)}")
+        object.__setattr__(self, "variables", names)
+        if not isinstance(self.lifecycle, Lifecycle):
+            raise ValueError(f"plate {self.name!r}: lifecycle must be a Lifecycle, got "
+                             f"{self.lifecycle!r}")
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready declaration."""
+        return {"name": self.name, "variables": list(self.variables),
+                "size_label": self.size_label, "lifecycle": self.lifecycle.to_dict()}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> Plate:
+        """Inverse of :meth:`to_dict`."""
+        if not isinstance(d, dict):
+            raise ValueError(f"malformed plate declaration {d!r}")
+        try:
+            return cls(name=d["name"], variables=tuple(d["variables"]),
+                       size_label=str(d.get("size_label", "K")),
+                       lifecycle=Lifecycle.from_dict(d.get("lifecycle")))
+        except (KeyError, TypeError) as exc:
+            raise ValueError(f"malformed plate declaration: missing {exc}") from None
