@@ -71,6 +71,7 @@ from pgm.core.boxes import cxcywh_to_xywh, iou_xywh
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
 from pgm.core.motion import warp_states
+from pgm.core.readout import Targets, register_readout
 from pgm.factors import LikelihoodFactor
 
 from .engine import StepRecord, message_order
@@ -460,18 +461,28 @@ class PlateEngine:
     # -- one frame ----------------------------------------------------------------------
     def step(self, frame: FrameContext, *, lifecycle: bool = True) -> StepRecord:
         """Step every replica through ``frame``; then births and deaths from its detections
-        (``lifecycle=False``: none, e.g. for targets managed by the caller)."""
+        (``lifecycle=False``: none, e.g. for targets managed by the caller).
+
+        A frame with neither image nor detections is *missing*: the replicas are only
+        predicted (no weighting, learning, resampling, births or deaths) and their
+        predicted boxes reported."""
         if not isinstance(frame, FrameContext):
             raise ValueError(f"step() needs a FrameContext, got {type(frame).__name__}")
         self.frame = frame
         record = StepRecord(frame=frame.index)
         info: dict[str, Any] = {}
         b = self.batch
+        missing = frame.image is None and frame.detections is None
         if b.K:
             self._predict(b, frame)
-            self._tail(b, frame, info, interact=True)
-        if lifecycle:
+            if missing:  # a missing frame: prediction only, the chains go on
+                for v in self.graph.variables:
+                    b.est[v] = self._means(b, v)
+            else:
+                self._tail(b, frame, info, interact=True)
+        if lifecycle and not missing:
             self._lifecycle(frame, info)
+        info["missing"] = missing
         b = self.batch
         for v in self.graph.variables:
             record.estimates[v] = b.est.get(v, np.zeros((0, self.graph.variables[v].dim)))
@@ -748,3 +759,13 @@ def make_engine(graph: FactorGraph, rng: np.random.Generator, **kwargs: Any):
     from .engine import Engine
 
     return Engine(graph, rng, **kwargs)
+
+
+@register_readout("plate")
+def plate_targets(graph: FactorGraph, record: StepRecord) -> Targets:
+    """The replicas a plate engine's step reports (confirmed, not lost): identities,
+    boxes and existence scores (the ``"plate"`` readout)."""
+    info = record.info[graph.plates[0].name]
+    keep = info["reported"]
+    return Targets(info["ids"][keep], cxcywh_to_xywh(info["boxes"][keep]),
+                   info["existence"][keep], text=f"{int(keep.sum())} targets")

@@ -34,7 +34,6 @@ import numpy as np
 from pgm.core.graph import FactorGraph
 from pgm.core.numerics import check_finite_param
 from pgm.core.plate import Lifecycle, Plate
-from pgm.core.readout import Targets, register_readout
 from pgm.core.variable import Variable
 from pgm.factors import AR2Transition, GaussianPrior
 from pgm.factors.couplings import RelativeBoxCoupling
@@ -159,14 +158,3 @@ def build_graph(params: Params | None = None, name: str = "multi-pf") -> FactorG
             "readout": "plate", "reference_box": list(REFERENCE_BOX)}
     plate = Plate("person", tuple(names), lifecycle=p.lifecycle)
     return FactorGraph(variables, factors, name=name, meta=meta, plates=[plate])
-
-
-@register_readout("plate")
-def plate_targets(graph: FactorGraph, record) -> Targets:
-    """The reported replicas of a plate engine's step: identities, boxes, existence."""
-    from pgm.core.boxes import cxcywh_to_xywh
-
-    info = record.info[graph.plates[0].name]
-    keep = info["reported"]
-    return Targets(info["ids"][keep], cxcywh_to_xywh(info["boxes"][keep]),
-                   info["existence"][keep], text=f"{int(keep.sum())} targets")

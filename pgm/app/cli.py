@@ -8,9 +8,13 @@
               [--no-video] [--show-particles]
     pgm track SOURCE --model phd|vb-phd [--detections FILE | --detector public|mog2]
               --out DIR [--gt FILE]
+    pgm track SOURCE --model multi-pf [--parts 2|3] [--appearance CUES] --out DIR
+    pgm track SOURCE --model gpdm --gpdm FILE.npz [--motion gpdm|cv|cv3]
+              [--drop-frames A-B,...|P/L] --out DIR
     pgm eval --gt FILE --pred DIR/tracks.txt [--json]
     pgm graph MODEL [--parts 2|3] --out FILE.{png,svg,pdf,dot}
     pgm learn dbn --train SEQ [SEQ ...] --out FILE.npz
+    pgm learn gpdm --train SEQ [SEQ ...] --out FILE.npz [--plot FILE.png]
     pgm demo --out DIR
 
 Bad input (a missing or corrupt video, a malformed box or ground-truth file, a bad
@@ -151,8 +155,17 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--camera-motion", choices=("auto", "on", "off"), default="auto",
                    help="global-motion compensation of every target's prediction: auto (on "
                         "frames where the camera moves, default), on, off")
-    t.add_argument("--detections", help="phd/vb-phd: a MOTChallenge det.txt to use as "
-                                        "measurements")
+    t.add_argument("--detections", help="multi-target models: a MOTChallenge det.txt to "
+                                        "use as measurements")
+    t.add_argument("--gpdm", default=None, metavar="FILE.npz",
+                   help="gpdm: the learned dynamics ('pgm learn gpdm')")
+    t.add_argument("--motion", choices=("gpdm", "cv", "cv3"), default=None,
+                   help="gpdm: the motion model: the learned GPDM (default), constant "
+                        "velocity, or constant velocity averaged over three frames")
+    t.add_argument("--drop-frames", default=None, metavar="SPEC",
+                   help="multi-pf/gpdm: withhold frames to simulate missing ones (predicted "
+                        "through, still scored): ranges 'A-B,C-D' (1-based, inclusive) or "
+                        "'P/L' (the last L of every P frames), e.g. '50-59' or '30/10'")
     t.add_argument("--dbn", help="phd/vb-phd: a DBN person likelihood trained by "
                                  "'pgm learn dbn' (multiplies the detection terms)")
     t.add_argument("--scale-aware", action="store_true",
@@ -231,7 +244,8 @@ def _model_options(p: argparse.ArgumentParser) -> None:
 # -- commands ---------------------------------------------------------------------------
 MODEL_OPTIONS = {"parts": "n_parts", "split": "split", "topology": "topology",
                  "fusion": "fusion", "appearance": "appearance", "scale_noise": "scale_noise"}
-MULTI_TARGET_OPTIONS = ("dbn", "per_track_noise", "scale_aware", "scores")
+MULTI_TARGET_OPTIONS = ("dbn", "per_track_noise", "scale_aware", "scores", "gpdm", "motion",
+                        "drop_frames")
 
 
 def _flag(opt: str) -> str:
@@ -352,9 +366,9 @@ def _print_metrics(metrics: dict, stream=None) -> None:
         print(f"{k:<{width}}  {v}", file=stream)
 
 
-MULTI_TARGET_MODELS = ("phd", "vb-phd", "multi-pf")
+MULTI_TARGET_MODELS = ("phd", "vb-phd", "multi-pf", "gpdm")
 #: multi-target models declared as a plate (one sub-graph per target) and their options
-PLATE_MODELS = ("multi-pf",)
+PLATE_MODELS = ("multi-pf", "gpdm")
 PLATE_OPTIONS = ("parts", "appearance", "scale_noise")
 
 
@@ -363,6 +377,35 @@ def _memory_limit(args) -> float | None:
 
     text = getattr(args, "memory_limit", None)
     return None if text is None else _parse_bytes(text, "--memory-limit")
+
+
+def parse_drop_frames(spec: str | None, n_frames: int | None) -> set[int]:
+    """Frame numbers of ``--drop-frames``: ``"A-B,C"`` (1-based, inclusive ranges and
+    single frames) or ``"P/L"`` (the last ``L`` frames of every ``P``, which needs the
+    sequence length ``n_frames``)."""
+    if spec is None:
+        return set()
+    text = spec.strip()
+    try:
+        if "/" in text:
+            period, length = (int(v) for v in text.split("/"))
+            if not 0 < length < period:
+                raise ValueError
+            if n_frames is None:
+                raise InputError("--drop-frames P/L needs a source of known length; give "
+                                 "ranges A-B instead")
+            return {f for f in range(1, n_frames + 1) if (f - 1) % period >= period - length}
+        out: set[int] = set()
+        for part in text.split(","):
+            a, _, b = part.strip().partition("-")
+            lo, hi = int(a), int(b or a)
+            if lo < 1 or hi < lo:
+                raise ValueError
+            out.update(range(lo, hi + 1))
+        return out
+    except ValueError:
+        raise InputError(f"--drop-frames must be ranges like '50-59,80' or 'P/L' with "
+                         f"0 < L < P, got {spec!r}") from None
 
 
 def cmd_track_multi(args, source, saved=None) -> int:
@@ -384,6 +427,15 @@ def cmd_track_multi(args, source, saved=None) -> int:
         for opt in ("dbn", "per_track_noise", "scale_aware", "scores"):
             if _given(args, opt):
                 raise InputError(f"{_flag(opt)} applies to phd, vb-phd, not to {what}")
+    else:
+        for opt in ("drop_frames",):
+            if _given(args, opt):
+                raise InputError(f"{_flag(opt)} applies to {', '.join(PLATE_MODELS)}, not to "
+                                 f"{what}")
+    if args.model != "gpdm":
+        for opt in ("gpdm", "motion"):
+            if _given(args, opt):
+                raise InputError(f"{_flag(opt)} applies to gpdm, not to {what}")
     if saved is not None:
         for opt in ("per_track_noise", "scale_aware", "scores"):
             if _given(args, opt):
@@ -412,6 +464,17 @@ def cmd_track_multi(args, source, saved=None) -> int:
             kwargs["num_particles"] = args.particles
         if "fps" in {f.name for f in dataclasses.fields(module.Params)}:
             kwargs["fps"] = float(source.fps)
+        if args.model == "gpdm":
+            kwargs["motion"] = args.motion or "gpdm"
+            if kwargs["motion"] == "gpdm":
+                if args.gpdm is None:
+                    raise InputError("--model gpdm needs --gpdm FILE.npz (learn one with 'pgm "
+                                     "learn gpdm'), or --motion cv|cv3 for the baselines")
+                if not Path(args.gpdm).is_file():
+                    raise InputError(f"--gpdm: no such file: {args.gpdm}")
+                kwargs["model"] = args.gpdm
+            elif args.gpdm is not None:
+                raise InputError(f"--gpdm applies to --motion gpdm, not {kwargs['motion']}")
         graph = module.build_graph(module.Params(**kwargs))
     else:
         module = get_model(args.model)
@@ -442,7 +505,8 @@ def cmd_track_multi(args, source, saved=None) -> int:
                          gt=gt, write_video=not args.no_video, show_particles=args.show_particles,
                          progress=not args.quiet, max_frames=args.max_frames,
                          camera_motion=args.camera_motion, engine_kwargs=engine_kwargs,
-                         memory_limit_bytes=_memory_limit(args))
+                         memory_limit_bytes=_memory_limit(args),
+                         drop_frames=parse_drop_frames(args.drop_frames, len(source)))
     print(f"tracked {result.n_frames} frames at {result.fps:.1f} frames/s (inference only; "
           f"detector {result.n_frames / max(result.detector_seconds, 1e-9):.0f} frames/s) -> "
           f"{Path(args.out) / 'tracks.txt'}")

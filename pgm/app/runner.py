@@ -440,7 +440,8 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
                 progress: bool = True, max_frames: int | None = None,
                 engine_kwargs: dict[str, Any] | None = None,
                 camera_motion: str = "auto",
-                memory_limit_bytes: float | None = None) -> MultiTrackResult:
+                memory_limit_bytes: float | None = None,
+                drop_frames: Iterable[int] | None = None) -> MultiTrackResult:
     """Track every target through ``source`` with a set-variable graph (PHD, VB-PHD) or a
     plate graph (one sub-graph per target: ``multi-pf``, ``gpdm``; run by
     :class:`~pgm.inference.plates.PlateEngine`).
@@ -452,6 +453,10 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
     :class:`~pgm.io.annotations.MotTable` or a ``gt.txt`` path), ``metrics.json``.
     The output folder, ``run.json``'s ``"complete"`` flag, the memory check and the
     frame-size check are those of :func:`track`.
+
+    ``drop_frames`` (frame numbers) simulates missing frames for a plate graph: their
+    images and detections are withheld, the targets are predicted through them (and
+    reported and scored there), as a tracker must across a gap in the video.
     """
     from pgm.evaluation.mot import evaluate_mot
     from pgm.io.annotations import MotTable, load_mot
@@ -462,6 +467,10 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
         source = open_source(source)
     var = graph.output[0]
     size = source.size
+    dropped = set(int(f) for f in (drop_frames or ()))
+    if dropped and not graph.plates:
+        raise InputError(f"dropped frames need a plate model (one sub-graph per target), not "
+                         f"{graph.name!r}")
     table = getattr(detector, "table", None)
     targets = None
     if table is not None and len(table):
@@ -473,6 +482,8 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
     noise = [v for v in engine.graph.variables.values() if v.role == "noise"]
     out = prepare_run_folder(out_dir) if out_dir is not None else None
     run = {"model": graph.name, "source": str(source.path), "camera_motion": camera_motion}
+    if dropped:
+        run["dropped_frames"] = sorted(dropped)
     if out is not None:
         write_run_status(out, {**run, "frames": 0}, complete=False, stopped="running")
     writer = MotWriter(out / "tracks.txt") if out is not None else None
@@ -494,13 +505,16 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
             if max_frames is not None and k >= max_frames:
                 break
             first = _check_frame_size(first, image, number)
-            t0 = time.perf_counter()
-            dets = detector(number, image)
-            det_secs += time.perf_counter() - t0
-            t0 = time.perf_counter()
-            moved = motion(image)
-            motion_secs += time.perf_counter() - t0
-            ctx = FrameContext(number, image, detections=dets, camera_motion=moved)
+            if number in dropped:  # withheld: the tracker predicts through it
+                ctx = FrameContext(number)
+            else:
+                t0 = time.perf_counter()
+                dets = detector(number, image)
+                det_secs += time.perf_counter() - t0
+                t0 = time.perf_counter()
+                moved = motion(image)
+                motion_secs += time.perf_counter() - t0
+                ctx = FrameContext(number, image, detections=dets, camera_motion=moved)
             t0 = time.perf_counter()
             record = engine.step(ctx)
             secs += time.perf_counter() - t0

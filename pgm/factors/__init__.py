@@ -8,6 +8,7 @@ The root :class:`~pgm.core.factor.Factor` and the by-name registry live in
 from pgm.core.factor import KINDS, Factor, factor_from_dict, registered_factor_types
 from pgm.factors.gaussian import (
     AR2Transition,
+    AveragedVelocityTransition,
     GaussianPrior,
     LinearGaussianLikelihood,
     LinearGaussianTransition,
@@ -22,4 +23,5 @@ from pgm.factors.kinds import (
 
 __all__ = ["Factor", "PriorFactor", "TransitionFactor", "LikelihoodFactor", "CouplingFactor",
            "ConjugateFactor", "GaussianPrior", "LinearGaussianTransition", "AR2Transition",
+           "AveragedVelocityTransition",
            "LinearGaussianLikelihood", "factor_from_dict", "registered_factor_types", "KINDS"]

@@ -327,6 +327,68 @@ class AR2Transition(TransitionFactor):
                             np.log(self.jump_prob) + wide)
 
 
+class AveragedVelocityTransition(TransitionFactor):
+    r"""Constant velocity with the velocity averaged over the last ``window`` steps.
+
+    .. math::
+        X_t = X_{t-1} + \frac{1}{k}(X_{t-1} - X_{t-1-k}) + U_t,\quad
+        U_t \sim \mathcal N(0, \mathrm{diag}(s^2))
+
+    ``k = window`` (3: SPEC §4's "constant velocity averaged over the last three
+    differences" baseline; 1: plain constant velocity). With ``relative=True`` the
+    noise is in units of each particle's box height (component ``size_indices[1]``) and
+    a log-scale step ``scale_noise`` is shared by ``w`` and ``h``. The transition's order
+    is ``window + 1``; at a track's birth the history holds the birth box, so the
+    velocity starts at zero.
+
+    Parameters
+    ----------
+    variable : str
+    noise_std : array_like (d,)
+    window : int
+    scale_noise : float
+    relative : bool
+    size_indices : (int, int)
+    """
+
+    def __init__(self, variable: str, *, noise_std, window: int = 3, scale_noise: float = 0.0,
+                 relative: bool = False, size_indices=(2, 3), name: str | None = None):
+        super().__init__(variable, name=name)
+        if isinstance(window, bool) or int(window) != window or window < 1:
+            raise ValueError(f"factor {self.name!r}: window must be a positive integer, got "
+                             f"{window!r}")
+        self.window = int(window)
+        self.order = self.window + 1
+        self.noise_std = np.atleast_1d(np.asarray(noise_std, dtype=float))
+        check_finite_param(f"{self.name}.noise_std", self.noise_std, nonneg=True)
+        self.scale_noise = float(check_finite_param(f"{self.name}.scale_noise", scale_noise,
+                                                    nonneg=True))
+        self.relative = bool(relative)
+        self.size_indices = tuple(int(i) for i in size_indices)
+
+    def params(self) -> dict[str, Any]:
+        return {"noise_std": self.noise_std, "window": self.window,
+                "scale_noise": self.scale_noise, "relative": self.relative,
+                "size_indices": list(self.size_indices)}
+
+    def check(self, variables: dict[str, Variable]) -> None:
+        self._check_dim(variables, self.variables[0], self.noise_std.size, "noise_std")
+
+    def sample(self, rng: np.random.Generator, *past: np.ndarray) -> np.ndarray:
+        x1 = past[0]
+        xk = past[self.window] if len(past) > self.window else past[-1]
+        noise = rng.standard_normal(x1.shape) * self.noise_std
+        iw, ih = self.size_indices
+        if self.relative:
+            noise *= np.maximum(x1[:, ih], 1e-6)[:, None]
+        x = x1 + (x1 - xk) / self.window + noise
+        if self.scale_noise > 0:
+            step = np.exp(self.scale_noise * rng.standard_normal(x.shape[0]))
+            x[:, iw] = np.maximum(x[:, iw], 1e-6) * step
+            x[:, ih] = np.maximum(x[:, ih], 1e-6) * step
+        return x
+
+
 class LinearGaussianLikelihood(LikelihoodFactor):
     """``y_t = H x_t + N(0, R)`` with ``y_t`` the frame's ``measurements`` (one vector).
 

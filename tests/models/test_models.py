@@ -31,6 +31,8 @@ def _graph(name, box=None):
         return module.build_graph(module.Params(init_box=box))
     if "area" in {f.name for f in dataclasses.fields(module.Params)}:
         return module.build_graph(module.Params(area=320.0 * 240.0))
+    if "motion" in {f.name for f in dataclasses.fields(module.Params)}:  # gpdm: no file here
+        return module.build_graph(module.Params(motion="cv3"))
     return module.build_graph(module.Params())  # a plate: one sub-graph per target
 
 
