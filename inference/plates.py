@@ -551,13 +551,19 @@ class PlateEngine:
         shared = [f.name not in b.local for f in fs]
         pairs = K * len(fs)
         if pairs > 1 and fs[0].batch_key is not None and not any(shared):
-            # every replica's copy of every factor of the group in one pass (replica-major,
-            # so that one replica's order is the single-target engine's)
-            copies = [b.local[f.name][k] for k in range(K) for f in fs]
-            xs = [b.x[f.variables[0]][k] for k in range(K) for f in fs]
-            lls = type(fs[0]).log_likelihood_batch(copies, xs, frame)
-            arr = [np.asarray(ll, dtype=float) for ll in lls]
-            return [np.stack(arr[j::len(fs)]) for j in range(len(fs))]
+            # the copies of the group's factors scored together, one pass per cluster of
+            # replicas whose particles' boxes overlap (a joint pass costs the area of its
+            # boxes' union, so distant targets are not scored through the empty space
+            # between them); replica-major, so that one replica's order is the
+            # single-target engine's
+            out = [np.empty(b.lw[f.variables[0]].shape) for f in fs]
+            for members in _clusters(self._extents(b, fs)):
+                copies = [b.local[f.name][k] for k in members for f in fs]
+                xs = [b.x[f.variables[0]][k] for k in members for f in fs]
+                lls = type(fs[0]).log_likelihood_batch(copies, xs, frame)
+                for i, ll in enumerate(lls):
+                    out[i % len(fs)][members[i // len(fs)]] = ll
+            return out
         out = []
         for f in fs:
             x = b.x[f.variables[0]]
@@ -569,6 +575,17 @@ class PlateEngine:
                 out.append(np.stack([np.asarray(fk.log_likelihood(x[k], frame), dtype=float)
                                      for k, fk in enumerate(b.local[f.name])]))
         return out
+
+    def _extents(self, b: _Batch, fs: list) -> np.ndarray:
+        """``(K, 4)`` rectangles ``x0, y0, x1, y1`` around every particle's box of the
+        group ``fs`` in each replica."""
+        lo, hi = [], []
+        for f in fs:
+            c = _box_columns(self.graph, f.variables[0])
+            bx = b.x[f.variables[0]][..., c]  # (K, N, 4) cx, cy, w, h
+            lo.append((bx[..., :2] - np.abs(bx[..., 2:]) / 2).min(axis=1))
+            hi.append((bx[..., :2] + np.abs(bx[..., 2:]) / 2).max(axis=1))
+        return np.concatenate([np.min(lo, axis=0), np.max(hi, axis=0)], axis=1)
 
     def _tail(self, b: _Batch, frame: FrameContext, info: dict, *, interact: bool) -> None:
         """weight → interaction → in-frame → fuse → estimate → learn → resample."""
@@ -743,6 +760,23 @@ class PlateEngine:
         info["births"] = len(births)
         if births:
             self.add(det_boxes[sorted(births)], frame)
+
+
+def _clusters(rects: np.ndarray) -> list[list[int]]:
+    """Groups of indices of rectangles ``(K, 4)`` (x0, y0, x1, y1) connected by overlap,
+    each group in increasing order, groups by their first member."""
+    k = len(rects)
+    if k == 0:
+        return []
+    ov = ((rects[:, None, 0] < rects[None, :, 2]) & (rects[None, :, 0] < rects[:, None, 2])
+          & (rects[:, None, 1] < rects[None, :, 3]) & (rects[None, :, 1] < rects[:, None, 3]))
+    from scipy.sparse.csgraph import connected_components
+
+    _, label = connected_components(ov, directed=False)
+    groups: dict[int, list[int]] = {}
+    for i, lab in enumerate(label.tolist()):
+        groups.setdefault(lab, []).append(i)
+    return sorted(groups.values(), key=lambda g: g[0])
 
 
 def _assign_rows(a: np.ndarray, rows: np.ndarray, values: np.ndarray) -> np.ndarray:

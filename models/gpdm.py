@@ -73,8 +73,6 @@ class Params:
         Baselines' noise per √s (box heights; log-scale).
     latent_noise_scale : float
         Multiplies the GPDM's latent predictive std.
-    box_std : float
-        Extra box noise per frame in box heights added to the GPDM's step (0: none).
     detection_pos_std, detection_size_std, detection_strength, exclusion :
         As in :class:`pgm.models.multi_pf.Params`.
     lifecycle : Lifecycle
@@ -117,7 +115,7 @@ def build_graph(params: Params | None = None, name: str = "gpdm") -> FactorGraph
         if p.model is None:
             raise ValueError("the gpdm motion model needs a learned GPDM file (pgm learn gpdm; "
                              "pgm track --gpdm FILE)")
-        path = str(Path(p.model))
+        path = str(Path(p.model).resolve())  # a saved graph reloads from any folder
         q = load_gpdm(path).latent_dim
         labels = BOX_LABELS + tuple(f"z{k}" for k in range(q))
         variable = Variable(nm, 4 + q, role="part", labels=labels)

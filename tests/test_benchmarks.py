@@ -23,3 +23,28 @@ def test_time_engine_boxes_equal_the_runner_boxes():
     result = track(frames, graph, rng=np.random.default_rng(3), progress=False)
     np.testing.assert_array_equal(boxes, result.boxes)
     assert secs > 0
+
+
+def test_plates_benchmark_quick_prints_its_table():
+    """``benchmarks/plates.py --quick`` runs and prints one row per (K, N) of its tiny grid,
+    with the plate and separate-engine timings (no wall-clock thresholds)."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, str(root / "benchmarks" / "plates.py"), "--quick"],
+                         cwd=root, capture_output=True, text=True, timeout=300, check=True).stdout
+    lines = out.splitlines()
+    assert lines[0].startswith("machine:")
+    header = next(i for i, line in enumerate(lines) if line.split()[:2] == ["K", "N"])
+    assert set(lines[header + 1].replace(" ", "")) == {"-"}
+    rows = []
+    for line in lines[header + 2:]:
+        if not line.strip():
+            break
+        rows.append(line.split())
+    assert [r[:2] for r in rows] == [["1", "20"], ["3", "20"]]
+    for r in rows:
+        assert len(r) == 9
+        values = [float(v) for v in r[2:]]
+        assert all(np.isfinite(values)) and min(values[:3]) > 0
+    assert "goals (reported, not asserted):" in out

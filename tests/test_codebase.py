@@ -33,7 +33,7 @@ ALLOWED = {
     "pgm.core": {"pgm.core"},
     "pgm.factors": {"pgm.core", "pgm.factors"},
     "pgm.io": {"pgm.core", "pgm.io"},
-    "pgm.dynamics": {"pgm.core", "pgm.dynamics"},
+    "pgm.dynamics": {"pgm.core", "pgm.factors", "pgm.dynamics"},
     "pgm.plotting": {"pgm.core", "pgm.plotting"},
     "pgm.synthetic": {"pgm.core", "pgm.io", "pgm.synthetic"},
     "pgm.evaluation": {"pgm.core", "pgm.io", "pgm.evaluation"},

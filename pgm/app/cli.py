@@ -208,6 +208,7 @@ def build_parser() -> argparse.ArgumentParser:
     ld.add_argument("--seed", type=_nonneg_int, default=0)
     ld.add_argument("--epochs", type=_positive_int("--epochs"), default=40,
                     help="fine-tuning epochs")
+    _learn_gpdm_options(lsub)
 
     d = sub.add_parser("demo", help="render a synthetic scene, track it, write every output")
     d.add_argument("--out", required=True, help="output folder")
@@ -216,6 +217,48 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--particles", type=_positive_int("--particles"), default=100)
     d.add_argument("--quiet", action="store_true")
     return p
+
+
+#: defaults of ``pgm learn gpdm`` shown in its help; the values used are
+#: :class:`pgm.dynamics.gpdm.GPDMSettings`'s (read when the command runs, so that building
+#: the parser does not import torch; a test keeps the two equal)
+GPDM_HELP_DEFAULTS = {"latent_dim": 2, "mirror": False, "max_iter": 200}
+
+
+def _learn_gpdm_options(lsub) -> None:
+    """The ``pgm learn gpdm`` sub-parser."""
+    d = GPDM_HELP_DEFAULTS
+    lg = lsub.add_parser(
+        "gpdm", help="learn a Gaussian-process dynamical model of people's motion",
+        description="Learn a GPDM (SPEC section 4) from the ground-truth trajectories of\n"
+                    "MOTChallenge sequences: each person's box changes (dcx, dtop, dh) in\n"
+                    "box heights per second at the sequence's frame rate (seqinfo.ini),\n"
+                    "one GP over all of them. The .npz model is for\n"
+                    "'pgm track SOURCE --model gpdm --gpdm FILE.npz'.",
+        epilog="example:\n  pgm learn gpdm --train ../shared/data/TUD-Stadtmitte "
+               "../shared/data/TUD-Campus \\\n      --out gpdm_tud.npz --plot gpdm_tud.png "
+               "--mirror",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    lg.add_argument("--train", nargs="+", required=True, metavar="SEQ",
+                    help="MOTChallenge sequence folders with gt/gt.txt and seqinfo.ini "
+                         "(frameRate); never the one you will evaluate on")
+    lg.add_argument("--out", required=True, metavar="FILE.npz", help="output model file")
+    lg.add_argument("--plot", default=None, metavar="FILE.png",
+                    help="also draw the latent space (.png, .svg or .pdf)")
+    lg.add_argument("--latent-dim", type=_positive_int("--latent-dim"), default=None,
+                    metavar="D",
+                    help=f"latent dimension d (default: {d['latent_dim']})")
+    lg.add_argument("--seed", type=_nonneg_int, default=0, metavar="S",
+                    help="seed of the subsampling of long training sets (default: "
+                         "%(default)s)")
+    lg.add_argument("--mirror", action=argparse.BooleanOptionalAction, default=None,
+                    help="add every trajectory mirrored left-right, removing the scenes' "
+                         f"mean horizontal flow (default: {'on' if d['mirror'] else 'off'})")
+    lg.add_argument("--balanced", action="store_true",
+                    help="balanced GPDM: the dynamics term weighted by D/d (default: off)")
+    lg.add_argument("--max-iter", type=_int_at_least("--max-iter", 0), default=None,
+                    metavar="N",
+                    help=f"cap on L-BFGS iterations (default: {d['max_iter']})")
 
 
 def _model_options(p: argparse.ArgumentParser) -> None:
@@ -683,7 +726,99 @@ def cmd_demo(args) -> int:
     return 0
 
 
+def _gpdm_training_trajectories(sequences: list[str]) -> list:
+    """Ground-truth trajectories of MOTChallenge folders (frame rate from seqinfo.ini)."""
+    from pgm.dynamics.gpdm import gt_trajectories
+    from pgm.io.annotations import load_mot
+    from pgm.io.video import _read_seqinfo, _seqinfo_number
+
+    trajectories = []
+    for seq in sequences:
+        folder = Path(seq)
+        if not folder.exists():
+            raise InputError(f"--train: no such folder: {folder}")
+        ini = folder / "seqinfo.ini"
+        gt = folder / "gt" / "gt.txt"
+        if not folder.is_dir() or not ini.is_file() or not gt.is_file():
+            raise InputError(f"--train {folder}: not a MOTChallenge sequence with ground "
+                             f"truth (needs seqinfo.ini and gt/gt.txt)")
+        info = _read_seqinfo(ini)
+        fps = _seqinfo_number(info, "frameRate", ini, integer=False)
+        if fps is None:
+            raise InputError(f"{ini} has no frameRate (the GPDM's units are box heights "
+                             f"per second)")
+        table = load_mot(gt, kind="gt")
+        try:
+            found = gt_trajectories(table, fps=fps, source=info.get("name") or folder.name)
+        except ValueError as exc:
+            raise InputError(f"{gt}: {one_line(exc)}") from None
+        trajectories += found
+    return trajectories
+
+
+def _one_step_rmse(model) -> tuple[float, float]:
+    """One-step training RMSE (heights per second) of the GPDM's mean prediction
+    ``μ_Y(μ_X(x_t))`` against ``y_{t+1}``, and of repeating ``y_t`` (constant velocity)."""
+    lengths = np.asarray(model.lengths)
+    last = np.zeros(int(lengths.sum()), dtype=bool)
+    last[np.cumsum(lengths) - 1] = True
+    i_in = np.flatnonzero(~last)
+    y = model.y_mean + model.y_std * np.asarray(model.Y)
+    pred = model.mean_y(model.dynamics(model.X[i_in])[0])
+    rmse = lambda e: float(np.sqrt(np.mean(np.square(e))))  # noqa: E731
+    return rmse(pred - y[i_in + 1]), rmse(y[i_in] - y[i_in + 1])
+
+
+def cmd_learn_gpdm(args) -> int:
+    """``pgm learn gpdm``: trajectories → :func:`learn_gpdm` → ``.npz`` (and a plot)."""
+    from pgm.core.rng import as_generator
+    from pgm.dynamics.gpdm import GPDMSettings, learn_gpdm
+    from pgm.io.outputs import prepare_output_file
+    from pgm.plotting.gpdm import PLOT_SUFFIXES, plot_latent_space
+
+    out = Path(args.out)
+    if out.suffix.lower() != ".npz":
+        raise InputError(f"--out must end in .npz, got {out.name}")
+    plot = None if args.plot is None else Path(args.plot)
+    if plot is not None and plot.suffix.lower() not in PLOT_SUFFIXES:
+        raise InputError(f"--plot must end in {', '.join(PLOT_SUFFIXES)}, got {plot.name}")
+    out = prepare_output_file(out)
+    if plot is not None:
+        plot = prepare_output_file(plot, "--plot")
+    trajectories = _gpdm_training_trajectories(args.train)
+    usable = [t for t in trajectories if len(t) >= 3]
+    if len(usable) < 2:
+        raise InputError(f"--train gives {len(usable)} usable trajectory(ies) (people seen "
+                         f"in at least 10 consecutive frames); at least 2 are needed")
+    given = {"latent_dim": args.latent_dim, "mirror": args.mirror,
+             "max_iter": args.max_iter}
+    settings = GPDMSettings(balanced=args.balanced,
+                            **{k: v for k, v in given.items() if v is not None})
+    model = learn_gpdm(usable, settings, as_generator(args.seed))
+    model.save(out)
+    if plot is not None:
+        plot_latent_space(model, plot)
+    gpdm_rmse, cv_rmse = _one_step_rmse(model)
+    info = model.info
+    stop = "converged" if info.get("converged") else "stopped at the cap"
+    print(f"learned a GPDM (d={model.latent_dim}) from {len(usable)} trajectories of "
+          f"{len(args.train)} sequence(s): {info.get('n_points')} points in "
+          f"{info.get('n_sequences')} sequences, {info.get('iterations')} L-BFGS iterations "
+          f"({stop}), objective {info.get('objective', float('nan')):.2f}; one-step training "
+          f"RMSE {gpdm_rmse:.3f} heights/s (repeating the last change: {cv_rmse:.3f}); wrote "
+          f"{out}" + (f" and {plot}" if plot is not None else ""))
+    return 0
+
+
 def cmd_learn(args) -> int:
+    """``pgm learn dbn|gpdm``: dispatch on what is learned."""
+    if args.what == "gpdm":
+        return cmd_learn_gpdm(args)
+    return cmd_learn_dbn(args)
+
+
+def cmd_learn_dbn(args) -> int:
+    """``pgm learn dbn``: train the DBN person likelihood on patches of ``--train``."""
     from pgm.core.rng import as_generator
     from pgm.io.outputs import prepare_output_file
     from pgm.observation.appearance.dbn import DBN, training_set

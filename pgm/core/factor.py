@@ -41,6 +41,12 @@ __all__ = ["Factor", "factor_from_dict", "registered_factor_types", "KINDS"]
 
 KINDS = ("prior", "transition", "likelihood", "coupling", "conjugate", "interaction")
 _REGISTRY: dict[str, type[Factor]] = {}
+#: factor types the toolkit defines in modules that are not imported with ``pgm`` (they
+#: pull torch or a model file): a saved declaration naming one imports that module —
+#: a fixed toolkit module from this table, never a name taken from the file
+_TOOLKIT_MODULES = {"GPDMPrior": "pgm.dynamics.factors",
+                    "GPDMTransition": "pgm.dynamics.factors",
+                    "DBNLikelihood": "pgm.observation.appearance.dbn"}
 
 
 def _jsonable(value: Any) -> Any:
@@ -150,6 +156,11 @@ def factor_from_dict(d: dict[str, Any]) -> Factor:
     except (KeyError, TypeError) as exc:
         raise ValueError(f"malformed factor declaration {d!r}: missing {exc}") from None
     cls = _REGISTRY.get(type_name)
+    if cls is None and isinstance(type_name, str) and type_name in _TOOLKIT_MODULES:
+        import importlib
+
+        importlib.import_module(_TOOLKIT_MODULES[type_name])
+        cls = _REGISTRY.get(type_name)
     if cls is None:
         raise ValueError(
             f"unknown factor type {type_name!r}: import the module that defines it before "

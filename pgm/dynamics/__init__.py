@@ -4,8 +4,11 @@
 with the fixes the SPEC requires; its :func:`~pgm.dynamics.gpdm.predict` samples future
 boxes and falls back to constant velocity when a track is too young.
 
-This subpackage imports numpy, scipy, torch and :mod:`pgm.core` only (a test enforces
-it), so model configs, the CLI and benchmarks can all call it.
+:mod:`pgm.dynamics.factors` makes it a factor of the generic engine
+(:class:`~pgm.dynamics.factors.GPDMTransition`, :class:`~pgm.dynamics.factors.GPDMPrior`).
+This subpackage imports numpy, scipy, torch, :mod:`pgm.core` and the factor kinds of
+:mod:`pgm.factors` only (a test enforces it), so model configs, the CLI and benchmarks
+can all call it.
 """
 
 from .gpdm import (
