@@ -1,5 +1,5 @@
 """
-Tutorial 6 — a discriminative likelihood, fast motion, and a confidence you can trust
+Tutorial 7 — a discriminative likelihood, fast motion, and a confidence you can trust
 ===================================================================================
 
 The default single-object tracker (``pgm.models.single_object``) is one node with one
@@ -16,7 +16,7 @@ tutorial
 
 Run it as a script::
 
-    python docs/tutorials/06_correlation_filter_confidence.py --out tutorial_out
+    python docs/tutorials/07_correlation_filter_confidence.py --out tutorial_out
 """
 
 # %%
