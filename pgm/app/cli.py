@@ -216,7 +216,20 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--frames", type=_positive_int("--frames"), default=90)
     d.add_argument("--particles", type=_positive_int("--particles"), default=100)
     d.add_argument("--quiet", action="store_true")
+    for module in _extensions():
+        module.add_parser(sub)
     return p
+
+
+#: modules adding sub-commands: each has ``add_parser(subparsers)`` and ``COMMANDS``
+#: (name → ``cmd(args) -> int``), and imports nothing heavy at module level
+EXTENSIONS: tuple[str, ...] = ()
+
+
+def _extensions():
+    import importlib
+
+    return [importlib.import_module(m) for m in EXTENSIONS]
 
 
 #: defaults of ``pgm learn gpdm`` shown in its help; the values used are
@@ -902,7 +915,10 @@ def main(argv: list[str] | None = None) -> int:
         with warnings.catch_warnings():
             warnings.showwarning = (lambda message, category, filename, lineno, file=None,
                                     line=None: log.warning(one_line(message)))
-            return COMMANDS[args.command](args)
+            commands = dict(COMMANDS)
+            for module in _extensions():
+                commands.update(module.COMMANDS)
+            return commands[args.command](args)
     except KeyboardInterrupt as exc:
         name = exc.name if isinstance(exc, Interrupted) else "SIGINT"
         print(f"pgm: interrupted by {name}; results written so far are kept (run.json says "
