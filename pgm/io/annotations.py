@@ -347,9 +347,72 @@ class MotTable:
         return self.ids[s], self.boxes[s], self.conf[s]
 
 
+def load_caviar(path: str | Path) -> MotTable:
+    """Read a CAVIAR ground-truth file (the CVML XML of the CAVIAR project, the VB-PHD
+    paper's data set) as a :class:`MotTable`.
+
+    The file is ``<dataset><frame number="F"><objectlist><object id="I"><box xc=".."
+    yc=".." w=".." h=".."/>…``: one ``frame`` element per frame (``number`` 0-based;
+    stored here as ``F + 1``, the MOTChallenge convention), one ``object`` per person
+    with its box centre ``(xc, yc)`` and size ``(w, h)`` in pixels. Other elements
+    (orientation, appearance, hypotheses, groups) are not read. Every box is scored (no
+    ignore regions). The XML is parsed with the standard library (entities are not
+    expanded into the file system; no code runs).
+
+    Raises
+    ------
+    InputError
+        Not XML, no ``frame`` element, a frame or object without a number / id, a box
+        with missing, non-finite or non-positive values, an identity twice in a frame.
+    """
+    import xml.etree.ElementTree as ET
+
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"no such file: {p}")
+    try:
+        root = ET.parse(p).getroot()
+    except ET.ParseError as exc:
+        raise InputError(f"{p} is not a CAVIAR XML file: {exc}") from None
+    frames_el = root.findall(".//frame")
+    if not frames_el:
+        raise InputError(f"{p}: no <frame> element (not CAVIAR ground truth)")
+    rows: list[tuple[int, int, float, float, float, float]] = []
+    for fr in frames_el:
+        try:
+            number = int(fr.attrib["number"])
+        except (KeyError, ValueError):
+            raise InputError(f"{p}: a <frame> without an integer number "
+                             f"({fr.attrib.get('number')!r})") from None
+        seen: set[int] = set()
+        for obj in fr.iter("object"):
+            try:
+                oid = int(obj.attrib["id"])
+            except (KeyError, ValueError):
+                raise InputError(f"{p}: frame {number}: an <object> without an integer id") \
+                    from None
+            if oid in seen:
+                raise InputError(f"{p}: frame {number}: object {oid} appears twice")
+            seen.add(oid)
+            box = obj.find("box")
+            try:
+                xc, yc, w, h = (float(box.attrib[k]) for k in ("xc", "yc", "w", "h"))
+            except (AttributeError, KeyError, ValueError):
+                raise InputError(f"{p}: frame {number}, object {oid}: <box> needs numbers "
+                                 f"xc, yc, w, h") from None
+            if not all(np.isfinite((xc, yc, w, h))) or w <= 0 or h <= 0:
+                raise InputError(f"{p}: frame {number}, object {oid}: box "
+                                 f"({xc}, {yc}, {w}, {h}) is not finite and positive")
+            rows.append((number + 1, oid, xc - w / 2, yc - h / 2, w, h))
+    r = np.array(rows, dtype=float).reshape(-1, 6)
+    return MotTable(r[:, 0].astype(np.int64), r[:, 1].astype(np.int64), r[:, 2:6],
+                    np.ones(len(r)))
+
+
 def load_mot(path: str | Path, *, kind: str = "gt", min_score: float | None = None
              ) -> MotTable:
-    """Read a MOTChallenge ``gt.txt``, ``det.txt`` or result file.
+    """Read a MOTChallenge ``gt.txt``, ``det.txt`` or result file (or, for ground truth,
+    a CAVIAR ``.xml`` file: :func:`load_caviar`).
 
     Rows are ``frame, id, x, y, w, h, conf[, ...]`` with 1-based top-left ``x, y``
     (converted to 0-based). Ground truth comes in two layouts, told apart from the file:
@@ -380,6 +443,8 @@ def load_mot(path: str | Path, *, kind: str = "gt", min_score: float | None = No
         non-finite score (``nan``, ``inf``; a missing column 7 reads as 1) (named with
         the file and line number); ``min_score`` with ``kind='gt'``.
     """
+    if kind == "gt" and Path(path).suffix.lower() == ".xml":
+        return load_caviar(path)
     p = Path(path)
     if kind not in ("gt", "det"):
         raise InputError(f"kind must be 'gt' or 'det' (got {kind!r}) for {p}")

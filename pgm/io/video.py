@@ -48,6 +48,8 @@ __all__ = [
     "DEFAULT_FPS",
     "FrameSource",
     "ImageSequenceSource",
+    "LiveSource",
+    "is_live",
     "VideoSource",
     "open_source",
     "natural_key",
@@ -486,6 +488,78 @@ def _open_folder(folder: Path) -> FrameSource:
                                fps=DEFAULT_FPS)
 
 
+class LiveSource(FrameSource):
+    """Frames from a camera (an integer index, e.g. ``0``) or a stream URL (``rtsp://``,
+    ``http(s)://``, ``udp://``, ``file://``), read with ``cv2.VideoCapture``.
+
+    A live source is read once, as it comes: its length is unknown (``len()`` is 0 and
+    :meth:`_known_length` None), :meth:`frames` can be iterated once and never seeks, and
+    a frame that does not arrive ends the stream. The camera or stream is opened, and
+    its first frame read, when the source is created, so a missing camera fails early.
+    """
+
+    def __init__(self, spec: str, *, fps: float | None = None) -> None:
+        self.spec = str(spec)
+        target: int | str = int(self.spec) if self.spec.isdigit() else self.spec
+        what = f"camera {self.spec}" if isinstance(target, int) else f"stream {self.spec}"
+        cap = cv2.VideoCapture(target)
+        if not cap.isOpened():
+            cap.release()
+            raise InputError(f"cannot open {what} (no such device, or the stream cannot be "
+                             f"reached)")
+        ok, first = cap.read()
+        if not ok or first is None:
+            cap.release()
+            raise InputError(f"{what} opened but gave no frame")
+        rate = float(cap.get(cv2.CAP_PROP_FPS) or 0.0)
+        if fps is None:
+            fps = rate if MIN_FPS <= rate <= MAX_FPS else DEFAULT_FPS
+        super().__init__(Path(self.spec), name=what.replace(" ", "-"), layout="live", fps=fps)
+        self._cap: cv2.VideoCapture | None = cap
+        self._first: np.ndarray | None = _as_bgr(first)
+        self._size = (int(first.shape[1]), int(first.shape[0]))
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """``(width, height)`` of the first frame."""
+        return self._size
+
+    def __len__(self) -> int:
+        return 0
+
+    def _known_length(self) -> int | None:
+        return None
+
+    def frames(self, start: int = 1, stop: int | None = None
+               ) -> Iterator[tuple[int, np.ndarray]]:
+        start, stop = _check_range(start, stop, self.path)
+        cap = self._cap
+        if cap is None:
+            raise InputError(f"{self.name} was already read: a live source is read once")
+        self._cap = None
+        try:
+            k, image = 1, self._first
+            self._first = None
+            while image is not None and (stop is None or k < stop):
+                if k >= start:
+                    yield k, image
+                ok, nxt = cap.read()
+                image = _as_bgr(nxt) if ok and nxt is not None else None
+                k += 1
+        finally:
+            cap.release()
+
+
+#: what ``open_source`` treats as a live source rather than a path
+LIVE_PREFIXES = ("rtsp://", "rtmp://", "http://", "https://", "udp://", "tcp://", "file://")
+
+
+def is_live(spec: str | Path) -> bool:
+    """Whether ``spec`` names a camera index (``"0"``) or a stream URL."""
+    text = str(spec)
+    return text.isdigit() or text.lower().startswith(LIVE_PREFIXES)
+
+
 def open_source(path: str | Path) -> FrameSource:
     """Open a video file or an image-sequence folder as a :class:`FrameSource`.
 
@@ -493,7 +567,8 @@ def open_source(path: str | Path) -> FrameSource:
     ----------
     path : str or Path
         A video file, a MOTChallenge / OTB / MILTrack sequence folder, or a folder of
-        images (see the module docstring for how the layout is detected).
+        images (see the module docstring for how the layout is detected); or a camera
+        index (``"0"``) or stream URL (``rtsp://…``): a :class:`LiveSource`.
 
     Returns
     -------
@@ -507,6 +582,8 @@ def open_source(path: str | Path) -> FrameSource:
         its first frame cannot be decoded; ``seqinfo.ini`` is malformed.
         A corrupt image file is reported when iteration reaches it.
     """
+    if isinstance(path, str) and is_live(path) and not Path(path).exists():
+        return LiveSource(path)
     p = Path(path).expanduser()
     if not p.exists():
         raise InputError(f"no such file or folder: {p}")
