@@ -91,7 +91,7 @@ class Params:
     latent_noise_scale: float = 1.0
     detection_pos_std: float = 0.05
     detection_size_std: float = 0.1
-    detection_strength: float = 200.0
+    detection_strength: float = 2000.0
     exclusion: float = 10.0
     lifecycle: Lifecycle = field(default_factory=Lifecycle)
 

@@ -77,6 +77,11 @@ class Params:
         detection term, appearance only).
     exclusion : float
         :class:`~pgm.factors.plates.MutualExclusion` strength (0: none).
+
+        The detection strength (2000), the exclusion (10) and the lifecycle's
+        ``max_coast`` (0) were chosen leave one sequence out over the four shared MOT
+        sequences (``benchmarks/plate_trackers.py --choose``: a 3 × 2 × 3 grid; the
+        choice on all four, and of two of the four folds).
     lifecycle : Lifecycle
         Births and deaths.
     """
@@ -93,7 +98,7 @@ class Params:
     damping: float = 0.5
     detection_pos_std: float = 0.05
     detection_size_std: float = 0.1
-    detection_strength: float = 20.0
+    detection_strength: float = 2000.0
     exclusion: float = 10.0
     lifecycle: Lifecycle = field(default_factory=Lifecycle)
 

@@ -57,7 +57,9 @@ class Lifecycle:
     scores at least ``birth_min_score``) starts a new replica, *tentative* until it has
     been matched ``confirm_hits`` frames; a tentative replica is removed at its first
     miss. A confirmed replica without a match is reported for ``max_coast`` frames
-    (coasting), kept unreported until ``max_lost`` frames (lost: a later match brings it
+    (coasting; default 0: chosen leave one sequence out on the shared MOT sequences with
+    ``benchmarks/plate_trackers.py --choose``, where every frame of coasting cost MOTA),
+    kept unreported until ``max_lost`` frames (lost: a later match brings it
     back under its old identity) and then removed. The existence score is the logistic
     of a log-odds that gains ``hit_log_odds`` per match and loses ``miss_log_odds`` per
     miss (clamped to ±10).
@@ -73,7 +75,7 @@ class Lifecycle:
     """
 
     confirm_hits: int = 3
-    max_coast: int = 5
+    max_coast: int = 0
     max_lost: int = 30
     match_iou: float = 0.3
     birth_iou: float = 0.3
