@@ -11,7 +11,15 @@ This subpackage imports numpy, scipy, torch, :mod:`pgm.core` and the factor kind
 can all call it.
 """
 
-from .gpdm import (
+try:  # torch is the optional `learn` extra: learned dynamics need it, the toolkit does not
+    import torch  # noqa: F401
+except ImportError:  # pragma: no cover - exercised by a test that hides torch
+    from pgm.core.errors import InputError
+
+    raise InputError("learned dynamics (GPDM) need torch: pip install 'pgm-tracking[learn]'") \
+        from None
+
+from .gpdm import (  # noqa: E402
     GPDM,
     GPDMSettings,
     Trajectory,

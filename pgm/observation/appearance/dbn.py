@@ -48,8 +48,13 @@ FORMAT = "pgm-dbn-v1"
 
 
 def _torch():
-    import torch
+    try:
+        import torch
+    except ImportError:  # torch is the optional `learn` extra
+        from pgm.core.errors import InputError
 
+        raise InputError("the DBN person likelihood needs torch: pip install "
+                         "'pgm-tracking[learn]'") from None
     return torch
 
 
