@@ -12,6 +12,7 @@
     pgm track SOURCE --model gpdm --gpdm FILE.npz [--motion gpdm|cv|cv3]
               [--drop-frames A-B,...|P/L] --out DIR
     pgm eval --gt FILE --pred DIR/tracks.txt [--json]
+    pgm eval --gt-dir GT --pred-dir PRED [--json]
     pgm graph MODEL [--parts 2|3] --out FILE.{png,svg,pdf,dot}
     pgm learn dbn --train SEQ [SEQ ...] --out FILE.npz
     pgm learn gpdm --train SEQ [SEQ ...] --out FILE.npz [--plot FILE.png]
@@ -185,10 +186,29 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--memory-limit", default=None, metavar="SIZE",
                    help="refuse a run whose estimated memory exceeds SIZE (e.g. 8G); "
                         "default: PGM_MEMORY_LIMIT, else 80%% of the physical memory")
+    _record_options(t)
 
-    e = sub.add_parser("eval", help="score a tracks.txt against ground truth")
-    e.add_argument("--gt", required=True, help="ground truth (OTB, MILTrack or MOT gt.txt)")
-    e.add_argument("--pred", required=True, help="tracks.txt written by pgm track")
+    e = sub.add_parser(
+        "eval", help="score a tracks.txt (or a folder of results) against ground truth",
+        description="Score one result file against its ground truth (--gt FILE --pred FILE:\n"
+                    "single object (OTB) or MOT metrics), or every sequence of a folder\n"
+                    "(--gt-dir DIR --pred-dir DIR, MOTChallenge layout: GT/<SEQ>/gt/gt.txt\n"
+                    "or GT/<SEQ>.txt against PRED/<SEQ>.txt). With folders, a ground-truth\n"
+                    "sequence without a prediction file is scored as an empty prediction\n"
+                    "and listed; COMBINED scores all sequences as one (counts summed,\n"
+                    "MOTA/IDF1/HOTA of the pooled counts, OSPA over all frames) and MEAN is\n"
+                    "the unweighted mean over sequences.",
+        epilog="examples:\n  pgm eval --gt ../shared/data/TUD-Campus/gt/gt.txt --pred "
+               "out/tracks.txt\n  pgm eval --gt-dir ../shared/data --pred-dir results/ "
+               "--json",
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    e.add_argument("--gt", help="ground truth (OTB, MILTrack or MOT gt.txt); with --pred")
+    e.add_argument("--pred", help="tracks.txt written by pgm track; with --gt")
+    e.add_argument("--gt-dir", default=None, metavar="DIR",
+                   help="folder of ground truth: <SEQ>/gt/gt.txt folders or <SEQ>.txt files "
+                        "(MOT); with --pred-dir")
+    e.add_argument("--pred-dir", default=None, metavar="DIR",
+                   help="folder of results <SEQ>.txt (MOTChallenge rows); with --gt-dir")
     e.add_argument("--json", action="store_true", help="print JSON instead of a table")
 
     g = sub.add_parser("graph", help="draw a model's factor graph")
@@ -223,7 +243,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 #: modules adding sub-commands: each has ``add_parser(subparsers)`` and ``COMMANDS``
 #: (name → ``cmd(args) -> int``), and imports nothing heavy at module level
-EXTENSIONS: tuple[str, ...] = ()
+EXTENSIONS: tuple[str, ...] = ("pgm.app.view", "pgm.app.experiment", "pgm.app.report")
 
 
 def _extensions():
@@ -272,6 +292,33 @@ def _learn_gpdm_options(lsub) -> None:
     lg.add_argument("--max-iter", type=_int_at_least("--max-iter", 0), default=None,
                     metavar="N",
                     help=f"cap on L-BFGS iterations (default: {d['max_iter']})")
+
+
+def _record_options(t: argparse.ArgumentParser) -> None:
+    """``pgm track``'s ``--record*`` options (the record ``pgm view`` shows)."""
+    t.add_argument("--record", action="store_true",
+                   help="keep what 'pgm view DIR' shows in DIR/record: subsampled particles, "
+                        "messages, PHD intensity, VB iterations, ESS (off by default)")
+    t.add_argument("--record-particles", type=_positive_int("--record-particles"),
+                   default=None, metavar="K",
+                   help="record: particles kept per variable and message each frame "
+                        "(default: 200; implies --record)")
+    t.add_argument("--record-frames", type=_positive_int("--record-frames"), default=None,
+                   metavar="M", help="record: frames kept at most (default: 300, the first "
+                                     "ones; implies --record)")
+    t.add_argument("--record-every", type=_positive_int("--record-every"), default=None,
+                   metavar="K", help="record: every K-th frame (default: 1; implies --record)")
+
+
+def _record_option(args: argparse.Namespace):
+    """The ``record=`` argument of the runners from ``--record*`` (``None``: off)."""
+    from pgm.app.record import RecordSettings
+
+    given = {k: getattr(args, f"record_{k}", None) for k in ("particles", "frames", "every")}
+    given = {k: v for k, v in given.items() if v is not None}
+    if not getattr(args, "record", False) and not given:
+        return None
+    return RecordSettings(**given)
 
 
 def _model_options(p: argparse.ArgumentParser) -> None:
@@ -562,7 +609,8 @@ def cmd_track_multi(args, source, saved=None) -> int:
                          progress=not args.quiet, max_frames=args.max_frames,
                          camera_motion=args.camera_motion, engine_kwargs=engine_kwargs,
                          memory_limit_bytes=_memory_limit(args),
-                         drop_frames=parse_drop_frames(args.drop_frames, len(source)))
+                         drop_frames=parse_drop_frames(args.drop_frames, len(source)),
+                         record=_record_option(args))
     print(f"tracked {result.n_frames} frames at {result.fps:.1f} frames/s (inference only; "
           f"detector {result.n_frames / max(result.detector_seconds, 1e-9):.0f} frames/s) -> "
           f"{Path(args.out) / 'tracks.txt'}")
@@ -643,7 +691,7 @@ def cmd_track(args) -> int:
                    num_particles=args.particles, write_video=not args.no_video,
                    show_particles=args.show_particles, progress=not args.quiet,
                    max_frames=args.max_frames, camera_motion=args.camera_motion,
-                   memory_limit_bytes=_memory_limit(args))
+                   memory_limit_bytes=_memory_limit(args), record=_record_option(args))
     print(f"tracked {len(result.frames)} frames at {result.fps:.1f} frames/s "
           f"(inference only) -> {Path(args.out) / 'tracks.txt'}")
     if result.metrics is not None:
@@ -651,10 +699,56 @@ def cmd_track(args) -> int:
     return 0
 
 
+def _eval_form(args) -> str:
+    """``"files"`` (``--gt --pred``) or ``"folders"`` (``--gt-dir --pred-dir``); a mix or
+    half a pair is an :class:`InputError`."""
+    files = [f for f in ("gt", "pred") if getattr(args, f, None) is not None]
+    dirs = [f for f in ("gt_dir", "pred_dir") if getattr(args, f, None) is not None]
+    if files and dirs:
+        raise InputError(f"{' and '.join(_flag(f) for f in files + dirs)} cannot be combined: "
+                         f"give --gt FILE --pred FILE (one sequence) or --gt-dir DIR "
+                         f"--pred-dir DIR (folders)")
+    if dirs:
+        if len(dirs) < 2:
+            missing = "--pred-dir" if dirs == ["gt_dir"] else "--gt-dir"
+            raise InputError(f"{_flag(dirs[0])} needs {missing} (folders are scored in pairs)")
+        return "folders"
+    if len(files) < 2:
+        missing = {"gt": "--pred", "pred": "--gt"}[files[0]] if files else "--gt and --pred"
+        raise InputError(f"missing {missing}: give --gt FILE --pred FILE (one sequence) or "
+                         f"--gt-dir DIR --pred-dir DIR (folders)")
+    return "files"
+
+
+def _eval_folders(args) -> int:
+    """``pgm eval --gt-dir --pred-dir``: every sequence, then the combined and mean rows."""
+    from pgm.evaluation.folders import evaluate_mot_folders
+    from pgm.evaluation.mot import format_mot_table
+
+    res = evaluate_mot_folders(args.gt_dir, args.pred_dir)
+    if args.json:
+        print(json.dumps(res, indent=1))
+        return 0
+    rows = dict(res["sequences"])
+    rows["COMBINED"] = res["combined"]
+    rows["MEAN"] = res["mean"]
+    print(format_mot_table(rows, label="sequence"))
+    print(f"{len(res['sequences'])} sequence(s); COMBINED: {res['combined_method']}")
+    if res["missing"]:
+        print(f"no prediction file (scored as empty): {', '.join(res['missing'])}")
+    if res["unmatched"]:
+        print(f"prediction files without ground truth (not scored): "
+              f"{', '.join(res['unmatched'])}")
+    return 0
+
+
 def cmd_eval(args) -> int:
+    """``pgm eval``: one result file (single object or MOT) or a folder of them."""
     from pgm.evaluation.single_object import single_object_metrics
     from pgm.io.annotations import detect_gt_format, load_mot, load_single_gt, load_tracks
 
+    if _eval_form(args) == "folders":
+        return _eval_folders(args)
     pred = load_tracks(args.pred)
     if len(pred) == 0:
         raise InputError(f"--pred {args.pred} holds no rows: nothing to evaluate")
@@ -663,7 +757,7 @@ def cmd_eval(args) -> int:
         if np.unique(gt_table.ids).size > 1 or np.unique(pred.ids).size > 1:
             from pgm.evaluation.mot import evaluate_mot_files
 
-            metrics = evaluate_mot_files(args.gt, args.pred)
+            metrics = evaluate_mot_files(args.gt, args.pred, per_frame=False)
             if args.json:
                 print(json.dumps(metrics, indent=1))
             else:

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from pgm.app.record import Recorder, RecordSettings, record_settings
 from pgm.core.errors import InputError, Interrupted, user_message
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
@@ -126,7 +127,8 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
           max_frames: int | None = None, keep_records: bool = False,
           engine_kwargs: dict[str, Any] | None = None, camera_motion: str = "auto",
           on_frame: Callable[[StepRecord], None] | None = None,
-          memory_limit_bytes: float | None = None) -> TrackResult:
+          memory_limit_bytes: float | None = None,
+          record: bool | RecordSettings | dict | None = None) -> TrackResult:
     """Track one object through ``source`` with the tracker ``graph``.
 
     Parameters
@@ -151,6 +153,10 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     memory_limit_bytes : float, optional
         Refuse the run (:class:`InputError`) when :func:`estimate_memory` exceeds this;
         default :func:`memory_limit`.
+    record : bool, RecordSettings or dict, optional
+        Record what the viewer (``pgm view``) shows into ``out_dir/record``
+        (:mod:`pgm.app.record`; ``True``: the default bounds); needs ``out_dir``. Off by
+        default; recording draws no random number, so the results are the same.
 
     Notes
     -----
@@ -165,6 +171,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
                                       or not isinstance(num_particles, (int, np.integer))
                                       or num_particles < 1):
         raise InputError(f"number of particles must be a positive integer, got {num_particles}")
+    rec_settings = _record_settings(record, out_dir)
     if isinstance(gt, (str, Path)):
         gt = load_single_gt(gt)
     if isinstance(source, (str, Path)):
@@ -179,6 +186,10 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     out = prepare_run_folder(out_dir) if out_dir is not None else None
     run = {"model": graph.name, "source": str(getattr(source, "path", "")) or None,
            "num_particles": engine.num_particles, "camera_motion": camera_motion}
+    recorder = None
+    if rec_settings is not None and out is not None:
+        recorder = Recorder(out, engine, rec_settings, fps=fps)
+        run["record"] = recorder.summary()
     if out is not None:
         write_run_status(out, {**run, "frames": 0}, complete=False, stopped="running")
     gt_by_frame = ({int(f): b for f, b in zip(gt.frames, gt.boxes, strict=True)}
@@ -218,17 +229,20 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
             if video is not None:
                 video.write(_annotated_frame(engine, record, image, box,
                                              gt_by_frame.get(int(number)), show_particles))
+            if recorder is not None:
+                recorder.write(engine, record, image,
+                               targets={"ids": [1], "boxes": box[None], "scores": [score]})
             if on_frame is not None:
                 on_frame(record)
             if bar is not None:
                 bar.update(1)
     except BaseException as exc:
-        _close(bar, writer, video)
+        _close(bar, writer, video, recorder)
         if out is not None:
-            _record_stop(out, {**run, "frames": len(frames_done),
+            _record_stop(out, {**run, **_outputs(video, recorder), "frames": len(frames_done),
                                "last_frame": frames_done[-1] if frames_done else None}, exc)
         raise
-    _close(bar, writer, video)
+    _close(bar, writer, video, recorder)
     if not frames_done:
         if out is not None:
             _record_stop(out, {**run, "frames": 0}, InputError("the source has no frames"))
@@ -246,7 +260,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
         run.update({"frames": len(frames_done), "last_frame": int(frames_arr[-1]),
                     "inference_seconds": seconds, "fps": result.fps,
                     "camera_motion_frames": motion.frames_moved,
-                    "video": video is not None})
+                    "video": video is not None, **_outputs(video, recorder)})
         if metrics is not None:
             write_json(out / "metrics.json", {**metrics, "fps": result.fps})
         write_json(out / "model.json", engine.graph.to_dict())
@@ -269,10 +283,29 @@ def confidence_metrics(metrics: dict[str, Any], frames: np.ndarray,
 
 
 def _close(*things) -> None:
-    """Close the progress bar, result writer and video writer that were opened."""
+    """Close the progress bar, result writer, video writer and recorder that were opened."""
     for thing in things:
         if thing is not None:
             thing.close()
+
+
+def _record_settings(record: bool | RecordSettings | dict | None,
+                     out_dir: str | Path | None) -> RecordSettings | None:
+    """The recording settings of a run (``None``: off); recording needs an output folder."""
+    settings = record_settings(record)
+    if settings is not None and out_dir is None:
+        raise InputError("recording a run (record=...) needs an output folder (out_dir)")
+    return settings
+
+
+def _outputs(video: AnnotatedVideoWriter | None, recorder: Recorder | None) -> dict[str, Any]:
+    """What ``run.json`` says about the video's codec and the record (when there are)."""
+    out: dict[str, Any] = {}
+    if video is not None and video.codec is not None:
+        out["video_codec"] = video.codec
+    if recorder is not None:
+        out["record"] = recorder.summary()
+    return out
 
 
 def _annotated_frame(engine: Engine, record: StepRecord, image: np.ndarray, box: np.ndarray,
@@ -441,7 +474,8 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
                 engine_kwargs: dict[str, Any] | None = None,
                 camera_motion: str = "auto",
                 memory_limit_bytes: float | None = None,
-                drop_frames: Iterable[int] | None = None) -> MultiTrackResult:
+                drop_frames: Iterable[int] | None = None,
+                record: bool | RecordSettings | dict | None = None) -> MultiTrackResult:
     """Track every target through ``source`` with a set-variable graph (PHD, VB-PHD) or a
     plate graph (one sub-graph per target: ``multi-pf``, ``gpdm``; run by
     :class:`~pgm.inference.plates.PlateEngine`).
@@ -457,10 +491,13 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
     ``drop_frames`` (frame numbers) simulates missing frames for a plate graph: their
     images and detections are withheld, the targets are predicted through them (and
     reported and scored there), as a tracker must across a gap in the video.
+
+    ``record`` records what the viewer shows, as for :func:`track`.
     """
     from pgm.evaluation.mot import evaluate_mot
     from pgm.io.annotations import MotTable, load_mot
 
+    rec_settings = _record_settings(record, out_dir)
     if isinstance(gt, (str, Path)):
         gt = load_mot(gt, kind="gt")
     if isinstance(source, (str, Path)):
@@ -484,6 +521,10 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
     run = {"model": graph.name, "source": str(source.path), "camera_motion": camera_motion}
     if dropped:
         run["dropped_frames"] = sorted(dropped)
+    recorder = None
+    if rec_settings is not None and out is not None:
+        recorder = Recorder(out, engine, rec_settings, fps=source.fps)
+        run["record"] = recorder.summary()
     if out is not None:
         write_run_status(out, {**run, "frames": 0}, complete=False, stopped="running")
     writer = MotWriter(out / "tracks.txt") if out is not None else None
@@ -505,6 +546,7 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
             if max_frames is not None and k >= max_frames:
                 break
             first = _check_frame_size(first, image, number)
+            dets = None
             if number in dropped:  # withheld: the tracker predicts through it
                 ctx = FrameContext(number)
             else:
@@ -545,15 +587,20 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
                 video.write(annotate(image, boxes=boxes, ids=ids.tolist(), gt_boxes=gt_boxes,
                                      particles=particles,
                                      text=f"{graph.name} frame {number} {targets.text}"))
+            if recorder is not None:
+                recorder.write(engine, record, image, detections=dets,
+                               dropped=number in dropped,
+                               targets={"ids": ids, "boxes": boxes, "scores": conf,
+                                        "text": targets.text})
             if bar is not None:
                 bar.update(1)
     except BaseException as exc:
-        _close(bar, writer, video)
+        _close(bar, writer, video, recorder)
         if out is not None:
-            _record_stop(out, {**run, "frames": n,
+            _record_stop(out, {**run, **_outputs(video, recorder), "frames": n,
                                "last_frame": int(number) if n else None}, exc)
         raise
-    _close(bar, writer, video)
+    _close(bar, writer, video, recorder)
     if n == 0:
         if out is not None:
             _record_stop(out, {**run, "frames": 0}, InputError("the source has no frames"))
@@ -574,7 +621,8 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
         run.update({"frames": n, "last_frame": int(number), "inference_seconds": secs,
                     "detector_seconds": det_secs, "fps": result.fps,
                     "camera_motion_frames": motion.frames_moved,
-                    "camera_motion_seconds": motion_secs, "video": video is not None})
+                    "camera_motion_seconds": motion_secs, "video": video is not None,
+                    **_outputs(video, recorder)})
         if sigmas:
             run["noise_sigma_per_frame"] = sigmas
         write_json(out / "model.json", engine.graph.to_dict())

@@ -98,6 +98,7 @@ __all__ = [
     "evaluate_mot",
     "evaluate_mot_files",
     "format_mot_table",
+    "round_significant",
 ]
 
 _EPS = float(np.finfo(float).eps)  # TrackEval's tolerance on the matching threshold
@@ -187,6 +188,29 @@ def _tracks_of(table: MotTable, points: np.ndarray) -> dict[int, tuple[np.ndarra
             for u, a, b in zip(uniq, starts, bounds, strict=True)}
 
 
+def round_significant(values: Any, digits: int = 4) -> list[float | None]:
+    """Values as a JSON-ready list of floats rounded to ``digits`` significant digits.
+
+    Keeps ``metrics.json`` small where it holds a value per frame; a non-finite value
+    becomes ``None`` (JSON has no NaN or infinity).
+
+    Parameters
+    ----------
+    values : array_like
+        Numbers (any shape; flattened).
+    digits : int
+        Significant digits kept (default 4: a relative error of at most ``5e-4``).
+
+    Returns
+    -------
+    list of float or None
+    """
+    out: list[float | None] = []
+    for v in np.asarray(values, dtype=float).reshape(-1):
+        out.append(float(f"{v:.{digits}g}") if math.isfinite(v) else None)
+    return out
+
+
 def _key(c: float, p: float) -> str:
     return f"ospa_{float(c):g}_{float(p):g}".replace(".", "p")
 
@@ -225,7 +249,7 @@ def _library_metrics(gt_ids: list[list[int]], gt_boxes: list[np.ndarray],
 def evaluate_mot(gt: MotTable, pred: MotTable, *, iou: float = 0.5,
                  ospa_params: Sequence[tuple[float, float]] = ((50, 1), (100, 2)),
                  ospa2_window: int = 10, ospa2_params: tuple[float, float] = (50, 1),
-                 num_frames: int | None = None) -> dict[str, Any]:
+                 num_frames: int | None = None, per_frame: bool = True) -> dict[str, Any]:
     """Score a multi-target tracking result against MOTChallenge-style ground truth.
 
     Follows ``bench/README.md`` (see the module docstring): flag-0 ground-truth rows are
@@ -253,6 +277,8 @@ def evaluate_mot(gt: MotTable, pred: MotTable, *, iou: float = 0.5,
     num_frames : int, optional
         Sequence length (``seqLength`` of ``seqinfo.ini``); default: the last frame of
         either table.
+    per_frame : bool
+        Also return the per-frame series (default ``True``; see ``per_frame`` below).
 
     Returns
     -------
@@ -263,7 +289,14 @@ def evaluate_mot(gt: MotTable, pred: MotTable, *, iou: float = 0.5,
         counts ``id_switches, fragmentations, fp, fn, tp, num_gt, num_pred, mostly_tracked,
         partially_tracked, mostly_lost,
         num_gt_ignored`` (flag-0 rows), ``num_pred_ignored`` (predictions dropped on
-        them), ``num_frames``; and ``ospa2_window``.
+        them), ``num_frames``; and ``ospa2_window``. With ``per_frame``, also
+        ``per_frame``: a dict of JSON-ready lists, one entry per frame ``1 .. num_frames``:
+        ``frames``; ``ospa_{c}_{p}`` for each ``ospa_params`` setting and ``ospa2`` (px,
+        rounded to 4 significant digits by :func:`round_significant`, so their mean
+        matches the scalar of the same name to a relative ``5e-4``); ``gt_cardinality``
+        and ``pred_cardinality`` (scored ground-truth boxes and kept predictions per
+        frame, exact integers, whose mean absolute difference is
+        ``mean_abs_cardinality_error``).
 
     Raises
     ------
@@ -296,6 +329,7 @@ def evaluate_mot(gt: MotTable, pred: MotTable, *, iou: float = 0.5,
     out: dict[str, Any] = _library_metrics(gt_ids, gt_boxes, pr_ids, pr_boxes, iou)
 
     g_feet, p_feet = foot_points(gt_s.boxes), foot_points(pred_s.boxes)
+    series: dict[str, Any] = {"frames": frames.tolist()}
     for c, p in ospa_params:
         comps = np.array([ospa_components(g_feet[gt_s.rows(int(f))],
                                           p_feet[pred_s.rows(int(f))], c, p)
@@ -304,9 +338,12 @@ def evaluate_mot(gt: MotTable, pred: MotTable, *, iou: float = 0.5,
         out[key] = float(comps[:, 0].mean())
         out[key + "_loc"] = float(comps[:, 1].mean())
         out[key + "_card"] = float(comps[:, 2].mean())
+        series[key] = round_significant(comps[:, 0])
     c2, p2 = ospa2_params
-    out["ospa2"] = ospa2(_tracks_of(gt_s, g_feet), _tracks_of(pred_s, p_feet), c2, p2,
-                         ospa2_window, frames=frames).mean
+    o2 = ospa2(_tracks_of(gt_s, g_feet), _tracks_of(pred_s, p_feet), c2, p2, ospa2_window,
+               frames=frames)
+    out["ospa2"] = o2.mean
+    series["ospa2"] = round_significant(o2.values)
     out["ospa2_window"] = int(ospa2_window)
     n_gt = np.bincount(gt_s.frames, minlength=n_frames + 1)[1:]
     n_pr = np.bincount(pred_s.frames, minlength=n_frames + 1)[1:]
@@ -318,6 +355,10 @@ def evaluate_mot(gt: MotTable, pred: MotTable, *, iou: float = 0.5,
     out["num_gt_ignored"] = int(np.count_nonzero(~gt.scored))
     out["num_pred_ignored"] = dropped
     out["num_frames"] = n_frames
+    if per_frame:
+        series["gt_cardinality"] = n_gt.tolist()
+        series["pred_cardinality"] = n_pr.tolist()
+        out["per_frame"] = series
     return out
 
 
@@ -387,23 +428,27 @@ def _cell(value: Any, fmt: str) -> str:
         return "–"
     try:
         if fmt == "{:d}":
-            return fmt.format(int(value))
+            v = float(value)
+            if not math.isfinite(v):
+                return "–"
+            return fmt.format(int(v)) if v == int(v) else f"{v:.1f}"
         v = float(value)
         return "–" if not math.isfinite(v) else fmt.format(v)
     except (TypeError, ValueError):
         return str(value)
 
 
-def format_mot_table(results: Mapping[Any, Mapping[str, Any]]) -> str:
+def format_mot_table(results: Mapping[Any, Mapping[str, Any]], label: str = "run") -> str:
     """Markdown table of :func:`evaluate_mot` results, columns as in ``bench/README.md``.
 
-    Keys label the rows: a string gives one ``run`` column; ``(sequence, tracker)`` tuples
-    give two columns, the sequence written only where it changes (as in the README).
-    Columns: MOTA, IDF1, HOTA (3 decimals), ID switches, OSPA(50,1), OSPA(100,2) (1
-    decimal, px); a missing value prints as ``–``.
+    Keys label the rows: a string gives one column headed ``label`` (default ``run``);
+    ``(sequence, tracker)`` tuples give two columns, the sequence written only where it
+    changes (as in the README). Columns: MOTA, IDF1, HOTA (3 decimals), ID switches,
+    OSPA(50,1), OSPA(100,2) (1 decimal, px); a missing value prints as ``–``, a count that
+    is not a whole number (a mean over sequences) with one decimal.
     """
     pairs = bool(results) and all(isinstance(k, tuple) and len(k) == 2 for k in results)
-    head = ["sequence", "tracker"] if pairs else ["run"]
+    head = ["sequence", "tracker"] if pairs else [label]
     head += [name for name, _, _ in _COLUMNS]
     lines = ["| " + " | ".join(head) + " |", "| " + " | ".join("---" for _ in head) + " |"]
     previous = None
