@@ -15,7 +15,7 @@ if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
   # torch first, pinned: on these machines 2.13.0 is a local CPU wheel; an unpinned
   # torch may pull a multi-GB CUDA build.
   python -c "import torch" 2>/dev/null || pip install -q torch==2.13.0
-  pip install -q -e '.[test,cluster]'
+  pip install -q -e '.[test,learn,cluster]'
   touch "$stamp"
 fi
 cmd="${1:-}"

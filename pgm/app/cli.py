@@ -132,6 +132,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="pgm", description="Visual trackers declared as factor graphs, run by one engine.")
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    from pgm import __version__
+
+    p.add_argument("--version", action="version", version=f"pgm {__version__}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     t = sub.add_parser("track", help="track an object through a video or image sequence")

@@ -208,7 +208,8 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=total, unit="frame", desc=graph.name, leave=False)
+        bar = tqdm(total=total, unit="frame", desc=graph.name, leave=False,
+                   disable=None)  # None: no bar when stderr is not a terminal
     try:
         for k, (number, image) in enumerate(frames_iter):
             if max_frames is not None and k >= max_frames:
@@ -467,7 +468,7 @@ class MultiTrackResult:
         return self.n_frames / self.inference_seconds if self.inference_seconds > 0 else 0.0
 
 
-def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, *,
+def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph, detector, *,
                 rng: np.random.Generator, out_dir: str | Path | None = None,
                 gt=None, write_video: bool = True, show_particles: bool = False,
                 progress: bool = True, max_frames: int | None = None,
@@ -502,6 +503,10 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
         gt = load_mot(gt, kind="gt")
     if isinstance(source, (str, Path)):
         source = open_source(source)
+    elif not isinstance(source, FrameSource):  # any iterable of frames
+        from pgm.io.video import IterableSource
+
+        source = IterableSource(source)
     var = graph.output[0]
     size = source.size
     dropped = set(int(f) for f in (drop_frames or ()))
@@ -530,12 +535,15 @@ def track_multi(source: str | Path | FrameSource, graph: FactorGraph, detector, 
     writer = MotWriter(out / "tracks.txt") if out is not None else None
     video = (AnnotatedVideoWriter(out / "annotated.mp4", source.fps)
              if out is not None and write_video else None)
-    total = len(source) if max_frames is None else min(len(source), max_frames)
+    known = source._known_length()
+    total = known if max_frames is None else (max_frames if known is None
+                                              else min(known, max_frames))
     bar = None
     if progress:
         from tqdm import tqdm
 
-        bar = tqdm(total=total, unit="frame", desc=graph.name, leave=False)
+        bar = tqdm(total=total, unit="frame", desc=graph.name, leave=False,
+                   disable=None)  # None: no bar when stderr is not a terminal
     rows_f, rows_i, rows_b, rows_c = [], [], [], []
     first: tuple[int, int] | None = None
     secs = det_secs = 0.0

@@ -49,6 +49,7 @@ __all__ = [
     "FrameSource",
     "ImageSequenceSource",
     "LiveSource",
+    "IterableSource",
     "is_live",
     "VideoSource",
     "open_source",
@@ -548,6 +549,54 @@ class LiveSource(FrameSource):
                 k += 1
         finally:
             cap.release()
+
+
+class IterableSource(FrameSource):
+    """Frames from any iterable of BGR images or of ``(frame_number, image)`` pairs (e.g.
+    a generator reading a camera SDK), read once, as they come. The first frame is read
+    when the source is created (for its size)."""
+
+    def __init__(self, frames, *, fps: float = DEFAULT_FPS, name: str = "frames") -> None:
+        it = iter(frames)
+        try:
+            first = next(it)
+        except StopIteration:
+            raise InputError("the frame iterable is empty") from None
+        self._it = it
+        self._first = first
+        image = first[1] if isinstance(first, tuple) else first
+        image = np.asarray(image)
+        if image.ndim not in (2, 3) or image.size == 0:
+            raise InputError(f"frames must be images (H, W[, 3]), got shape {image.shape}")
+        super().__init__(Path(name), name=name, layout="iterable", fps=float(fps))
+        self._size = (int(image.shape[1]), int(image.shape[0]))
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """``(width, height)`` of the first frame."""
+        return self._size
+
+    def __len__(self) -> int:
+        return 0
+
+    def _known_length(self) -> int | None:
+        return None
+
+    def frames(self, start: int = 1, stop: int | None = None
+               ) -> Iterator[tuple[int, np.ndarray]]:
+        start, stop = _check_range(start, stop, self.path)
+        if self._it is None:
+            raise InputError("the frame iterable was already read: it is read once")
+        import itertools
+
+        it, first = self._it, self._first
+        self._it = self._first = None
+        for k, item in enumerate(itertools.chain((first,), it), start=1):
+            number, image = item if isinstance(item, tuple) else (k, item)
+            if stop is not None and number >= stop:
+                return
+            if number >= start:
+                yield int(number), _as_bgr(np.asarray(image))
 
 
 #: what ``open_source`` treats as a live source rather than a path

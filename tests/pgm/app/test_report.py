@@ -216,3 +216,26 @@ def test_an_unreadable_model_is_noted_not_fatal(bench_dir, tmp_path):
     (root / "model.json").write_text('{"format": "something else"}')
     text = write_report(root).read_text()
     assert "could not be loaded" in text and 'id="otb-overall"' in text
+
+
+def test_report_opens_in_headless_chromium(bench_dir, capsys):
+    """The report renders in a real browser: every image decodes and the sections show."""
+    from test_view import Browser, _need_browser  # same folder: on sys.path under pytest
+
+    _need_browser()
+    code, _, err = run_cli(capsys, "report", bench_dir)
+    assert code == 0, err
+    browser = Browser()
+    try:
+        browser.open(bench_dir / "report.html")
+        browser.wait_for("document.readyState === 'complete'")
+        n_img, decoded = browser.wait_for(
+            "(() => { const im = [...document.images]; "
+            "return im.length && im.every(i => i.complete) && "
+            "[im.length, im.filter(i => i.naturalWidth > 0).length]; })()")
+        assert n_img >= 4 and decoded == n_img
+        assert browser.evaluate("!!document.getElementById('multi-target') && "
+                                "!!document.getElementById('otb-overall')")
+        assert len(browser.screenshot()) > 10_000
+    finally:
+        browser.close()
