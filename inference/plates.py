@@ -340,6 +340,7 @@ class PlateEngine:
                 raise ValueError(f"plate variable {v.name!r} needs one prior factor")
             _box_columns(g, v.name)
         self.priors = [f for f in g.factors.values() if f.kind == "prior"]
+        self.learners = [f for f in g.factors.values() if f.learns]
         self.transitions = {f.variables[0]: f for f in g.factors_by_kind("transition")}
         self.likelihoods = g.factors_by_kind("likelihood")
         self.interactions = g.factors_by_kind("interaction")
@@ -648,7 +649,7 @@ class PlateEngine:
                               for i in range(len(b.hist[v])))
         for v in g.variables:
             b.est[v] = self._means(b, v)
-        learners = [f for f in g.factors.values() if f.learns]
+        learners = self.learners
         if learners:
             for k in range(b.K):
                 est = {v: b.est[v][k] for v in g.variables}

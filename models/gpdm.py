@@ -37,11 +37,10 @@ from pgm.core.numerics import check_finite_param
 from pgm.core.plate import Lifecycle, Plate
 from pgm.core.variable import Variable
 from pgm.factors import AveragedVelocityTransition, GaussianPrior
-from pgm.factors.plates import DetectionLikelihood, MutualExclusion
 from pgm.inference.settings import EngineSettings
 
-from .multi_pf import REFERENCE_BOX
-from .part_graph import BOX_LABELS, appearance_cues, cue_factor
+from .multi_pf import REFERENCE_BOX, evidence_factors
+from .part_graph import BOX_LABELS, appearance_cues
 
 __all__ = ["Params", "build_graph", "MOTIONS"]
 
@@ -131,16 +130,7 @@ def build_graph(params: Params | None = None, name: str = "gpdm") -> FactorGraph
                                               window=1 if p.motion == "cv" else 3,
                                               scale_noise=p.scale_noise * per_frame,
                                               relative=True)]
-    for j, (cue, opts) in enumerate(appearance_cues(p.appearance)):
-        factors.append(cue_factor(cue, nm, p, name=None if j == 0 else f"{cue}:{nm}",
-                                  options=opts))
-    if p.detection_strength > 0:
-        factors.append(DetectionLikelihood(nm, pos_std=p.detection_pos_std,
-                                           size_std=p.detection_size_std,
-                                           strength=p.detection_strength,
-                                           name=f"detections:{nm}"))
-    if p.exclusion > 0:
-        factors.append(MutualExclusion(nm, strength=p.exclusion, name=f"exclusion:{nm}"))
+    factors += evidence_factors(nm, p)
     engine = EngineSettings(num_particles=int(p.num_particles))
     meta = {"output": nm, "engine": engine.to_dict(), "readout": "plate",
             "reference_box": list(REFERENCE_BOX), "motion": p.motion}

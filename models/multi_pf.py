@@ -42,7 +42,7 @@ from pgm.inference.settings import EngineSettings
 
 from .part_graph import BOX_LABELS, appearance_cues, cue_factor, split_box
 
-__all__ = ["Params", "build_graph", "person_graph", "REFERENCE_BOX"]
+__all__ = ["Params", "build_graph", "person_graph", "evidence_factors", "REFERENCE_BOX"]
 
 #: the box the declaration is written for (a person 100 px tall); replicas are placed
 #: relative to it
@@ -120,6 +120,22 @@ def _check(p: Params) -> None:
         raise ValueError(f"damping must be in [0, 1], got {p.damping!r}")
 
 
+def evidence_factors(nm: str, p, extent=(0.0, 0.0, 1.0, 1.0)) -> list:
+    """A person node's evidence: its appearance cues (``p.appearance``), the frame's
+    detections (``extent``: where the node's box lies in the person's) and mutual
+    exclusion with the other replicas — as ``p`` (any Params with those fields) sets them."""
+    out = [cue_factor(cue, nm, p, name=None if j == 0 else f"{cue}:{nm}", options=opts)
+           for j, (cue, opts) in enumerate(appearance_cues(p.appearance))]
+    if p.detection_strength > 0:
+        out.append(DetectionLikelihood(nm, pos_std=p.detection_pos_std,
+                                       size_std=p.detection_size_std,
+                                       strength=p.detection_strength, extent=extent,
+                                       name=f"detections:{nm}"))
+    if p.exclusion > 0:
+        out.append(MutualExclusion(nm, strength=p.exclusion, name=f"exclusion:{nm}"))
+    return out
+
+
 def person_graph(p: Params, name: str) -> tuple[list, list, list[str]]:
     """Variables, factors and output names of one person (the plate's contents)."""
     box = np.asarray(REFERENCE_BOX)
@@ -136,16 +152,7 @@ def person_graph(p: Params, name: str) -> tuple[list, list, list[str]]:
             AR2Transition(nm, noise_std=[pos, pos, 0.0, 0.0], damping=p.damping,
                           scale_noise=scale, relative=True),
         ]
-        for j, (cue, opts) in enumerate(appearance_cues(p.appearance)):
-            factors.append(cue_factor(cue, nm, p, name=None if j == 0 else f"{cue}:{nm}",
-                                      options=opts))
-        if p.detection_strength > 0:
-            extent = (0.0, k / n, 1.0, (k + 1) / n)
-            factors.append(DetectionLikelihood(
-                nm, pos_std=p.detection_pos_std, size_std=p.detection_size_std,
-                strength=p.detection_strength, extent=extent, name=f"detections:{nm}"))
-        if p.exclusion > 0:
-            factors.append(MutualExclusion(nm, strength=p.exclusion, name=f"exclusion:{nm}"))
+        factors += evidence_factors(nm, p, extent=(0.0, k / n, 1.0, (k + 1) / n))
     for k in range(n - 1):
         a, b = parts[k], parts[k + 1]
         factors.append(RelativeBoxCoupling(

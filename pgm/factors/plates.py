@@ -49,11 +49,14 @@ __all__ = ["InteractionFactor", "MutualExclusion", "DetectionLikelihood"]
 _BOX = ("cx", "cy", "w", "h")
 
 
-def _box_columns(factor: Factor, variables: dict[str, Variable], var: str) -> None:
+def _box_columns(factor: Factor, variables: dict[str, Variable], var: str) -> list[int]:
+    """Columns of ``cx, cy, w, h`` in ``var``; a ``ValueError`` naming ``factor`` if the
+    variable is not a box."""
     labels = variables[var].labels
     if labels is None or not all(b in labels for b in _BOX):
         raise ValueError(f"factor {factor.name!r}: variable {var!r} must have the labels "
                          f"cx, cy, w, h (a box), got {labels}")
+    return [labels.index(b) for b in _BOX]
 
 
 class InteractionFactor(Factor):
@@ -93,8 +96,7 @@ class MutualExclusion(InteractionFactor):
         return {"strength": self.strength}
 
     def check(self, variables: dict[str, Variable]) -> None:
-        _box_columns(self, variables, self.variables[0])
-        self._cols: list[int] = [variables[self.variables[0]].labels.index(b) for b in _BOX]
+        self._cols: list[int] = _box_columns(self, variables, self.variables[0])
 
     def overlap(self, x: np.ndarray, estimates: np.ndarray) -> np.ndarray:
         """``max_{j≠k} IoU`` of each particle of replica ``k`` with the other estimates,
@@ -155,8 +157,7 @@ class DetectionLikelihood(LikelihoodFactor):
                 "extent": self.extent.tolist()}
 
     def check(self, variables: dict[str, Variable]) -> None:
-        _box_columns(self, variables, self.variables[0])
-        self._cols: list[int] = [variables[self.variables[0]].labels.index(b) for b in _BOX]
+        self._cols: list[int] = _box_columns(self, variables, self.variables[0])
 
     def object_boxes(self, box: np.ndarray) -> np.ndarray:
         """The object boxes ``(N, 4)`` (cx, cy, w, h) that part boxes ``box`` imply."""

@@ -30,6 +30,7 @@ never all held in memory.
 from __future__ import annotations
 
 import configparser
+import itertools
 import logging
 import math
 import re
@@ -489,86 +490,28 @@ def _open_folder(folder: Path) -> FrameSource:
                                fps=DEFAULT_FPS)
 
 
-class LiveSource(FrameSource):
-    """Frames from a camera (an integer index, e.g. ``0``) or a stream URL (``rtsp://``,
-    ``http(s)://``, ``udp://``, ``file://``), read with ``cv2.VideoCapture``.
-
-    A live source is read once, as it comes: its length is unknown (``len()`` is 0 and
-    :meth:`_known_length` None), :meth:`frames` can be iterated once and never seeks, and
-    a frame that does not arrive ends the stream. The camera or stream is opened, and
-    its first frame read, when the source is created, so a missing camera fails early.
-    """
-
-    def __init__(self, spec: str, *, fps: float | None = None) -> None:
-        self.spec = str(spec)
-        target: int | str = int(self.spec) if self.spec.isdigit() else self.spec
-        what = f"camera {self.spec}" if isinstance(target, int) else f"stream {self.spec}"
-        cap = cv2.VideoCapture(target)
-        if not cap.isOpened():
-            cap.release()
-            raise InputError(f"cannot open {what} (no such device, or the stream cannot be "
-                             f"reached)")
-        ok, first = cap.read()
-        if not ok or first is None:
-            cap.release()
-            raise InputError(f"{what} opened but gave no frame")
-        rate = float(cap.get(cv2.CAP_PROP_FPS) or 0.0)
-        if fps is None:
-            fps = rate if MIN_FPS <= rate <= MAX_FPS else DEFAULT_FPS
-        super().__init__(Path(self.spec), name=what.replace(" ", "-"), layout="live", fps=fps)
-        self._cap: cv2.VideoCapture | None = cap
-        self._first: np.ndarray | None = _as_bgr(first)
-        self._size = (int(first.shape[1]), int(first.shape[0]))
-
-    @property
-    def size(self) -> tuple[int, int]:
-        """``(width, height)`` of the first frame."""
-        return self._size
-
-    def __len__(self) -> int:
-        return 0
-
-    def _known_length(self) -> int | None:
-        return None
-
-    def frames(self, start: int = 1, stop: int | None = None
-               ) -> Iterator[tuple[int, np.ndarray]]:
-        start, stop = _check_range(start, stop, self.path)
-        cap = self._cap
-        if cap is None:
-            raise InputError(f"{self.name} was already read: a live source is read once")
-        self._cap = None
-        try:
-            k, image = 1, self._first
-            self._first = None
-            while image is not None and (stop is None or k < stop):
-                if k >= start:
-                    yield k, image
-                ok, nxt = cap.read()
-                image = _as_bgr(nxt) if ok and nxt is not None else None
-                k += 1
-        finally:
-            cap.release()
-
-
 class IterableSource(FrameSource):
     """Frames from any iterable of BGR images or of ``(frame_number, image)`` pairs (e.g.
-    a generator reading a camera SDK), read once, as they come. The first frame is read
-    when the source is created (for its size)."""
+    a generator reading a camera SDK), read once, as they come.
 
-    def __init__(self, frames, *, fps: float = DEFAULT_FPS, name: str = "frames") -> None:
+    Its length is unknown (``len()`` is 0 and :meth:`_known_length` None) and
+    :meth:`frames` can be iterated once and never seeks. The first frame is read when
+    the source is created (for its size).
+    """
+
+    def __init__(self, frames, *, fps: float = DEFAULT_FPS, name: str = "frames",
+                 layout: str = "iterable", path: Path | None = None) -> None:
         it = iter(frames)
         try:
             first = next(it)
         except StopIteration:
             raise InputError("the frame iterable is empty") from None
-        self._it = it
-        self._first = first
-        image = first[1] if isinstance(first, tuple) else first
-        image = np.asarray(image)
+        image = np.asarray(first[1] if isinstance(first, tuple) else first)
         if image.ndim not in (2, 3) or image.size == 0:
             raise InputError(f"frames must be images (H, W[, 3]), got shape {image.shape}")
-        super().__init__(Path(name), name=name, layout="iterable", fps=float(fps))
+        super().__init__(Path(name) if path is None else path, name=name, layout=layout,
+                         fps=float(fps))
+        self._frames = itertools.chain((first,), it)
         self._size = (int(image.shape[1]), int(image.shape[0]))
 
     @property
@@ -585,18 +528,53 @@ class IterableSource(FrameSource):
     def frames(self, start: int = 1, stop: int | None = None
                ) -> Iterator[tuple[int, np.ndarray]]:
         start, stop = _check_range(start, stop, self.path)
-        if self._it is None:
-            raise InputError("the frame iterable was already read: it is read once")
-        import itertools
-
-        it, first = self._it, self._first
-        self._it = self._first = None
-        for k, item in enumerate(itertools.chain((first,), it), start=1):
+        if self._frames is None:
+            raise InputError(f"{self.name} was already read: it is read once, as it comes")
+        frames, self._frames = self._frames, None
+        for k, item in enumerate(frames, start=1):
             number, image = item if isinstance(item, tuple) else (k, item)
             if stop is not None and number >= stop:
                 return
             if number >= start:
                 yield int(number), _as_bgr(np.asarray(image))
+
+
+class LiveSource(IterableSource):
+    """Frames from a camera (an integer index, e.g. ``0``) or a stream URL (``rtsp://``,
+    ``http(s)://``, ``udp://``, ``file://``), read with ``cv2.VideoCapture``: an
+    :class:`IterableSource` over the capture, so read once, as it comes; a frame that
+    does not arrive ends the stream. The camera or stream is opened, and its first frame
+    read, when the source is created, so a missing camera fails early.
+    """
+
+    def __init__(self, spec: str, *, fps: float | None = None) -> None:
+        self.spec = str(spec)
+        target: int | str = int(self.spec) if self.spec.isdigit() else self.spec
+        what = f"camera {self.spec}" if isinstance(target, int) else f"stream {self.spec}"
+        cap = cv2.VideoCapture(target)
+        if not cap.isOpened():
+            cap.release()
+            raise InputError(f"cannot open {what} (no such device, or the stream cannot be "
+                             f"reached)")
+        rate = float(cap.get(cv2.CAP_PROP_FPS) or 0.0)
+        if fps is None:
+            fps = rate if MIN_FPS <= rate <= MAX_FPS else DEFAULT_FPS
+
+        def read():
+            try:
+                while True:
+                    ok, image = cap.read()
+                    if not ok or image is None:
+                        return
+                    yield image
+            finally:
+                cap.release()
+
+        try:
+            super().__init__(read(), fps=fps, name=what.replace(" ", "-"), layout="live",
+                             path=Path(self.spec))
+        except InputError:
+            raise InputError(f"{what} opened but gave no frame") from None
 
 
 #: what ``open_source`` treats as a live source rather than a path

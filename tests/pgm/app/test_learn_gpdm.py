@@ -7,28 +7,10 @@ import dataclasses
 
 import numpy as np
 import pytest
+from test_bad_input import assert_one_line_error, run_cli  # same folder: on sys.path
 
-from pgm.app.cli import GPDM_HELP_DEFAULTS, main
+from pgm.app.cli import GPDM_HELP_DEFAULTS
 from pgm.dynamics.gpdm import GPDMSettings, load_gpdm
-
-
-def run_cli(capsys, argv):
-    """``(exit code, stdout, stderr)`` of ``pgm argv`` run in this process."""
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:  # argparse
-        code = exc.code
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
-
-
-def assert_one_line_error(code, err, needle=""):
-    lines = [ln for ln in err.splitlines() if ln.strip()]
-    assert code == 2, err
-    assert len(lines) == 1, err
-    assert lines[0].startswith("pgm: error: "), err
-    assert "Traceback" not in err and "internal error" not in err
-    assert needle.lower() in lines[0].lower(), (needle, lines[0])
 
 
 def _mot_folder(root, name, people, *, frames=12, frame_rate="25"):
