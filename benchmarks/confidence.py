@@ -2,9 +2,10 @@
 leave-one-sequence-out.
 
 The default single-object model (``pgm.models.single_object``) reports per frame the
-probability that its box overlaps the truth by at least half: its correlation filter's
-response at the estimate (relative to the filter's typical peak on that video) and the
-log of the posterior's spread (particles' centre standard deviation over the box size)
+probability that its box overlaps the truth by at least half: the log peak-to-sidelobe
+ratio of its correlation filter's response map at the estimate (MOSSE's failure signal,
+a ratio of the map to itself) and the log of the posterior's spread (particles' centre
+standard deviation over the box size)
 mapped through a logistic (:func:`pgm.core.readout.confidence`). This script
 
 1. runs the model over the four single-object sequences of ``../shared/data``
@@ -79,7 +80,8 @@ def collect(tasks, seeds: int):
 
 
 def fit(x: np.ndarray, y: np.ndarray) -> tuple[float, float, float]:
-    """Logistic ``P(hit | r, log s) = σ(a + b r + c log s)`` (scikit-learn's default mild
+    """Logistic ``P(hit | r, log s) = σ(a + b r + c log s)`` (``r``: the factor's
+    confidence feature, the log peak-to-sidelobe ratio) (scikit-learn's default mild
     L2 penalty, C = 1: a sequence where every frame is a hit has no finite optimum)."""
     lr = LogisticRegression(C=1.0).fit(x, y.astype(int))
     return float(lr.intercept_[0]), float(lr.coef_[0, 0]), float(lr.coef_[0, 1])

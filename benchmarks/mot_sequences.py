@@ -181,7 +181,7 @@ def dbn_check(seq_dir: Path, path: Path, every: int = 5) -> str:
 def run(seq_dir: Path, module, detector, seed: int = 0, dbn: Path | None = None,
         lost_seconds: float = 1.0, merge_gate: float = 3.0, sigma_factor: float = 1.0,
         dbn_calibrate: int = 60, camera_motion: str = "auto", scale_aware: bool = False,
-        scores: str | None = None):
+        scores: str | None = None, overrides: dict | None = None):
     src = open_source(seq_dir)
     gt = load_mot(src.gt_path, kind="gt")
     w, h = src.size
@@ -192,6 +192,7 @@ def run(seq_dir: Path, module, detector, seed: int = 0, dbn: Path | None = None,
         table = detector.table
     height = float(np.median(table.boxes[:, 3])) if table is not None else None
     extra = {} if scores is None else {"score_model": scores}
+    extra.update(overrides or {})
     params = video_params(module.Params, w, h, src.fps, typical_height=height,
                           lost_seconds=lost_seconds, merge_gate=merge_gate,
                           scale_aware=scale_aware, **extra)

@@ -129,7 +129,8 @@ def score_terms(engine: Engine, var: str, factor: PHDLikelihood, frame,
             cal = aux["score_calibration"] = ScoreCalibration(factor.scores)
         cal.observe(s)
         kappa = cal.clutter_rate(factor.clutter_rate) / factor._volume
-        out = (kappa * cal.clutter_scale(s), factor.nu_birth * cal.birth_mask(s))
+        on_kappa, on_nu = cal.terms(s)
+        out = (kappa * on_kappa, factor.nu_birth * on_nu)
     aux["score_terms"] = (frame, *out)
     return out
 

@@ -53,10 +53,11 @@ __all__ = ["Params", "build_graph", "APPEARANCE", "SCALE_NOISE", "JUMP_PROB", "C
 APPEARANCE = "cf"
 SCALE_NOISE = 0.005
 JUMP_PROB = 0.4
-#: logistic of the correlation filter's relative response and the log posterior spread,
+#: logistic of the log peak-to-sidelobe ratio of the correlation filter's response map and the
+#: log posterior spread,
 #: fitted on FaceOcc1, Crossing, David, Tiger1 and six PETS09-S2L1 person tracks, seeds 0-1
 #: (``python benchmarks/confidence.py``, which prints the leave-one-group-out figures)
-CONFIDENCE = {"intercept": -3.274, "slope": 6.506, "spread_slope": -0.026}
+CONFIDENCE = {"intercept": -9.319, "slope": 3.864, "spread_slope": 0.061}
 
 
 @dataclass(frozen=True)

@@ -179,9 +179,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="vb-phd: one noise belief per track instead of one shared")
     t.add_argument("--scores", choices=("off", "mixture"), default=None,
                    help="phd/vb-phd: detection scores in the measurement model: 'mixture' "
-                        "(per-detection clutter from a two-class score mixture fitted on the "
-                        "video; low-score detections only extend tracks) or 'off' "
-                        "(score-blind); default: the video default")
+                        "(default: a two-class score mixture fitted on the video's own "
+                        "scores; confident detections start targets, a tracked target's "
+                        "low-score detections still update it) or 'off' (score-blind)")
     t.add_argument("--detector", default=None,
                    help="phd/vb-phd: 'public' (the sequence's det/det.txt, default), "
                         "'public:MIN_SCORE' or 'mog2' (background subtraction)")

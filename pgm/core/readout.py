@@ -16,8 +16,8 @@ here). Graphs that name none use ``"box"``: the first output variable's estimate
 A single-object model may also declare a *calibrated confidence* in
 ``graph.meta["confidence"] = {"factor": NAME, "intercept": a, "slope": b,
 "spread_slope": c}``: the named factor's ``confidence_feature`` ``r`` (a number it
-computes about its last frame, e.g. the correlation filter's response at the estimate
-relative to its typical peak) and the posterior's spread ``s`` (:func:`posterior_spread`:
+computes about its last frame, e.g. the log peak-to-sidelobe ratio of the correlation
+filter's response map at the estimate) and the posterior's spread ``s`` (:func:`posterior_spread`:
 the particles' weighted centre standard deviation over the estimate's size) mapped
 through the logistic ``1 / (1 + exp(-(a + b r + c log s)))``, fitted so that it is the
 probability that the box overlaps the truth by at least half (see

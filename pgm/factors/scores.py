@@ -31,6 +31,10 @@ whose posterior probability of being a target, ``π f_T / (π f_T + (1−π) f_C
 ``birth_min_prob`` gets no newborn particles; it still enters the corrector, so it
 keeps a predicted target alive.
 
+Where a tracked target's detections score like any detection rather than like the
+target class (``persisting="all"``), the corrector is divided by the marginal score density
+instead; see :class:`ScoreSettings`.
+
 The clutter *rate* may also be calibrated from the fit: ``λ_c = (1 − π) ×`` the mean number
 of detections per frame (``clutter_from_scores``).
 """
@@ -45,9 +49,10 @@ import numpy as np
 
 from pgm.core.numerics import check_finite_param
 
-__all__ = ["ScoreSettings", "ScoreMixture", "ScoreCalibration", "SCORE_MODELS"]
+__all__ = ["ScoreSettings", "ScoreMixture", "ScoreCalibration", "SCORE_MODELS", "PERSISTING"]
 
 SCORE_MODELS = ("off", "mixture")
+PERSISTING = ("target", "all")
 
 
 @dataclass(frozen=True)
@@ -76,6 +81,13 @@ class ScoreSettings:
     em_iter : int
         EM iterations per frame (warm-started from the previous frame's fit; the first
         fit runs ``10 ×`` as many).
+    persisting : str
+        The score density of a *persisting* target's detection: ``"target"`` (the
+        target class's ``f_T``, the literal marked model: ``κ(s) = κ (f_C/f_T)^γ``) or
+        ``"all"`` (the marginal ``f = π f_T + (1 − π) f_C`` of every detection: a tracked
+        person, partly occluded, scores like any detection, so ``κ(s) = κ (f_C/f)^γ`` —
+        at most ``(1 − π)^{−γ}`` times ``κ`` — and only *births* carry the target class's
+        ratio, ``ν_b(s) = ν_b (f_T/f)^γ``).
     """
 
     model: str = "off"
@@ -85,6 +97,7 @@ class ScoreSettings:
     min_samples: int = 50
     clutter_from_scores: bool = False
     em_iter: int = 5
+    persisting: str = "target"
 
     def __post_init__(self) -> None:
         if self.model not in SCORE_MODELS:
@@ -101,6 +114,9 @@ class ScoreSettings:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
                 raise ValueError(f"scores.{name} must be an integer >= {lo}, got {v!r}")
+        if self.persisting not in PERSISTING:
+            raise ValueError(f"scores.persisting must be one of {PERSISTING}, got "
+                             f"{self.persisting!r}")
         if not isinstance(self.clutter_from_scores, (bool, np.bool_)):
             raise ValueError("scores.clutter_from_scores must be a bool, got "
                              f"{self.clutter_from_scores!r}")
@@ -241,6 +257,27 @@ class ScoreCalibration:
         c = np.log(self.settings.max_ratio)
         lr = np.clip(self.mixture.log_ratio(np.nan_to_num(s, nan=self.mixture.mean[0])), -c, c)
         return np.exp(-self.settings.temper * lr)
+
+    def terms(self, scores: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per-detection factors ``(on κ, on ν_b)``.
+
+        ``persisting="target"``: ``((f_C/f_T)^γ, birth mask)``. ``"all"``: the corrector
+        divided by the marginal score density ``f = π f_T + (1 − π) f_C`` instead of
+        ``f_T`` — ``((f_C/f)^γ, (f_T/f)^γ × birth mask)``.
+        """
+        s = np.asarray(scores, dtype=float).reshape(-1)
+        mask = self.birth_mask(s).astype(float)
+        if self.mixture is None:
+            return np.ones(s.size), mask
+        if self.settings.persisting == "target":
+            return self.clutter_scale(s), mask
+        c = np.log(self.settings.max_ratio)
+        m = self.mixture
+        lr = np.clip(m.log_ratio(np.nan_to_num(s, nan=m.mean[0])), -c, c)  # log f_T/f_C
+        pi = float(np.clip(m.weight, 1e-12, 1 - 1e-12))
+        log_f_over_fc = np.logaddexp(np.log(pi) + lr, np.log1p(-pi))  # log f/f_C
+        g = self.settings.temper
+        return np.exp(-g * log_f_over_fc), mask * np.exp(g * (lr - log_f_over_fc))
 
     def birth_mask(self, scores: np.ndarray) -> np.ndarray:
         """Which detections may spawn newborn particles (all before the first fit)."""

@@ -142,3 +142,20 @@ def test_score_model_off_is_the_score_blind_filter_bit_for_bit():
     for ea, eb in zip(a, b, strict=True):
         np.testing.assert_array_equal(ea["ids"], eb["ids"])
         np.testing.assert_array_equal(ea["states"], eb["states"])
+
+
+@pytest.mark.parametrize("module", [phd, vb_phd])
+def test_video_default_keeps_a_tracked_target_through_low_scores(module):
+    """The video default (γ = 0.5, no birth gate, persisting targets scored by the marginal
+    score density): walker A keeps one identity through its 40 low-score frames."""
+    frames = _walkers(n=60)
+    params = phd.video_params(module.Params, 640, 480, 25.0, typical_height=80.0,
+                              score_min_samples=20)
+    assert (params.score_model, params.score_temper, params.score_birth_min_prob,
+            params.score_persisting) == ("mixture", 0.5, 0.0, "all")
+    eng = Engine(module.build_graph(params), np.random.default_rng(1))
+    a_ids = [_near(eng.step(FrameContext(t + 1, detections=d)).estimates["targets"], a)
+             for t, (d, a, _) in enumerate(frames)]
+    assert sum(bool(i) for i in a_ids[20:]) >= 0.9 * 40
+    assert len(set().union(*a_ids[5:])) == 1
+    assert eng.aux["targets"]["score_calibration"].ready

@@ -21,6 +21,14 @@ filter is blended towards that window only when the score reaches ``gate · r̄`
 tracker's own confidence relative to its own history: an occluder or a drift does not
 get learned), with ``adapt_rate`` as the learning rate.
 
+After each frame the factor also records the **peak-to-sidelobe ratio** of the response
+map at the estimate (MOSSE's failure signal [#bolme2010]: the peak's height above the
+rest of the map, ``(max r − μ_side) / σ_side`` with the ``11 × 11`` cells around the
+peak excluded — a tenth of the window's side at the default template size). It is a
+ratio of the map to itself, so its meaning does not depend on the video's contrast or
+texture; its logarithm is the feature the single-object model's confidence calibrates
+(:attr:`CorrelationFilterLikelihood.confidence_feature`).
+
 Features (per pixel of the window, resampled so the object is about ``target_px`` pixels
 across): grey level and ``n_orient`` unsigned gradient-orientation channels (soft-binned
 magnitudes, pooled over 3x3 and divided by the local gradient energy, so a global change
@@ -48,7 +56,22 @@ from pgm.core.numerics import check_finite_param
 
 from .likelihoods import BoxAppearanceLikelihood, grey_frame
 
-__all__ = ["CorrelationFilterLikelihood", "window_features"]
+__all__ = ["CorrelationFilterLikelihood", "window_features", "peak_to_sidelobe"]
+
+
+def peak_to_sidelobe(response: np.ndarray, radius: int) -> float:
+    """Peak-to-sidelobe ratio of a response map [#bolme2010]: ``(max − μ) / σ`` of the
+    cells outside the ``(2 radius + 1)²`` square around the peak (``σ`` floored at
+    ``1e-12`` of the peak's magnitude, so a flat side lobe gives a large, finite ratio)."""
+    r = np.asarray(response, dtype=float)
+    iy, ix = np.unravel_index(int(np.argmax(r)), r.shape)
+    side = np.ones(r.shape, dtype=bool)
+    side[max(iy - radius, 0):iy + radius + 1, max(ix - radius, 0):ix + radius + 1] = False
+    if not side.any():
+        raise ValueError(f"the response map {r.shape} has no side lobe outside radius {radius}")
+    lobe = r[side]
+    peak = float(r[iy, ix])
+    return float((peak - lobe.mean()) / max(float(lobe.std()), 1e-12 * max(abs(peak), 1e-300)))
 
 
 def window_features(grey: np.ndarray, centre, size, out_shape, n_orient: int) -> np.ndarray:
@@ -135,7 +158,8 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         self.num = None  # (C, th, tw) complex numerator  conj(G) · X_c
         self.den = None  # (th, tw) real denominator  Σ_c |X_c|²
         self.peak = None  # running mean of the peak response at the estimates
-        self.last_response = None  # relative response at the last estimate (confidence)
+        self.last_response = None  # relative response at the last estimate
+        self.last_psr = None  # peak-to-sidelobe ratio of the map at the last estimate
 
     @property
     def learns(self) -> bool:
@@ -145,9 +169,12 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
 
     @property
     def confidence_feature(self) -> float | None:
-        """The filter's response at the last estimate over its typical peak (None before
-        the first update): what :func:`pgm.core.readout.confidence` calibrates."""
-        return self.last_response
+        """``log`` of the peak-to-sidelobe ratio of the response map at the last estimate
+        (None before the first update): what :func:`pgm.core.readout.confidence`
+        calibrates."""
+        if self.last_psr is None:
+            return None
+        return float(np.log(max(self.last_psr, 1e-3)))
 
     def params(self) -> dict[str, Any]:
         return {"lam": self.lam, "padding": self.padding, "target_px": self.target_px,
@@ -202,8 +229,10 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         self.num = None
         xf = self._spectrum(ctx, box[:2], np.sqrt(box[2] * box[3]) / self.ref_scale)
         self._train(xf, 1.0)
-        self.peak = max(float(self._response(xf).max()), 1e-12)
+        response = self._response(xf)
+        self.peak = max(float(response.max()), 1e-12)
         self.last_response = 1.0
+        self.last_psr = peak_to_sidelobe(response, max(2, int(round(0.15 * self.target_px))))
 
     def update(self, estimates, scores, frame=None) -> None:
         """Score the estimate's window, then learn from it if the score passes the gate."""
@@ -212,8 +241,10 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         box = np.asarray(estimates[self.variables[0]], float)[list(self.box_indices)]
         scale = np.sqrt(max(box[2] * box[3], 1e-12)) / self.ref_scale
         xf = self._spectrum(frame, box[:2], scale)
-        here = self._centre_max(self._response(xf))
+        response = self._response(xf)
+        here = self._centre_max(response)
         self.last_response = here / self.peak
+        self.last_psr = peak_to_sidelobe(response, max(2, int(round(0.15 * self.target_px))))
         if self.adapt_rate > 0 and here >= self.gate * self.peak:
             self._train(xf, self.adapt_rate)
             self.peak = (1 - self.adapt_rate) * self.peak + self.adapt_rate * here

@@ -463,7 +463,8 @@ def training_set(sequences, rng: np.random.Generator, *, every: int = 5,
 
     Positives: ground-truth boxes (flag 1) on every ``every``-th frame. Negatives: for
     each positive, ``negatives_per_positive`` boxes of a ground-truth size placed
-    uniformly at random, plus one copy of the positive shifted by 0.6–1.0 of its size,
+    uniformly at random inside the frame (at its top-left corner where the box is larger
+    than the frame), plus one copy of the positive shifted by 0.6–1.0 of its size,
     all kept only if their IoU with every ground-truth box is below 0.2.
     """
     from pgm.core.boxes import iou_xywh
@@ -491,8 +492,10 @@ def training_set(sequences, rng: np.random.Generator, *, every: int = 5,
                 continue
             n = len(boxes)
             sizes = boxes[rng.integers(0, n, n * negatives_per_positive), 2:4]
-            rand = np.column_stack([rng.uniform(0, W - sizes[:, 0]),
-                                    rng.uniform(0, H - sizes[:, 1]), sizes])
+            # a box may be larger than the frame (MOT16: a person close to the camera,
+            # cut by the frame's edge): such a negative is placed anywhere it overlaps
+            rand = np.column_stack([rng.uniform(0, np.maximum(W - sizes[:, 0], 0)),
+                                    rng.uniform(0, np.maximum(H - sizes[:, 1], 0)), sizes])
             shift = boxes.copy()
             sign = rng.choice([-1.0, 1.0], size=(n, 2))
             shift[:, :2] += sign * rng.uniform(0.6, 1.0, (n, 2)) * boxes[:, 2:4]

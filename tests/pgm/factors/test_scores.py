@@ -1,6 +1,8 @@
 """Detection scores in the PHD measurement model: settings, the two-class score mixture
 and its online calibration (never from ground truth)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -66,6 +68,38 @@ def test_online_calibration_is_score_blind_until_it_has_enough_scores():
     np.testing.assert_array_equal(cal.birth_mask([10.0, 60.0]), [False, True])
 
 
+@pytest.mark.parametrize("temper", [1.0, 0.5])
+def test_persisting_targets_scored_by_the_marginal_density(temper):
+    """``persisting="all"``: the corrector is divided by the marginal score density
+    ``f = π f_T + (1 − π) f_C``, so κ carries ``(f_C/f)^γ`` and births ``(f_T/f)^γ``,
+    computed here from the fitted mixture's Gaussian densities by hand."""
+    rng = np.random.default_rng(5)
+    settings = ScoreSettings(model="mixture", temper=temper, birth_min_prob=0.0,
+                             persisting="all", max_ratio=1e300)
+    cal = ScoreCalibration(settings)
+    for _ in range(100):
+        cal.observe(two_class_scores(rng, n=10)[0])
+    m = cal.mixture
+    s = np.array([m.mean[0], 30.0, m.mean[1]])  # inside the span: no clipping
+
+    def normal(x, mu, var):
+        return np.exp(-0.5 * (x - mu) ** 2 / var) / np.sqrt(2 * np.pi * var)
+
+    f_c, f_t = normal(s, m.mean[0], m.var[0]), normal(s, m.mean[1], m.var[1])
+    f = m.weight * f_t + (1 - m.weight) * f_c
+    on_kappa, on_nu = cal.terms(s)
+    np.testing.assert_allclose(on_kappa, (f_c / f) ** temper, rtol=1e-9)
+    np.testing.assert_allclose(on_nu, (f_t / f) ** temper, rtol=1e-9)
+    # a low score makes a detection at most 1/(1 - π) times more clutter-like, where the
+    # literal model ("target") makes it f_C/f_T times: a tracked target's low-score
+    # detection is not written off
+    assert on_kappa[0] <= (1 / (1 - m.weight)) ** temper + 1e-12
+    literal = ScoreCalibration(dataclasses.replace(settings, persisting="target"))
+    literal.mixture = m
+    assert literal.terms(s)[0][0] > 10 * on_kappa[0]
+    np.testing.assert_array_equal(literal.terms(s)[1], [1.0, 1.0, 1.0])  # no gate
+
+
 def test_clutter_rate_from_the_mixture():
     cal = ScoreCalibration(ScoreSettings(model="mixture", clutter_from_scores=True))
     rng = np.random.default_rng(4)
@@ -88,6 +122,7 @@ def test_clutter_rate_from_the_mixture():
     ({"em_iter": 0}, "scores.em_iter"),
     ({"model": "logistic"}, "scores.model"),
     ({"clutter_from_scores": "yes"}, "scores.clutter_from_scores"),
+    ({"persisting": "some"}, "scores.persisting"),
 ])
 def test_bad_settings_name_the_parameter(kw, name):
     with pytest.raises(ValueError, match=name):

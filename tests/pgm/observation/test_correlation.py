@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pgm.core.frame import FrameContext
-from pgm.observation.appearance.correlation import CorrelationFilterLikelihood
+from pgm.observation.appearance.correlation import CorrelationFilterLikelihood, peak_to_sidelobe
 
 
 def texture(rng, shape, blur=2.0):
@@ -73,6 +73,7 @@ def test_the_gate_keeps_an_occluder_out_of_the_filter():
     # the object itself, slightly moved: confident, learned
     f.update({"object": box}, {}, FrameContext(2, scene(rng, (120, 100))))
     assert f.last_response > 0.5 and not np.allclose(f.num, num)
+    psr_object = f.last_psr
     # a flat occluder over the object: not confident, not learned
     occluded = scene(rng, (120, 100))
     occluded[60:140, 90:150] = 128
@@ -80,6 +81,22 @@ def test_the_gate_keeps_an_occluder_out_of_the_filter():
     f.update({"object": box}, {}, FrameContext(3, occluded))
     assert f.last_response < 0.5
     np.testing.assert_array_equal(f.num, num)
+    # the map's peak-to-sidelobe ratio (the confidence's feature) falls with it
+    assert f.last_psr < 0.5 * psr_object
+    assert f.confidence_feature == pytest.approx(np.log(f.last_psr))
+
+
+def test_peak_to_sidelobe_ratio_by_hand():
+    r = np.zeros((9, 9))
+    r[4, 4] = 10.0
+    r[0, :] = 1.0  # side lobe outside the 5 x 5 square around the peak: 9 ones, 47 zeros
+    side = np.r_[np.ones(9), np.zeros(81 - 25 - 9)]
+    assert peak_to_sidelobe(r, 2) == pytest.approx((10 - side.mean()) / side.std())
+    # the peak is found wherever it is (a square clipped at the border)
+    r2 = np.roll(np.roll(r, -4, 0), -4, 1)
+    assert np.isfinite(peak_to_sidelobe(r2, 2))
+    with pytest.raises(ValueError, match="no side lobe"):
+        peak_to_sidelobe(np.ones((3, 3)), 2)
 
 
 def test_settings_are_checked_and_saved_with_the_model(tmp_path):

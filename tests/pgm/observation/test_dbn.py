@@ -75,6 +75,22 @@ def test_dbn_separates_people_from_background_on_held_out_frames(synthetic_mot, 
         assert json.loads(str(f["header"]))["format"] == "pgm-dbn-v1"
 
 
+def test_training_set_takes_a_person_taller_than_the_frame(synthetic_mot, tmp_path):
+    """MOT16's ground truth has people close to the camera whose boxes run past the frame:
+    their negatives are still drawn (this raised "high - low < 0" inside numpy)."""
+    import shutil
+
+    d = tmp_path / "tall"
+    shutil.copytree(synthetic_mot / "train", d)
+    gt = d / "gt" / "gt.txt"
+    lines = gt.read_text().splitlines()
+    f, i, x, y, w, h, *rest = lines[0].split(",")
+    lines.insert(0, ",".join([f, "999", "5", "-20", "60", "5000", *rest]))
+    gt.write_text("\n".join(lines) + "\n")
+    X, y = training_set([d], np.random.default_rng(0), every=4)
+    assert np.all(np.isfinite(X)) and y.sum() > 0 and (y == 0).sum() > 0
+
+
 def test_dbn_file_errors(tmp_path):
     with pytest.raises(InputError, match="not found"):
         DBN.load(tmp_path / "missing.npz")

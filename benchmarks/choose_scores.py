@@ -1,0 +1,123 @@
+"""How detection scores enter the (VB-)PHD, chosen leave one sequence out.
+
+    .venv/bin/python benchmarks/choose_scores.py [--seeds 3] [--jobs 2] [--cache FILE]
+
+A grid of score settings (:mod:`pgm.factors.scores`): ``off`` (score-blind) and the
+online two-class mixture with temper ``γ ∈ {0.25, 0.5, 1}``, birth gate
+``P(target | s) ≥ {0, 0.5}`` and the score density of a persisting target's detection
+(``target``: the target class's, the literal marked model; ``all``: the marginal of all
+detections, so that a tracked person's low-score detection is not written off), is run
+with PHD and VB-PHD on the four shared MOT sequences (public detections, seeds
+``0..K-1``), everything else at the ``pgm track`` defaults. For each held-out sequence
+the setting with the best mean of ``(MOTA + IDF1) / 2`` over PHD and VB-PHD on the
+other three is chosen and scored on the held-out one; the last row is the choice on all
+four. Runs are cached as JSON lines in ``--cache`` (default
+``benchmarks/results/choose_scores.jsonl``), so an interrupted run resumes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import sys
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import SHARED_DATA, print_table, single_thread  # noqa: E402
+
+single_thread()
+
+SEQUENCES = ("PETS09-S2L1", "TUD-Campus", "TUD-Stadtmitte", "MOT16-11")
+MODELS = ("PHD", "VB-PHD")
+
+
+def grid() -> list[dict]:
+    out = [{"score_model": "off"}]
+    for g, gate, pers in itertools.product((0.25, 0.5, 1.0), (0.0, 0.5), ("target", "all")):
+        out.append({"score_model": "mixture", "score_temper": g,
+                    "score_birth_min_prob": gate, "score_persisting": pers})
+    return out
+
+
+def label(cfg: dict) -> str:
+    if cfg["score_model"] == "off":
+        return "off"
+    return (f"γ={cfg['score_temper']:g} gate={cfg['score_birth_min_prob']:g} "
+            f"persist={cfg['score_persisting']}")
+
+
+def run_one(task: tuple[str, str, int, dict]) -> dict:
+    from mot_sequences import run
+
+    from pgm.io.video import open_source
+    from pgm.models import phd, vb_phd
+    from pgm.observation.detections import make_detector
+
+    seq, model, seed, cfg = task
+    d = SHARED_DATA / seq
+    module = phd if model == "PHD" else vb_phd
+    r = run(d, module, make_detector("public", open_source(d)), seed=seed, overrides=cfg)
+    m = r.metrics
+    return {"seq": seq, "model": model, "seed": seed, "cfg": label(cfg),
+            "mota": m["mota"], "idf1": m["idf1"], "hota": m["hota"]}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[1])
+    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--cache", type=Path,
+                    default=Path(__file__).resolve().parent / "results" / "choose_scores.jsonl")
+    args = ap.parse_args()
+    seqs = [s for s in SEQUENCES if (SHARED_DATA / s).is_dir()]
+    if len(seqs) < 2:
+        sys.exit(f"need at least two of {SEQUENCES} under {SHARED_DATA}")
+    args.cache.parent.mkdir(parents=True, exist_ok=True)
+    done = {}
+    if args.cache.exists():
+        for line in args.cache.read_text().splitlines():
+            r = json.loads(line)
+            done[(r["seq"], r["model"], r["seed"], r["cfg"])] = r
+    tasks = [(s, m, k, c) for c in grid() for s in seqs for m in MODELS
+             for k in range(args.seeds) if (s, m, k, label(c)) not in done]
+    print(f"{len(tasks)} runs to do, {len(done)} cached", file=sys.stderr, flush=True)
+    with open(args.cache, "a") as fh, ProcessPoolExecutor(args.jobs) as pool:
+        for r in pool.map(run_one, tasks):
+            done[(r["seq"], r["model"], r["seed"], r["cfg"])] = r
+            fh.write(json.dumps(r) + "\n")
+            fh.flush()
+    labels = [label(c) for c in grid()]
+
+    def score(cfg: str, seq: str, model: str | None = None) -> tuple[float, float]:
+        rs = [done[(seq, m, k, cfg)] for m in ([model] if model else MODELS)
+              for k in range(args.seeds)]
+        return float(np.mean([r["mota"] for r in rs])), float(np.mean([r["idf1"] for r in rs]))
+
+    def objective(cfg: str, train: list[str]) -> float:
+        return float(np.mean([sum(score(cfg, s)) / 2 for s in train]))
+
+    rows = []
+    for held in [*seqs, None]:
+        train = [s for s in seqs if s != held]
+        best = max(labels, key=lambda c: objective(c, train))
+        cells = []
+        for s in ([held] if held else seqs):
+            for m in MODELS:
+                mota, idf1 = score(best, s, m)
+                off = score("off", s, m)
+                cells.append(f"{s} {m} {mota:.3f}/{idf1:.3f} (off {off[0]:.3f}/{off[1]:.3f})")
+        rows.append([held or "(all four)", best, "; ".join(cells)])
+    print_table(["held out", "chosen on the others", "held-out MOTA/IDF1 (score-blind)"], rows,
+                title=f"score settings, leave one sequence out, mean of seeds 0-{args.seeds - 1}")
+    full = [[c, *(f"{score(c, s, 'VB-PHD')[0]:.3f}/{score(c, s, 'VB-PHD')[1]:.3f}"
+                  for s in seqs), f"{objective(c, seqs):.4f}"] for c in labels]
+    print_table(["setting", *seqs, "objective"], full,
+                title="VB-PHD MOTA/IDF1 per setting (objective: PHD and VB-PHD, all four)")
+
+
+if __name__ == "__main__":
+    main()
