@@ -51,7 +51,7 @@ from pgm.core.beliefs import Intensity, Particles
 from pgm.core.motion import motion_scale, warp_states
 from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
 from pgm.factors.multitarget import PHDLikelihood
-from pgm.factors.scores import ScoreCalibration
+from pgm.factors.scores import ScoreCalibration, shadowed
 
 from .engine import DEFAULT_RULES, Engine
 from .tracks import TrackManager
@@ -124,12 +124,18 @@ def score_terms(engine: Engine, var: str, factor: PHDLikelihood, frame,
     if s is None or s.shape[0] != m:  # measurements without scores: score-blind
         out = (factor.kappa, factor.nu_birth)
     else:
-        cal = aux.get("score_calibration")
-        if cal is None:
-            cal = aux["score_calibration"] = ScoreCalibration(factor.scores)
-        cal.observe(s)
-        kappa = cal.clutter_rate(factor.clutter_rate) / factor._volume
-        on_kappa, on_nu = cal.terms(s)
+        settings = factor.scores
+        if settings.model == "off":
+            kappa, on_kappa, on_nu = factor.kappa, 1.0, np.ones(m)
+        else:
+            cal = aux.get("score_calibration")
+            if cal is None:
+                cal = aux["score_calibration"] = ScoreCalibration(settings)
+            cal.observe(s)
+            kappa = cal.clutter_rate(factor.clutter_rate) / factor._volume
+            on_kappa, on_nu = cal.terms(s)
+        if settings.shadow_iou > 0:
+            on_nu = on_nu * ~shadowed(frame.detections.boxes, s, settings.shadow_iou)
         out = (kappa * on_kappa, factor.nu_birth * on_nu)
     aux["score_terms"] = (frame, *out)
     return out

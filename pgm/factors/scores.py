@@ -49,7 +49,8 @@ import numpy as np
 
 from pgm.core.numerics import check_finite_param
 
-__all__ = ["ScoreSettings", "ScoreMixture", "ScoreCalibration", "SCORE_MODELS", "PERSISTING"]
+__all__ = ["ScoreSettings", "ScoreMixture", "ScoreCalibration", "SCORE_MODELS", "PERSISTING",
+           "shadowed"]
 
 SCORE_MODELS = ("off", "mixture")
 PERSISTING = ("target", "all")
@@ -88,6 +89,13 @@ class ScoreSettings:
         person, partly occluded, scores like any detection, so ``κ(s) = κ (f_C/f)^γ`` —
         at most ``(1 − π)^{−γ}`` times ``κ`` — and only *births* carry the target class's
         ratio, ``ν_b(s) = ν_b (f_T/f)^γ``).
+    shadow_iou : float
+        A detection that overlaps a *higher-scored* detection of the same frame by at
+        least this IoU starts no births (it may still update a target); 0 turns the
+        rule off. Detectors suppress overlapping boxes (non-maximum suppression) up to
+        their own threshold, and what survives just below it is mostly the same person
+        found again at another position or scale (see :func:`shadowed`). Works with
+        ``model="off"`` too.
     """
 
     model: str = "off"
@@ -98,6 +106,7 @@ class ScoreSettings:
     clutter_from_scores: bool = False
     em_iter: int = 5
     persisting: str = "target"
+    shadow_iou: float = 0.0
 
     def __post_init__(self) -> None:
         if self.model not in SCORE_MODELS:
@@ -114,6 +123,10 @@ class ScoreSettings:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
                 raise ValueError(f"scores.{name} must be an integer >= {lo}, got {v!r}")
+        check_finite_param("scores.shadow_iou", self.shadow_iou, nonneg=True)
+        if self.shadow_iou > 1.0:
+            raise ValueError("parameter 'scores.shadow_iou' must be in [0, 1], got "
+                             f"{self.shadow_iou}")
         if self.persisting not in PERSISTING:
             raise ValueError(f"scores.persisting must be one of {PERSISTING}, got "
                              f"{self.persisting!r}")
@@ -123,7 +136,8 @@ class ScoreSettings:
 
     @property
     def enabled(self) -> bool:
-        return self.model != "off"
+        """Whether the factor reads scores at all (the mixture, or the shadow rule)."""
+        return self.model != "off" or self.shadow_iou > 0
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -204,6 +218,27 @@ class ScoreMixture:
         lo, hi = float(self.mean[0]), float(self.mean[1])
         ld = self.log_densities(np.clip(np.asarray(s, dtype=float), lo, hi))
         return ld[:, 1] - ld[:, 0]
+
+
+def shadowed(boxes: np.ndarray, scores: np.ndarray, iou: float) -> np.ndarray:
+    """``(M,)`` mask of the detections that overlap a higher-scored detection of the
+    same frame by ``IoU ≥ iou`` (top-left ``(x, y, w, h)`` boxes; ties shadow neither).
+
+    A detector's non-maximum suppression removes a box that overlaps a better one by
+    more than its threshold (0.5 IoU for the shared sequences' public detections: no
+    pair overlaps more); a second box on the same person — DPM's at the next pyramid
+    level, √2 larger, or shifted onto the legs — survives just below it, with the lower
+    score. Such a detection explains nothing a new target would: it may extend a
+    tracked target, not start one.
+    """
+    from pgm.core.boxes import iou_xywh
+
+    b = np.asarray(boxes, dtype=float).reshape(-1, 4)
+    s = np.asarray(scores, dtype=float).reshape(-1)
+    if b.shape[0] < 2 or iou <= 0:
+        return np.zeros(b.shape[0], dtype=bool)
+    overlap = iou_xywh(b[:, None, :], b[None, :, :])
+    return np.any((overlap >= iou) & (s[None, :] > s[:, None]), axis=1)
 
 
 def _var_floor(s: np.ndarray) -> float:

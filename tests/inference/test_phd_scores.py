@@ -8,6 +8,7 @@ import pytest
 from pgm import FrameContext
 from pgm.inference import Engine
 from pgm.models import phd, vb_phd
+from pgm.core.boxes import iou_xywh
 from pgm.observation.detections import Detections
 from pgm.synthetic.scenes import multi_target_scene
 
@@ -147,15 +148,48 @@ def test_score_model_off_is_the_score_blind_filter_bit_for_bit():
 @pytest.mark.parametrize("module", [phd, vb_phd])
 def test_video_default_keeps_a_tracked_target_through_low_scores(module):
     """The video default (γ = 0.5, no birth gate, persisting targets scored by the marginal
-    score density): walker A keeps one identity through its 40 low-score frames."""
+    score density, shadow rule at IoU 0.4): walker A keeps one identity through its 40
+    low-score frames."""
     frames = _walkers(n=60)
     params = phd.video_params(module.Params, 640, 480, 25.0, typical_height=80.0,
                               score_min_samples=20)
     assert (params.score_model, params.score_temper, params.score_birth_min_prob,
-            params.score_persisting) == ("mixture", 0.5, 0.0, "all")
+            params.score_persisting, params.score_shadow_iou) == ("mixture", 0.5, 0.0, "all",
+                                                                  0.4)
     eng = Engine(module.build_graph(params), np.random.default_rng(1))
     a_ids = [_near(eng.step(FrameContext(t + 1, detections=d)).estimates["targets"], a)
              for t, (d, a, _) in enumerate(frames)]
     assert sum(bool(i) for i in a_ids[20:]) >= 0.9 * 40
     assert len(set().union(*a_ids[5:])) == 1
     assert eng.aux["targets"]["score_calibration"].ready
+
+
+@pytest.mark.parametrize("module", [phd, vb_phd])
+def test_a_duplicate_box_below_the_detectors_nms_starts_no_track(module):
+    """A detector's second box on one walker (√2 taller, reaching below the feet; IoU
+    about 0.45 with the first, lower score) in every frame: with the shadow rule it
+    starts no track of its own; without it, it does (the test can fail)."""
+    rng = np.random.default_rng(0)
+    frames = []
+    for t in range(40):
+        foot = np.array([100 + 3.0 * t, 300.0]) + rng.normal(0, 1, 2)
+        main = _boxes(foot)[0]
+        dup = np.array([main[0] - 0.2 * main[2], main[1] + 0.1 * main[3],
+                        1.41 * main[2], 1.41 * main[3]])
+        other = _boxes(np.array([500.0 - 2 * t, 420.0]))[0]
+        frames.append(Detections(np.vstack([main, dup, other]), np.array([0.9, 0.3, 0.8])))
+    iou = float(np.squeeze(iou_xywh(frames[0].boxes[0], frames[0].boxes[1])))
+    assert 0.35 < iou < 0.5
+
+    def tracks(shadow):
+        params = phd.video_params(module.Params, 640, 480, 25.0, typical_height=80.0,
+                                  score_model="off", score_shadow_iou=shadow)
+        eng = Engine(module.build_graph(params), np.random.default_rng(1))
+        ids = set()
+        for t, d in enumerate(frames):
+            ids |= set(eng.step(FrameContext(t + 1, detections=d)).estimates["targets"]["ids"]
+                       .tolist())
+        return ids
+
+    assert len(tracks(0.3)) == 2
+    assert len(tracks(0.0)) == 3

@@ -8,7 +8,7 @@ import pytest
 
 from pgm import FactorGraph, Variable
 from pgm.factors.multitarget import IntensityPrior, PHDLikelihood
-from pgm.factors.scores import ScoreCalibration, ScoreMixture, ScoreSettings
+from pgm.factors.scores import ScoreCalibration, ScoreMixture, ScoreSettings, shadowed
 
 
 def two_class_scores(rng, n=4000, pi=0.7, clutter=(10.0, 4.0), target=(60.0, 15.0)):
@@ -100,6 +100,22 @@ def test_persisting_targets_scored_by_the_marginal_density(temper):
     np.testing.assert_array_equal(literal.terms(s)[1], [1.0, 1.0, 1.0])  # no gate
 
 
+def test_shadowed_detections_by_hand():
+    boxes = np.array([[0.0, 0, 10, 20],     # A, score 0.9
+                      [0, 5, 10, 20],       # B: IoU with A 15/25 = 0.6, score 0.5
+                      [100, 0, 10, 20],     # C: alone, score 0.1
+                      [0, 10, 10, 20],      # D: IoU with A 10/30 = 1/3, with B 15/25
+                      [100, 0, 10, 20]])    # E: C's twin, same score: ties shadow neither
+    scores = np.array([0.9, 0.5, 0.1, 0.7, 0.1])
+    # B is under A (0.6 >= 0.5); D is over B (0.7 > 0.5) and under A only at 1/3
+    np.testing.assert_array_equal(shadowed(boxes, scores, 0.5),
+                                  [False, True, False, False, False])
+    np.testing.assert_array_equal(shadowed(boxes, scores, 0.3),
+                                  [False, True, False, True, False])
+    assert not shadowed(boxes[:1], scores[:1], 0.3).any()
+    assert not shadowed(boxes, scores, 0.0).any()
+
+
 def test_clutter_rate_from_the_mixture():
     cal = ScoreCalibration(ScoreSettings(model="mixture", clutter_from_scores=True))
     rng = np.random.default_rng(4)
@@ -123,6 +139,8 @@ def test_clutter_rate_from_the_mixture():
     ({"model": "logistic"}, "scores.model"),
     ({"clutter_from_scores": "yes"}, "scores.clutter_from_scores"),
     ({"persisting": "some"}, "scores.persisting"),
+    ({"shadow_iou": 1.5}, "scores.shadow_iou"),
+    ({"shadow_iou": float("nan")}, "scores.shadow_iou"),
 ])
 def test_bad_settings_name_the_parameter(kw, name):
     with pytest.raises(ValueError, match=name):
