@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from pgm import FrameContext
+from pgm.core.boxes import iou_xywh
 from pgm.inference import Engine
 from pgm.models import phd, vb_phd
-from pgm.core.boxes import iou_xywh
 from pgm.observation.detections import Detections
 from pgm.synthetic.scenes import multi_target_scene
 
