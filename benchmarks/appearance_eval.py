@@ -85,8 +85,34 @@ GRID = ([(f"cf(lam={lam},padding={pad}), jumps {jp}",
 SINGLE = ("FaceOcc1", "Crossing", "David", "Tiger1")
 
 
-def sequences(n_persons: int, names=SINGLE):
-    """``name -> list of tasks (frames, gt, init, image paths)``; decoded once."""
+def person_tasks(seq: str, n_persons: int) -> list:
+    """The ``n_persons`` longest ground-truth people of the MOT sequence ``seq`` (scored
+    rows only), each a single-object task from its first to its last annotated frame;
+    empty where the sequence is missing or ``n_persons`` is 0."""
+    d = SHARED_DATA / seq
+    if n_persons <= 0 or not d.is_dir():
+        return []
+    src = open_source(d)
+    table = load_mot(src.gt_path, kind="gt")
+    keep = table.scored
+    ids, counts = np.unique(table.ids[keep], return_counts=True)
+    chosen = ids[np.argsort(-counts, kind="stable")[:n_persons]]
+    tracks = []
+    for pid in chosen:
+        sel = keep & (table.ids == pid)
+        tracks.append(SingleTrack(table.frames[sel], table.boxes[sel]))
+    lo = min(int(t.frames[0]) for t in tracks)
+    hi = max(int(t.frames[-1]) for t in tracks)
+    frames = {n: img for n, img in src.frames() if lo <= n <= hi}
+    return [([(n, frames[n]) for n in range(int(t.frames[0]), int(t.frames[-1]) + 1)], t,
+             init_box_from_gt(t, int(t.frames[0])),
+             frame_paths(src, int(t.frames[0]), int(t.frames[-1]) + 1)) for t in tracks]
+
+
+def sequences(n_persons: int, names=SINGLE, persons_from=("PETS09-S2L1",)):
+    """``name -> list of tasks (frames, gt, init, image paths)``; decoded once. The
+    person tracks of each sequence in ``persons_from`` are one more group ("PETS
+    persons" for PETS09-S2L1, "<sequence> persons" otherwise)."""
     out = {}
     for name in names:
         if (SHARED_DATA / name).is_dir():
@@ -95,24 +121,10 @@ def sequences(n_persons: int, names=SINGLE):
             frames = list(src.frames())
             out[name] = [(frames, gt, init_box_from_gt(gt, frames[0][0]),
                           frame_paths(src, frames[0][0], frames[-1][0] + 1))]
-    pets = SHARED_DATA / "PETS09-S2L1"
-    if n_persons > 0 and pets.is_dir():
-        table = load_mot(pets / "gt" / "gt.txt", kind="gt")
-        keep = ~table.ignore
-        ids, counts = np.unique(table.ids[keep], return_counts=True)
-        chosen = ids[np.argsort(-counts, kind="stable")[:n_persons]]
-        src = open_source(pets)
-        tracks = []
-        for pid in chosen:
-            sel = keep & (table.ids == pid)
-            tracks.append(SingleTrack(table.frames[sel], table.boxes[sel]))
-        lo = min(int(t.frames[0]) for t in tracks)
-        hi = max(int(t.frames[-1]) for t in tracks)
-        frames = {n: img for n, img in src.frames() if lo <= n <= hi}
-        out["PETS persons"] = [
-            ([(n, frames[n]) for n in range(int(t.frames[0]), int(t.frames[-1]) + 1)], t,
-             init_box_from_gt(t, int(t.frames[0])),
-             frame_paths(src, int(t.frames[0]), int(t.frames[-1]) + 1)) for t in tracks]
+    for seq in persons_from:
+        group = person_tasks(seq, n_persons)
+        if group:
+            out["PETS persons" if seq == "PETS09-S2L1" else f"{seq} persons"] = group
     return out
 
 

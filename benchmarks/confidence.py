@@ -10,8 +10,10 @@ mapped through a logistic (:func:`pgm.core.readout.confidence`). This script
 
 1. runs the model over the four single-object sequences of ``../shared/data``
    (FaceOcc1, Crossing, David, Tiger1) and the ``--persons`` longest person tracks of
-   PETS09-S2L1 run as single-object tasks (one group: people crossing each other and a
-   lamp post, where the tracker does fail — a calibration needs failures to learn from)
+   PETS09-S2L1 (``--person-sequences``: also of TUD-Campus, TUD-Stadtmitte and MOT16-11)
+   run as single-object tasks, one group per sequence (people crossing each other,
+   occluders, a moving camera: where the tracker does fail — a calibration needs
+   failures to learn from)
    with ``--seeds`` seeds and collects, at every annotated frame, the two features and
    the outcome (IoU ≥ 0.5);
 2. for each group, fits the logistic on the others and scores the held-out one:
@@ -21,7 +23,7 @@ mapped through a logistic (:func:`pgm.core.readout.confidence`). This script
    other three: what a tracker with no confidence signal can do);
 3. prints the logistic fitted on all groups (what ``single_object.CONFIDENCE`` ships).
 
-    python benchmarks/confidence.py [--seeds 2] [--persons 6]
+    python benchmarks/confidence.py [--seeds 2] [--persons 6] [--person-sequences A,B]
 """
 
 from __future__ import annotations
@@ -50,6 +52,9 @@ from pgm.inference import Engine  # noqa: E402
 from pgm.models import single_object  # noqa: E402
 
 SEQUENCES = ("FaceOcc1", "Crossing", "David", "Tiger1")
+#: MOT sequences whose longest ground-truth people are tracked as single objects, one
+#: group per sequence: crowds, crossings and occluders, where the tracker does fail
+PERSON_SEQUENCES = ("PETS09-S2L1", "TUD-Campus", "TUD-Stadtmitte", "MOT16-11")
 
 
 def collect(tasks, seeds: int):
@@ -95,9 +100,15 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, default=2)
     ap.add_argument("--persons", type=int, default=6,
-                    help="PETS09-S2L1 person tracks as one more group (0: none)")
+                    help="person tracks per MOT sequence, one group each (0: none)")
+    ap.add_argument("--person-sequences", default="PETS09-S2L1",
+                    help="comma-separated MOT sequences whose people are groups (default "
+                         "PETS09-S2L1, what the shipped fit used; all four: "
+                         + ",".join(PERSON_SEQUENCES) + ")")
     args = ap.parse_args()
-    data = {n: collect(tasks, args.seeds) for n, tasks in sequences(args.persons).items()}
+    groups = sequences(args.persons, persons_from=[s for s in args.person_sequences.split(",")
+                                                    if s])
+    data = {n: collect(tasks, args.seeds) for n, tasks in groups.items()}
     if len(data) < 2:
         sys.exit(f"need at least two of {SEQUENCES} under {SHARED_DATA}")
     rows, pooled_c, pooled_y = [], [], []
