@@ -47,6 +47,7 @@ from typing import Any
 
 import numpy as np
 
+from pgm.core.boxes import iou_xywh
 from pgm.core.numerics import check_finite_param
 
 __all__ = ["ScoreSettings", "ScoreMixture", "ScoreCalibration", "SCORE_MODELS", "PERSISTING",
@@ -225,14 +226,14 @@ def shadowed(boxes: np.ndarray, scores: np.ndarray, iou: float) -> np.ndarray:
     same frame by ``IoU ≥ iou`` (top-left ``(x, y, w, h)`` boxes; ties shadow neither).
 
     A detector's non-maximum suppression removes a box that overlaps a better one by
-    more than its threshold (0.5 IoU for the shared sequences' public detections: no
-    pair overlaps more); a second box on the same person — DPM's at the next pyramid
+    more than its threshold (about 0.5 IoU for the shared sequences' public detections:
+    the largest overlap of two boxes of one frame is 0.499 on MOT16-11, 0.484 on
+    TUD-Campus, 0.493 on TUD-Stadtmitte, 0.508 on PETS09-S2L1, where 11 pairs exceed
+    0.5); a second box on the same person — DPM's at the next pyramid
     level, √2 larger, or shifted onto the legs — survives just below it, with the lower
     score. Such a detection explains nothing a new target would: it may extend a
     tracked target, not start one.
     """
-    from pgm.core.boxes import iou_xywh
-
     b = np.asarray(boxes, dtype=float).reshape(-1, 4)
     s = np.asarray(scores, dtype=float).reshape(-1)
     if b.shape[0] < 2 or iou <= 0:
