@@ -18,6 +18,24 @@ def single_thread() -> None:
     cv2.setNumThreads(1)
 
 
+def machine_note() -> str:
+    """One line about the machine a benchmark ran on (cores, load, versions)."""
+    import platform
+
+    import numpy as np
+
+    cpus = os.cpu_count()
+    try:
+        usable = len(os.sched_getaffinity(0))
+    except AttributeError:
+        usable = cpus
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return (f"machine: {platform.machine()} {platform.processor() or ''} {cpus} logical cores "
+            f"({usable} usable, load {load:.1f}), one thread per library "
+            f"(OMP/OPENBLAS/MKL/OpenCV = 1), Python {platform.python_version()}, numpy "
+            f"{np.__version__}; timings vary with other load on the machine")
+
+
 def print_table(header: list[str], rows: list[list], title: str | None = None) -> None:
     """Print a plain-text table with right-aligned columns."""
     cells = [[str(c) for c in header]] + [[_fmt(c) for c in r] for r in rows]

@@ -23,8 +23,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import os
-import platform
 import statistics
 import sys
 import tempfile
@@ -32,11 +30,10 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import SHARED_DATA, print_table, single_thread  # noqa: E402
+from _common import SHARED_DATA, machine_note, print_table, single_thread  # noqa: E402
 
 single_thread()
 
-import numpy as np  # noqa: E402
 
 from pgm.app import experiment as exp  # noqa: E402
 
@@ -96,19 +93,6 @@ def round_trip_ms(submit, n: int = 50) -> float:
         submit(int, 1).result()
         times.append(time.perf_counter() - t0)
     return 1e3 * statistics.median(times)
-
-
-def machine_note() -> str:
-    cpus = os.cpu_count()
-    try:
-        usable = len(os.sched_getaffinity(0))
-    except AttributeError:
-        usable = cpus
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return (f"machine: {platform.machine()} {cpus} logical cores ({usable} usable, load "
-            f"{load:.1f}), one thread per library per run, Python "
-            f"{platform.python_version()}, numpy {np.__version__}; timings vary with other "
-            f"load on the machine")
 
 
 def main() -> None:

@@ -36,8 +36,6 @@ flat as ``K`` grows; a 20-target frame is faster than 20 separate single-object 
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import sys
 import time
 from pathlib import Path
@@ -45,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import PeakMemory, print_table, single_thread  # noqa: E402
+from _common import PeakMemory, machine_note, print_table, single_thread  # noqa: E402
 
 single_thread()
 
@@ -142,18 +140,6 @@ def run_separate(g, seq, k, n, warmup, seed):
         if f > warmup + 1:
             secs += time.perf_counter() - t0
     return secs, np.stack([r.estimates["object"][:4] for r in recs])
-
-
-def machine_note() -> str:
-    cpus = os.cpu_count()
-    try:
-        usable = len(os.sched_getaffinity(0))
-    except AttributeError:
-        usable = cpus
-    return (f"machine: {platform.machine()} {platform.processor() or ''} {cpus} logical cores "
-            f"({usable} usable), one thread per library (OMP/OPENBLAS/MKL/OpenCV = 1), "
-            f"Python {platform.python_version()}, numpy {np.__version__}; timings vary with "
-            f"other load on the machine")
 
 
 def main() -> None:

@@ -730,17 +730,10 @@ class PlateEngine:
             if k in matched:
                 if t.misses > lc.max_coast and t.track_id is not None:
                     t.recovering, t.streak = True, 0
-                t.hits += 1
-                t.streak += 1
-                t.misses = 0
-                if t.recovering and t.streak >= lc.confirm_hits:
-                    t.recovering = False
-                t.log_odds = min(t.log_odds + lc.hit_log_odds, 10.0)
+                t.hit(lc.confirm_hits, lc.hit_log_odds)
                 t.state = det_boxes[matched[k]].copy()
             else:
-                t.misses += 1
-                t.streak = 0
-                t.log_odds = max(t.log_odds - lc.miss_log_odds, -10.0)
+                t.miss(lc.miss_log_odds)
                 if t.track_id is None or t.misses > lc.max_lost:
                     keep[k] = False
             if t.track_id is None and t.hits >= lc.confirm_hits and keep[k]:

@@ -51,6 +51,23 @@ class Track:
         """Existence score in [0, 1]."""
         return float(1.0 / (1.0 + np.exp(-self.log_odds)))
 
+    def hit(self, confirm_hits: int, log_odds: float) -> None:
+        """Record a hit: one more in the streak (ending recovery after ``confirm_hits`` in
+        a row) and ``log_odds`` of existence evidence (capped at 10)."""
+        self.hits += 1
+        self.streak += 1
+        self.misses = 0
+        if self.recovering and self.streak >= confirm_hits:
+            self.recovering = False
+        self.log_odds = min(self.log_odds + log_odds, 10.0)
+
+    def miss(self, log_odds: float) -> None:
+        """Record a miss: the streak ends and ``log_odds`` of evidence is taken away
+        (floored at −10)."""
+        self.misses += 1
+        self.streak = 0
+        self.log_odds = max(self.log_odds - log_odds, -10.0)
+
 
 class TrackManager:
     """Assigns extracted estimates to tracks and manages their life cycle.
@@ -145,18 +162,11 @@ class TrackManager:
         for ti, ei in zip(matched_t, matched_e, strict=True):
             t = self.tracks[ti]
             t.state = states[ei].copy()
-            t.hits += 1
-            t.streak += 1
-            t.misses = 0
-            if t.recovering and t.streak >= self.confirm_hits:
-                t.recovering = False
-            t.log_odds = min(t.log_odds + self.hit_log_odds, 10.0)
+            t.hit(self.confirm_hits, self.hit_log_odds)
             self._update_size(t, None if sizes is None else sizes[ei])
         for ti, t in enumerate(self.tracks):
             if ti not in hit:
-                t.misses += 1
-                t.streak = 0
-                t.log_odds = max(t.log_odds - self.miss_log_odds, -10.0)
+                t.miss(self.miss_log_odds)
         used = set(matched_e.tolist())
         for ei in range(len(states)):
             if ei not in used:

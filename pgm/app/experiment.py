@@ -908,17 +908,11 @@ def _cell(value: Any) -> str:
 
 
 def _write_text(path: Path, text: str) -> None:
-    """Write ``path`` whole or not at all (a temporary file renamed over it)."""
-    from pgm.io.outputs import prepare_output_file
+    """Write ``path`` whole or not at all (:func:`pgm.io.outputs.write_text`)."""
+    from pgm.io.outputs import prepare_output_file, write_text
 
     prepare_output_file(path, "results file")
-    tmp = path.with_name(f".{path.name}.tmp")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise InputError(f"cannot write {path}: {exc.strerror or exc}") from None
+    write_text(path, text)
 
 
 def _write_csv(path: Path, header: Sequence[str], rows: Sequence[Sequence[Any]]) -> None:

@@ -56,7 +56,6 @@ import json
 import math
 import os
 import re
-import tempfile
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -65,6 +64,7 @@ from typing import Any
 import numpy as np
 
 from pgm.core.errors import InputError, one_line
+from pgm.io.outputs import write_text
 
 __all__ = ["Run", "Group", "find_runs", "load_run", "group_runs", "write_report",
            "add_parser", "cmd_report", "COMMANDS", "REPORT_NAME", "FILES_DIR"]
@@ -493,22 +493,15 @@ def _otb_figure(entries: list[dict[str, Any]], title: str):
     precision (mean curves), auc, p20, band (shade the seeds' range)."""
     fig = _figure(10.5, 4.0)
     ax_s, ax_p = fig.subplots(1, 2)
-    for e in sorted(entries, key=lambda e: -(e["auc"] or 0.0)):
-        s = e["success"]
-        if s is None:
-            continue
-        ax_s.plot(s["x"], s["y"], color=e["colour"], lw=2,
-                  label=f"{e['label']} [{_fmt3(e['auc'])}]")
-        if e["band"] and s["n"] > 1:
-            ax_s.fill_between(s["x"], s["lo"], s["hi"], color=e["colour"], alpha=0.15, lw=0)
-    for e in sorted(entries, key=lambda e: -(e["p20"] or 0.0)):
-        p = e["precision"]
-        if p is None:
-            continue
-        ax_p.plot(p["x"], p["y"], color=e["colour"], lw=2,
-                  label=f"{e['label']} [{_fmt3(e['p20'])}]")
-        if e["band"] and p["n"] > 1:
-            ax_p.fill_between(p["x"], p["lo"], p["hi"], color=e["colour"], alpha=0.15, lw=0)
+    for ax, curve, score in ((ax_s, "success", "auc"), (ax_p, "precision", "p20")):
+        for e in sorted(entries, key=lambda e: -(e[score] or 0.0)):
+            c = e[curve]
+            if c is None:
+                continue
+            ax.plot(c["x"], c["y"], color=e["colour"], lw=2,
+                    label=f"{e['label']} [{_fmt3(e[score])}]")
+            if e["band"] and c["n"] > 1:
+                ax.fill_between(c["x"], c["lo"], c["hi"], color=e["colour"], alpha=0.15, lw=0)
     ax_s.set(xlim=(0, 1), ylim=(0, 1.02), xlabel="overlap threshold (IoU)",
              ylabel="success rate", title=f"Success plot — {title}")
     ax_p.set(xlim=(0, 50), ylim=(0, 1.02), xlabel="location error threshold (px)",
@@ -777,21 +770,6 @@ def _prepare_files(root: Path) -> Path:
     return folder
 
 
-def _write_text(path: Path, text: str) -> None:
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as fh:
-                fh.write(text)
-            os.chmod(tmp, 0o644)
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-    except OSError as exc:
-        raise InputError(f"cannot write {path}: {exc.strerror or one_line(exc)}") from None
-
-
 def _load_all(root: Path) -> tuple[list[Run], list[Run]]:
     folders = find_runs(root)
     if not folders:
@@ -1036,7 +1014,7 @@ def write_report(root: str | Path, title: str | None = None) -> Path:
           f"are in <code>{FILES_DIR}/</code> beside this page.</footer>"
           "</main></body></html>\n")
     path = base / REPORT_NAME
-    _write_text(path, page)
+    write_text(path, page)
     return path
 
 

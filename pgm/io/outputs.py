@@ -27,7 +27,7 @@ from typing import Any
 
 from pgm.core.errors import InputError
 
-__all__ = ["RUN_OUTPUTS", "prepare_run_folder", "prepare_output_file", "write_json",
+__all__ = ["RUN_OUTPUTS", "prepare_run_folder", "prepare_output_file", "write_json", "write_text",
            "write_run_status"]
 
 def _umask() -> int:
@@ -95,12 +95,11 @@ def prepare_output_file(path: str | Path, what: str = "--out") -> Path:
     return p
 
 
-def write_json(path: str | Path, data: Any) -> Path:
-    """Write ``data`` as JSON to ``path`` atomically (a temporary file in the same folder,
-    renamed over ``path``: a reader sees the old file or the whole new one; a symbolic
-    link at ``path`` is replaced, not followed)."""
+def write_text(path: str | Path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` atomically: a temporary file in the same folder,
+    renamed over ``path``, so a reader sees the old file or the whole new one; a symbolic
+    link at ``path`` is replaced, not followed."""
     p = Path(path)
-    text = json.dumps(data, indent=1)
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
         try:
@@ -114,6 +113,11 @@ def write_json(path: str | Path, data: Any) -> Path:
     except OSError as exc:
         raise InputError(f"cannot write {p}: {_why(exc)}") from None
     return p
+
+
+def write_json(path: str | Path, data: Any) -> Path:
+    """Write ``data`` as JSON to ``path`` atomically (:func:`write_text`)."""
+    return write_text(path, json.dumps(data, indent=1))
 
 
 def write_run_status(out: Path, info: dict[str, Any], *, complete: bool,

@@ -218,6 +218,12 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         return sfft.irfft2(np.sum(np.conj(self.num) * zf, axis=0) / (self.den + lam),
                            s=self.hann.shape)
 
+    @property
+    def _psr_radius(self) -> int:
+        """Half-side of the square around the peak left out of the side lobe: 5 cells at
+        the default template size (MOSSE's 11 x 11)."""
+        return max(2, int(round(0.15 * self.target_px)))
+
     # -- learning ----------------------------------------------------------------------
     def learn(self, ctx: FrameContext, value: np.ndarray) -> None:
         """Train the filter on the first frame's window at ``value``."""
@@ -232,7 +238,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         response = self._response(xf)
         self.peak = max(float(response.max()), 1e-12)
         self.last_response = 1.0
-        self.last_psr = peak_to_sidelobe(response, max(2, int(round(0.15 * self.target_px))))
+        self.last_psr = peak_to_sidelobe(response, self._psr_radius)
 
     def update(self, estimates, scores, frame=None) -> None:
         """Score the estimate's window, then learn from it if the score passes the gate."""
@@ -244,7 +250,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         response = self._response(xf)
         here = self._centre_max(response)
         self.last_response = here / self.peak
-        self.last_psr = peak_to_sidelobe(response, max(2, int(round(0.15 * self.target_px))))
+        self.last_psr = peak_to_sidelobe(response, self._psr_radius)
         if self.adapt_rate > 0 and here >= self.gate * self.peak:
             self._train(xf, self.adapt_rate)
             self.peak = (1 - self.adapt_rate) * self.peak + self.adapt_rate * here
