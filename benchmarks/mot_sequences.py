@@ -272,7 +272,8 @@ def main() -> None:
             mean = ms.mean(axis=0)
             rows.append([seq, name, *mean[:3], *(f"{v:.1f}" for v in mean[3:6]), *mean[6:10],
                          f"{ms[:, 0].min():.3f}-{ms[:, 0].max():.3f}",
-                         "-" if np.isnan(mean[10]) else f"{mean[10]:.1f}"])
+                         "-" if np.isnan(mean[10]) else (f"{mean[10]:.3f} h" if args.scale_aware
+                                                         else f"{mean[10]:.1f} px")])
         rows.extend(peer_rows(seq, d, last_frame))
     if args.mog2 and (SHARED_DATA / "PETS09-S2L1-video").is_dir():
         d = SHARED_DATA / "PETS09-S2L1-video"
@@ -284,7 +285,7 @@ def main() -> None:
                          m["ospa_100_2"], m["ospa2"], r.fps, "-", "-"])
     print_table(["sequence", "tracker", "MOTA", "IDF1", "HOTA", "ID sw.", "FP", "FN",
                  "OSPA(50,1)", "OSPA(100,2)", "OSPA2(50,1)", "frames/s", "MOTA range",
-                 "median σ̂ px"], rows,
+                 "median σ̂"], rows,
                 title="public detections unless stated; " + (
                     f"mean of seeds 0-{args.seeds - 1}" if args.seeds > 1 else "seed 0"))
     if args.sigma_factors:

@@ -43,3 +43,24 @@ def test_scale_aware_graph_round_trips_and_plain_default_is_unchanged(tmp_path):
     assert FactorGraph.load(tmp_path / "m.json") == g
     assert g.variables["targets"].dim == 6 and g.variables["noise"].dim == 3
     assert phd.build_graph(phd.Params()).variables["targets"].dim == 4
+
+
+def test_extraction_merges_one_persons_duplicate_boxes_by_foot_point():
+    """DPM's second box on a person is √2 taller (3.5 σ in log h at σ 0.1) at almost the
+    same foot point: one estimate. Two people side by side at the same height, half a
+    height apart: two estimates."""
+    from pgm.inference.phd import extract
+
+    h = 100.0
+    z = np.array([[300.0, 400.0, np.log(h)],            # a person
+                  [301.0, 402.0, np.log(h * 2 ** 0.5)],  # the detector's taller duplicate
+                  [350.0, 400.0, np.log(h)]])            # a second person, 0.5 h away
+    x = np.zeros((3, 6))
+    x[:, [0, 2, 4]] = z  # one particle per detection, fully associated
+    res = {"W": np.ones(3), "omega": np.eye(3), "x": x, "z": z}
+    sigma = np.array([0.08, 0.08, 0.1])
+    states, idx = extract(res, 3.0, sigma, log_h_row=2, scaled=np.array([True, True, False]))
+    assert sorted(idx.tolist()) == [0, 2]
+    # the same three as plain foot points in pixels (σ 8 px): the same answer
+    states, idx = extract({**res, "z": z[:, :2], "x": x[:, :4]}, 3.0, np.array([8.0, 8.0]))
+    assert sorted(idx.tolist()) == [0, 2]
