@@ -3,7 +3,8 @@
     python benchmarks/mot_sequences.py [--mog2] [--noise-experiment] [--dbn] [--seeds K]
                                        [--lost-seconds S] [--merge-gate G]
                                        [--sigma-factors 0.25,4] [--dbn-calibrate N]
-                                       [--scores off|mixture]
+                                       [--scores off|mixture] [--scale-aware]
+                                       [--set FIELD=VALUE ...] [--sequences A,B]
 
 Public detections (``det/det.txt``, all rows) on PETS09-S2L1 (frames 1-240),
 TUD-Campus, TUD-Stadtmitte and MOT16-11 (frames 1-300; moving camera; MOT16
@@ -209,6 +210,25 @@ def run(seq_dir: Path, module, detector, seed: int = 0, dbn: Path | None = None,
                        write_video=False, progress=False, camera_motion=camera_motion)
 
 
+def parse_overrides(items) -> dict:
+    """``["sigma_log_h=0.15", ...]`` -> ``{"sigma_log_h": 0.15}`` (values read as JSON,
+    else kept as strings); a field that ``vb_phd.Params`` lacks is refused by name."""
+    import json
+
+    fields = {f.name for f in dataclasses.fields(vb_phd.Params)}
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or key not in fields:
+            raise SystemExit(f"--set {item!r}: expected FIELD=VALUE with FIELD one of the "
+                             f"(VB-)PHD Params fields")
+        try:
+            out[key] = json.loads(value)
+        except json.JSONDecodeError:
+            out[key] = value
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[1])
     ap.add_argument("--mog2", action="store_true", help="also PETS09 video with MOG2")
@@ -230,9 +250,13 @@ def main() -> None:
                     help="scale-aware state and noise (lengths in each target's own height)")
     ap.add_argument("--scores", choices=("off", "mixture"), default=None,
                     help="detection scores in the measurement model (default: as pgm track)")
+    ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
+                    help="override a Params field of the (VB-)PHD rows, e.g. --set "
+                         "sigma_log_h=0.15 (value read as JSON; repeatable)")
     ap.add_argument("--sequences", default=None,
                     help="comma-separated subset of the sequences (default: all)")
     args = ap.parse_args()
+    overrides = parse_overrides(args.set)
     if peer_python() is None:
         print(SETUP_HINT + "; the bench README's peer figures are printed instead",
               file=sys.stderr)
@@ -261,7 +285,8 @@ def main() -> None:
                 r = run(d, module, make_detector("public", open_source(d)), seed=seed, dbn=dbn,
                         lost_seconds=args.lost_seconds, merge_gate=args.merge_gate,
                         dbn_calibrate=args.dbn_calibrate, camera_motion=args.camera_motion,
-                        scale_aware=args.scale_aware, scores=args.scores)
+                        scale_aware=args.scale_aware, scores=args.scores,
+                        overrides=overrides)
                 m = r.metrics
                 last_frame = r.n_frames
                 sig = (float(np.median(r.noise_sigma))

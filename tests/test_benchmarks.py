@@ -48,3 +48,14 @@ def test_plates_benchmark_quick_prints_its_table():
         values = [float(v) for v in r[2:]]
         assert all(np.isfinite(values)) and min(values[:3]) > 0
     assert "goals (reported, not asserted):" in out
+
+
+def test_mot_sequences_set_option_reads_json_values_and_refuses_unknown_fields():
+    import pytest
+    from mot_sequences import parse_overrides
+
+    assert parse_overrides(["sigma_log_h=0.15", "score_model=off", "particles_per_target=900"]) \
+        == {"sigma_log_h": 0.15, "score_model": "off", "particles_per_target": 900}
+    for bad in (["no_such_field=1"], ["sigma_log_h"]):
+        with pytest.raises(SystemExit, match="FIELD=VALUE"):
+            parse_overrides(bad)
