@@ -59,3 +59,29 @@ def test_mot_sequences_set_option_reads_json_values_and_refuses_unknown_fields()
     for bad in (["no_such_field=1"], ["sigma_log_h"]):
         with pytest.raises(SystemExit, match="FIELD=VALUE"):
             parse_overrides(bad)
+
+
+def test_detection_errors_matches_every_scored_truth_at_most_once(shared_data, monkeypatch):
+    """The error table's pairs are one-to-one: no more pairs than scored truths, each
+    pair's errors finite; and the ground truth matched against itself (every box its
+    own perfect detection) pairs every scored box with zero error."""
+    import detection_errors as de
+
+    from pgm.io.annotations import load_mot
+    from pgm.io.video import open_source
+
+    seq = shared_data / "TUD-Campus"
+    e = de.errors(seq)
+    gt = load_mot(open_source(seq).gt_path, kind="gt")
+    n = len(e["log_h"])
+    assert 0 < n <= int(gt.scored.sum())
+    keys = ("foot_x", "foot_y", "centre_y", "log_h")
+    assert all(np.all(np.isfinite(e[k])) and len(e[k]) == n for k in keys)
+
+    class Truth:
+        table = gt.subset(gt.scored)
+
+    monkeypatch.setattr(de, "make_detector", lambda spec, src: Truth())
+    same = de.errors(seq)
+    assert len(same["log_h"]) == int(gt.scored.sum())
+    assert max(np.abs(same[k]).max() for k in keys) < 1e-9
