@@ -37,6 +37,10 @@ single_thread()
 
 SEQUENCES = ("PETS09-S2L1", "TUD-Campus", "TUD-Stadtmitte", "MOT16-11")
 MODELS = ("PHD", "VB-PHD")
+#: MOTA and IDF1 of the best of SORT / ByteTrack / OC-SORT per sequence (each metric on
+#: its own), from ``python benchmarks/mot_sequences.py`` (same detections and scorer)
+BEST_PEER = {"PETS09-S2L1": (0.657, 0.513), "TUD-Campus": (0.432, 0.488),
+             "TUD-Stadtmitte": (0.542, 0.503), "MOT16-11": (0.409, 0.566)}
 
 
 def grid() -> list[dict]:
@@ -122,17 +126,11 @@ def main() -> None:
 
     for name, crit in (("mean (MOTA + IDF1) / 2", objective), ("goal margin", goal)):
         choose(name, crit, seqs, labels, score, args.seeds)
-    full = [[c, *(f"{score(c, s, 'VB-PHD')[0]:.3f}/{score(c, s, 'VB-PHD')[1]:.3f}"
-                  for s in seqs), f"{objective(c, seqs):.4f}", f"{goal(c, seqs):+.3f}"]
-            for c in labels]
+    full = [[c, *("{:.3f}/{:.3f}".format(*score(c, s, "VB-PHD")) for s in seqs),
+             f"{objective(c, seqs):.4f}", f"{goal(c, seqs):+.3f}"] for c in labels]
     print_table(["setting", *seqs, "mean objective", "goal margin"], full,
                 title="VB-PHD MOTA/IDF1 per setting (criteria over PHD and VB-PHD, all four)")
 
-
-#: MOTA and IDF1 of the best of SORT / ByteTrack / OC-SORT per sequence (each metric on
-#: its own), from ``python benchmarks/mot_sequences.py`` (same detections and scorer)
-BEST_PEER = {"PETS09-S2L1": (0.657, 0.513), "TUD-Campus": (0.432, 0.488),
-             "TUD-Stadtmitte": (0.542, 0.503), "MOT16-11": (0.409, 0.566)}
 
 
 def choose(name, criterion, seqs, labels, score, seeds) -> None:

@@ -157,9 +157,7 @@ for f in range(1, n_frames + 1):
         rows.append((f, *box, score))
 scored = np.array(rows)
 settings = {"score-blind": dict(score_model="off"),
-            "scores + shadow rule": dict(score_model="mixture", score_temper=0.5,
-                                         score_birth_min_prob=0.0, score_persisting="all",
-                                         score_shadow_iou=0.4)}
+            "scores + shadow rule": dict(phd.VIDEO_SCORE_SETTINGS)}  # pgm track's default
 for name, kw in settings.items():
     eng = Engine(phd.build_graph(phd.Params(**common, **kw)), rng=np.random.default_rng(0))
     rows = []

@@ -254,8 +254,9 @@ class ScoreCalibration:
     """Online calibration of :class:`ScoreSettings` on one video (per-run state).
 
     Each frame: :meth:`observe` adds the frame's scores and refits (warm-started EM);
-    :meth:`clutter_scale` gives each detection's factor on ``κ``; :meth:`birth_mask`
-    which detections may spawn births. Deterministic (no randomness).
+    :meth:`terms` gives each detection's factors on ``κ`` and ``ν_b`` (from
+    :meth:`clutter_scale` and :meth:`birth_mask` for the literal model).
+    Deterministic (no randomness).
     """
 
     def __init__(self, settings: ScoreSettings):
@@ -290,9 +291,14 @@ class ScoreCalibration:
         s = np.asarray(scores, dtype=float).reshape(-1)
         if self.mixture is None:
             return np.ones(s.size)
+        return np.exp(-self.settings.temper * self._log_ratio(s))
+
+    def _log_ratio(self, s: np.ndarray) -> np.ndarray:
+        """``log f_T(s)/f_C(s)`` of the fitted mixture, clipped to ``± log max_ratio``
+        (a missing score reads as the clutter class's mean)."""
         c = np.log(self.settings.max_ratio)
-        lr = np.clip(self.mixture.log_ratio(np.nan_to_num(s, nan=self.mixture.mean[0])), -c, c)
-        return np.exp(-self.settings.temper * lr)
+        m = self.mixture
+        return np.clip(m.log_ratio(np.nan_to_num(s, nan=m.mean[0])), -c, c)
 
     def terms(self, scores: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Per-detection factors ``(on κ, on ν_b)``.
@@ -307,10 +313,8 @@ class ScoreCalibration:
             return np.ones(s.size), mask
         if self.settings.persisting == "target":
             return self.clutter_scale(s), mask
-        c = np.log(self.settings.max_ratio)
-        m = self.mixture
-        lr = np.clip(m.log_ratio(np.nan_to_num(s, nan=m.mean[0])), -c, c)  # log f_T/f_C
-        pi = float(np.clip(m.weight, 1e-12, 1 - 1e-12))
+        lr = self._log_ratio(s)  # log f_T/f_C
+        pi = float(np.clip(self.mixture.weight, 1e-12, 1 - 1e-12))
         log_f_over_fc = np.logaddexp(np.log(pi) + lr, np.log1p(-pi))  # log f/f_C
         g = self.settings.temper
         return np.exp(-g * log_f_over_fc), mask * np.exp(g * (lr - log_f_over_fc))
