@@ -29,8 +29,9 @@ holding out David picks the filter with the template cue, which scores 0.406 the
 tracker (CSRT) on the same four sequences. The PETS09-S2L1 person tracks that
 ``appearance_eval.py`` also reports were used for no choice. The confidence's logistic
 is fitted on the four sequences and those person tracks together (the person tracks
-are where the tracker fails; a calibration needs failures); ``benchmarks/confidence.py``
-prints its leave-one-group-out reliability.
+are where the tracker fails; a calibration needs failures), each video weighted equally
+(the unit it must transfer to is a video); ``benchmarks/confidence.py`` prints its
+leave-one-group-out reliability.
 
 >>> from pgm.models import single_object
 >>> g = single_object.build_graph(single_object.Params(init_box=(100, 80, 40, 60)))
@@ -55,9 +56,10 @@ SCALE_NOISE = 0.005
 JUMP_PROB = 0.4
 #: logistic of the log peak-to-sidelobe ratio of the correlation filter's response map and the
 #: log posterior spread,
-#: fitted on FaceOcc1, Crossing, David, Tiger1 and six PETS09-S2L1 person tracks, seeds 0-1
-#: (``python benchmarks/confidence.py``, which prints the leave-one-group-out figures)
-CONFIDENCE = {"intercept": -9.319, "slope": 3.864, "spread_slope": 0.061}
+#: fitted on FaceOcc1, Crossing, David, Tiger1 and six PETS09-S2L1 person tracks, seeds 0-1,
+#: each of the five videos weighted equally
+#: (``python benchmarks/confidence.py --seeds 2``, which prints the leave-one-group-out figures)
+CONFIDENCE = {"intercept": -8.700, "slope": 4.001, "spread_slope": -0.069}
 
 
 @dataclass(frozen=True)
