@@ -4,7 +4,7 @@
                                        [--lost-seconds S] [--merge-gate G]
                                        [--sigma-factors 0.25,4] [--dbn-calibrate N]
                                        [--scores off|mixture] [--scale-aware]
-                                       [--set FIELD=VALUE ...] [--sequences A,B]
+                                       [--set FIELD=VALUE ...] [--sequences A,B] [--no-peers]
 
 Public detections (``det/det.txt``, all rows) on PETS09-S2L1 (frames 1-240),
 TUD-Campus, TUD-Stadtmitte and MOT16-11 (frames 1-300; moving camera; MOT16
@@ -255,9 +255,12 @@ def main() -> None:
                          "sigma_log_h=0.15 (value read as JSON; repeatable)")
     ap.add_argument("--sequences", default=None,
                     help="comma-separated subset of the sequences (default: all)")
+    ap.add_argument("--no-peers", action="store_true",
+                    help="leave SORT / ByteTrack / OC-SORT out (about a minute saved per "
+                         "call, e.g. in --set sweeps)")
     args = ap.parse_args()
     overrides = parse_overrides(args.set)
-    if peer_python() is None:
+    if not args.no_peers and peer_python() is None:
         print(SETUP_HINT + "; the bench README's peer figures are printed instead",
               file=sys.stderr)
     rows = []
@@ -299,7 +302,8 @@ def main() -> None:
                          f"{ms[:, 0].min():.3f}-{ms[:, 0].max():.3f}",
                          "-" if np.isnan(mean[10]) else (f"{mean[10]:.3f} h" if args.scale_aware
                                                          else f"{mean[10]:.1f} px")])
-        rows.extend(peer_rows(seq, d, last_frame))
+        if not args.no_peers:
+            rows.extend(peer_rows(seq, d, last_frame))
     if args.mog2 and (SHARED_DATA / "PETS09-S2L1-video").is_dir():
         d = SHARED_DATA / "PETS09-S2L1-video"
         for name, module in MODELS:

@@ -99,3 +99,18 @@ def test_confidence_fit_weights_every_video_equally():
     np.testing.assert_allclose(w.mean(), 1.0)
     with pytest.raises(ValueError, match="no frames"):
         video_weights(np.array([], dtype=str))
+
+
+def test_mot_sequences_no_peers_prints_only_the_toolkit_rows(shared_data):
+    """``--no-peers`` (for sweeps) prints the PHD and VB-PHD rows of the sequence, with
+    finite scores, and no peer row."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, str(root / "benchmarks" / "mot_sequences.py"),
+                          "--sequences", "TUD-Campus", "--no-peers"],
+                         capture_output=True, text=True, check=True).stdout
+    rows = [line.split() for line in out.splitlines() if line.strip().startswith("TUD-Campus")]
+    assert [r[1] for r in rows] == ["PHD", "VB-PHD"]
+    assert all(-1.0 <= float(r[2]) <= 1.0 and 0.0 <= float(r[3]) <= 1.0 for r in rows)
+    assert not any(p in out for p in ("SORT", "ByteTrack", "OC-SORT"))
