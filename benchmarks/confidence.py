@@ -27,7 +27,8 @@ The fit weights every group (video) equally (``--weighting videos``, the default
 unit a calibration must transfer to is a video a user has not shown us, and with
 per-frame weights the longest group (the six PETS people: two thirds of the frames)
 decides the fit alone. The summary gives the held-out ECE both per video (its mean:
-what a user sees on their own video) and pooled over all frames.
+what a user sees on their own video) and pooled over all frames, and a coarse
+reliability diagram (five bins) per held-out video next to the pooled one.
 
     python benchmarks/confidence.py [--seeds 2] [--persons 6] [--person-sequences A,B]
                                     [--weighting videos|frames]
@@ -140,7 +141,7 @@ def main() -> None:
         labels = np.concatenate([[n] * len(data[n][1]) for n in names])
         return xs, ys, (video_weights(labels) if args.weighting == "videos" else None)
 
-    rows, pooled_c, pooled_y, eces = [], [], [], []
+    rows, pooled_c, pooled_y, eces, per_video = [], [], [], [], {}
     for held, (x, y, shipped) in data.items():
         xs, ys, ws = training([n for n in data if n != held])
         a, b, k = fit(xs, ys, ws)
@@ -149,6 +150,8 @@ def main() -> None:
         r_ship = reliability(shipped, y)
         r_const = reliability(np.full(len(y), np.average(ys, weights=ws)), y)
         eces.append(r["ece"])
+        per_video[held] = {round(b["lo"], 1): f"{b['hit_rate']:.2f} ({b['n']})"
+                           for b in reliability(c, y, n_bins=5)["bins"]}
         pooled_c.append(c)
         pooled_y.append(y)
         auroc = f"{roc_auc_score(y, c):.2f}" if 0 < y.mean() < 1 else "-"
@@ -160,6 +163,12 @@ def main() -> None:
                 title=f"Leave-one-sequence-out calibration ({args.seeds} seeds; outcome: "
                       f"IoU >= 0.5 at annotated frames; fit weighting: {args.weighting})")
     print(f"\nmean held-out ECE per video: {np.mean(eces):.3f} over {len(eces)} groups")
+    edges = np.linspace(0.0, 1.0, 6)
+    print_table(["held-out group"] + [f"{lo:.1f}-{lo + 0.2:.1f}" for lo in edges[:-1]],
+                [[held] + [per_bin.get(round(lo, 1), "-") for lo in edges[:-1]]
+                 for held, per_bin in per_video.items()],
+                title="Reliability per video, held out: hit rate (frames) in each confidence "
+                      "bin")
     r = reliability(np.concatenate(pooled_c), np.concatenate(pooled_y))
     print_table(["confidence bin", "frames", "mean confidence", "hit rate", "gap"],
                 [[f"{b['lo']:.1f}-{b['hi']:.1f}", b["n"], f"{b['confidence']:.3f}",
