@@ -25,7 +25,7 @@ mapped through a logistic (:func:`pgm.core.readout.confidence`). This script
 
 The fit weights every group (video) equally (``--weighting videos``, the default): the
 unit a calibration must transfer to is a video a user has not shown us, and with
-per-frame weights the longest group (the six PETS people: two thirds of the frames)
+per-frame weights the longest group (the six PETS people: 70 % of the frames)
 decides the fit alone. The summary gives the held-out ECE both per video (its mean:
 what a user sees on their own video) and pooled over all frames, and a coarse
 reliability diagram (five bins) per held-out video next to the pooled one.
