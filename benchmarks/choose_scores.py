@@ -132,7 +132,6 @@ def main() -> None:
                 title="VB-PHD MOTA/IDF1 per setting (criteria over PHD and VB-PHD, all four)")
 
 
-
 def choose(name, criterion, seqs, labels, score, seeds) -> None:
     """Leave one sequence out under ``criterion(cfg, training sequences)``."""
     rows = []

@@ -164,7 +164,8 @@ def main() -> None:
                       f"IoU >= 0.5 at annotated frames; fit weighting: {args.weighting})")
     print(f"\nmean held-out ECE per video: {np.mean(eces):.3f} over {len(eces)} groups")
     edges = np.linspace(0.0, 1.0, 6)
-    print_table(["held-out group"] + [f"{lo:.1f}-{lo + 0.2:.1f}" for lo in edges[:-1]],
+    print_table(["held-out group"] + [f"{lo:.1f}-{hi:.1f}"
+                                      for lo, hi in zip(edges[:-1], edges[1:], strict=True)],
                 [[held] + [per_bin.get(round(lo, 1), "-") for lo in edges[:-1]]
                  for held, per_bin in per_video.items()],
                 title="Reliability per video, held out: hit rate (frames) in each confidence "
