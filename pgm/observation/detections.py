@@ -64,6 +64,7 @@ from pgm.io.annotations import MotTable, load_mot
 
 __all__ = [
     "Detections",
+    "pair_boxes",
     "DetectionSource",
     "PublicDetections",
     "MOG2Detector",
@@ -514,6 +515,26 @@ def _foot(b: np.ndarray) -> np.ndarray:
     return np.stack([b[:, 0] + b[:, 2] / 2.0, b[:, 1] + b[:, 3]], axis=1)
 
 
+def pair_boxes(ok: np.ndarray, score: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One-to-one pairs ``(rows, cols)`` of a (rows × cols) table of valid pairs ``ok``
+    that maximise the number of pairs, then the total ``score`` (in [-1, 1]; IoU or a
+    scaled negative distance) among them, by
+    :func:`scipy.optimize.linear_sum_assignment`. Only valid pairs are returned.
+
+    Maximising the total score alone (and dropping the invalid pairs afterwards) can
+    give up a valid pair for a better total: one box that overlaps two others well
+    may be spent on the one that a third box could also have taken.
+    """
+    ok = np.asarray(ok, dtype=bool)
+    if ok.size == 0:
+        return np.zeros(0, dtype=int), np.zeros(0, dtype=int)
+    # a valid pair is worth 1 + a tie-breaker in [0, 1); invalid pairs are worth 0
+    gain = np.where(ok, 2.0 + np.asarray(score, dtype=float), 0.0)
+    r, c = linear_sum_assignment(gain, maximize=True)
+    good = ok[r, c]
+    return r[good], c[good]
+
+
 def match_detections(dets: Detections, gt_boxes: np.ndarray, ignore_boxes: np.ndarray | None
                      = None, *, criterion: str = "iou", iou_min: float = 0.3,
                      foot_px: float = 20.0) -> MatchCounts:
@@ -543,13 +564,9 @@ def match_detections(dets: Detections, gt_boxes: np.ndarray, ignore_boxes: np.nd
     tp = 0
     matched = np.zeros(len(d), dtype=bool)
     if len(d) and len(gt):
-        ok, s = affinity(d, gt)
-        # a valid pair is worth 1 + a tie-breaker in [0, 1); invalid pairs are worth 0
-        gain = np.where(ok, 2.0 + s, 0.0)
-        r, c = linear_sum_assignment(gain, maximize=True)
-        good = ok[r, c]
-        tp = int(good.sum())
-        matched[r[good]] = True
+        r, _ = pair_boxes(*affinity(d, gt))
+        tp = len(r)
+        matched[r] = True
     unmatched = ~matched
     if np.any(unmatched) and len(ign):
         ok_ign, _ = affinity(d[unmatched], ign)

@@ -17,6 +17,7 @@ from pgm.observation.detections import (
     PublicDetections,
     make_detector,
     match_detections,
+    pair_boxes,
 )
 
 # 1-based MOT rows: frame, id, x, y, w, h, score, wx, wy, wz
@@ -250,6 +251,21 @@ def test_match_detections_counts():
                                 n_gt=4)
     assert total.precision == pytest.approx(1 / 3) and total.recall == pytest.approx(0.25)
     assert match_detections(Detections.empty(), gt).fn == 2
+
+
+def test_pair_boxes_counts_pairs_before_their_total():
+    """Hand-worked: A overlaps X by 0.95 and Y by 0.5, B overlaps X by 0.5 and Y by 0.4
+    (below the 0.5 test). The best total IoU (A-X, B-Y: 1.35) keeps one valid pair;
+    counting first keeps two (A-Y, B-X)."""
+    iou = np.array([[0.95, 0.5], [0.5, 0.4]])
+    r, c = pair_boxes(iou >= 0.5, iou)
+    assert sorted(zip(r.tolist(), c.tolist(), strict=True)) == [(0, 1), (1, 0)]
+    # among equally many pairs, the larger total wins
+    iou = np.array([[0.9, 0.6], [0.6, 0.8]])
+    r, c = pair_boxes(iou >= 0.5, iou)
+    assert sorted(zip(r.tolist(), c.tolist(), strict=True)) == [(0, 0), (1, 1)]
+    r, c = pair_boxes(np.zeros((0, 3), bool), np.zeros((0, 3)))
+    assert len(r) == len(c) == 0
 
 
 # --------------------------------------------------------------------------- real data
