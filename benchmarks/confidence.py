@@ -26,9 +26,11 @@ mapped through a logistic (:func:`pgm.core.readout.confidence`). This script
 The fit weights every group (video) equally (``--weighting videos``, the default): the
 unit a calibration must transfer to is a video a user has not shown us, and with
 per-frame weights the longest group (the six PETS people: 70 % of the frames)
-decides the fit alone. The summary gives the held-out ECE both per video (its mean:
-what a user sees on their own video) and pooled over all frames, and a coarse
-reliability diagram (five bins) per held-out video next to the pooled one.
+decides the fit alone. The summary gives the held-out ECE per video (its mean: what a
+user sees on their own video) with a coarse reliability diagram (five bins) per held-out
+video, and the held-out predictions pooled twice: with every video weighted equally (a
+frame of a video drawn at random: what a user can expect before running theirs) and
+with every frame weighted equally.
 
     python benchmarks/confidence.py [--seeds 2] [--persons 6] [--person-sequences A,B]
                                     [--weighting videos|frames]
@@ -141,7 +143,7 @@ def main() -> None:
         labels = np.concatenate([[n] * len(data[n][1]) for n in names])
         return xs, ys, (video_weights(labels) if args.weighting == "videos" else None)
 
-    rows, pooled_c, pooled_y, eces, per_video = [], [], [], [], {}
+    rows, pooled_c, pooled_y, pooled_const, eces, per_video = [], [], [], [], [], {}
     for held, (x, y, shipped) in data.items():
         xs, ys, ws = training([n for n in data if n != held])
         a, b, k = fit(xs, ys, ws)
@@ -154,6 +156,7 @@ def main() -> None:
                            for b in reliability(c, y, n_bins=5)["bins"]}
         pooled_c.append(c)
         pooled_y.append(y)
+        pooled_const.append(np.full(len(y), np.average(ys, weights=ws)))
         auroc = f"{roc_auc_score(y, c):.2f}" if 0 < y.mean() < 1 else "-"
         rows.append([held, len(y), f"{y.mean():.3f}", f"{c.mean():.3f}", auroc, f"{r['ece']:.3f}",
                      f"{r['brier']:.3f}", f"{r_const['ece']:.3f}", f"{r_const['brier']:.3f}",
@@ -170,13 +173,21 @@ def main() -> None:
                  for held, per_bin in per_video.items()],
                 title="Reliability per video, held out: hit rate (frames) in each confidence "
                       "bin")
-    r = reliability(np.concatenate(pooled_c), np.concatenate(pooled_y))
-    print_table(["confidence bin", "frames", "mean confidence", "hit rate", "gap"],
-                [[f"{b['lo']:.1f}-{b['hi']:.1f}", b["n"], f"{b['confidence']:.3f}",
-                  f"{b['hit_rate']:.3f}", f"{b['hit_rate'] - b['confidence']:+.3f}"]
-                 for b in r["bins"]],
-                title=f"Reliability diagram, held-out predictions pooled: ECE {r['ece']:.3f}, "
-                      f"Brier {r['brier']:.3f}")
+    c, y = np.concatenate(pooled_c), np.concatenate(pooled_y)
+    per_frame = video_weights(np.concatenate([[n] * len(v) for n, v in zip(data, pooled_y,
+                                                                             strict=True)]))
+    for weights, how in ((per_frame, "every video weighted equally (a frame of a video "
+                                     "drawn at random)"),
+                         (None, "every frame weighted equally")):
+        r = reliability(c, y, weights=weights)
+        r_const = reliability(np.concatenate(pooled_const), y, weights=weights)
+        print_table(["confidence bin", "frames", "share", "mean confidence", "hit rate", "gap"],
+                    [[f"{b['lo']:.1f}-{b['hi']:.1f}", b["n"], f"{b['share']:.3f}",
+                      f"{b['confidence']:.3f}", f"{b['hit_rate']:.3f}",
+                      f"{b['hit_rate'] - b['confidence']:+.3f}"] for b in r["bins"]],
+                    title=f"Reliability diagram, held-out predictions pooled, {how}: "
+                          f"ECE {r['ece']:.3f}, Brier {r['brier']:.3f} (constant: ECE "
+                          f"{r_const['ece']:.3f}, Brier {r_const['brier']:.3f})")
     a, b, k = fit(*training(list(data)))
     print(f"\nfitted on all {len(data)} groups: intercept {a:.3f}, slope {b:.3f}, "
           f"spread_slope {k:.3f} (shipped: {single_object.CONFIDENCE})")

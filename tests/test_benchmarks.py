@@ -101,6 +101,41 @@ def test_confidence_fit_weights_every_video_equally():
         video_weights(np.array([], dtype=str))
 
 
+def test_confidence_benchmark_is_calibrated_on_data_drawn_from_its_own_model(monkeypatch,
+                                                                               capsys):
+    """Oracle for ``benchmarks/confidence.py``'s loop: three "videos" of 1500, 3000 and
+    6000 frames whose hits are drawn from a logistic of the two features. Fitted on two
+    and scored on the third, the held-out predictions are calibrated, so both printed
+    pooled ECEs (videos weighted equally, frames weighted equally) are small: a bin
+    holding a tenth of the weight has a hit rate with a standard error of at most
+    sqrt(0.25 / 450) ~ 0.024 (the shortest video's share), and 0.06 is 2.5 of them. A
+    constant is not (0.2 or more: the videos' hit rates differ by construction)."""
+    import re
+
+    import confidence
+
+    rng = np.random.default_rng(0)
+    shift = {"a": -1.0, "b": 0.0, "c": 1.0}  # per-video feature level: hit rates differ
+    frames = {"a": 1500, "b": 3000, "c": 6000}
+
+    def fake_collect(name, seeds):
+        n = frames[name]
+        x = np.column_stack([rng.normal(2.0 + shift[name], 0.6, n), rng.normal(-2.0, 0.5, n)])
+        y = rng.uniform(size=n) < confidence.sigmoid(-7.0 + 3.5 * x[:, 0] - 0.2 * x[:, 1])
+        return x, y, np.full(n, 0.5)
+
+    monkeypatch.setattr(confidence, "sequences", lambda *a, **k: {n: n for n in shift})
+    monkeypatch.setattr(confidence, "collect", fake_collect)
+    monkeypatch.setattr(sys, "argv", ["confidence.py", "--seeds", "1"])
+    confidence.main()
+    out = capsys.readouterr().out
+    pooled = re.findall(r"weighted equally.*?: ECE ([0-9.]+), Brier [0-9.]+ \(constant: ECE "
+                        r"([0-9.]+)", out)
+    assert len(pooled) == 2, out  # videos weighted equally, frames weighted equally
+    assert all(float(e) < 0.06 and float(e_const) > 0.2 for e, e_const in pooled), pooled
+    assert "mean held-out ECE per video" in out
+
+
 def test_mot_sequences_no_peers_prints_only_the_toolkit_rows(shared_data):
     """``--no-peers`` (for sweeps) prints the PHD and VB-PHD rows of the sequence, with
     finite scores, and no peer row."""

@@ -20,12 +20,18 @@ import numpy as np
 __all__ = ["reliability"]
 
 
-def reliability(confidence: Any, outcome: Any, n_bins: int = 10) -> dict[str, Any]:
+def reliability(confidence: Any, outcome: Any, n_bins: int = 10,
+                weights: Any = None) -> dict[str, Any]:
     """Reliability diagram of ``confidence`` in [0, 1] against 0/1 ``outcome``.
+
+    ``weights`` (one non-negative number per frame; all equal when None) weight every
+    statistic: e.g. ``1 / frames of its video`` pools several videos with each counting
+    the same, the diagram of a frame drawn from a video drawn at random.
 
     Returns a JSON-serialisable dict: ``n``, ``ece``, ``brier``, ``mean_confidence``,
     ``hit_rate`` and ``bins`` (one entry per non-empty equal-width bin: ``lo``, ``hi``,
-    ``n``, ``confidence`` (mean), ``hit_rate``).
+    ``n`` (frames), ``share`` (of the total weight), ``confidence`` (mean),
+    ``hit_rate``).
     """
     c = np.asarray(confidence, dtype=float).reshape(-1)
     y = np.asarray(outcome, dtype=float).reshape(-1)
@@ -39,16 +45,26 @@ def reliability(confidence: Any, outcome: Any, n_bins: int = 10) -> dict[str, An
         raise ValueError("outcomes must be 0 or 1")
     if int(n_bins) < 1:
         raise ValueError(f"n_bins must be positive, got {n_bins}")
+    if weights is None:
+        w = np.full(c.size, 1.0 / c.size)
+    else:
+        w = np.asarray(weights, dtype=float).reshape(-1)
+        if w.shape != c.shape:
+            raise ValueError(f"{w.size} weights but {c.size} confidences")
+        if not np.all(np.isfinite(w)) or np.any(w < 0) or not w.sum() > 0:
+            raise ValueError("weights must be finite, non-negative and not all zero")
+        w = w / w.sum()
     edges = np.linspace(0.0, 1.0, int(n_bins) + 1)
     idx = np.clip(np.searchsorted(edges, c, side="right") - 1, 0, int(n_bins) - 1)
     bins, ece = [], 0.0
     for b in range(int(n_bins)):
         sel = idx == b
-        if not sel.any():
+        share = float(w[sel].sum())
+        if not share > 0:
             continue
-        mc, hr = float(c[sel].mean()), float(y[sel].mean())
-        ece += sel.mean() * abs(mc - hr)
+        mc, hr = float(w[sel] @ c[sel] / share), float(w[sel] @ y[sel] / share)
+        ece += share * abs(mc - hr)
         bins.append({"lo": float(edges[b]), "hi": float(edges[b + 1]), "n": int(sel.sum()),
-                     "confidence": mc, "hit_rate": hr})
-    return {"n": int(c.size), "ece": float(ece), "brier": float(np.mean((c - y) ** 2)),
-            "mean_confidence": float(c.mean()), "hit_rate": float(y.mean()), "bins": bins}
+                     "share": share, "confidence": mc, "hit_rate": hr})
+    return {"n": int(c.size), "ece": float(ece), "brier": float(w @ (c - y) ** 2),
+            "mean_confidence": float(w @ c), "hit_rate": float(w @ y), "bins": bins}

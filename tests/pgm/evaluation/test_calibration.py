@@ -31,6 +31,26 @@ def test_a_calibrated_forecaster_has_a_small_ece():
     assert reliability(np.full(20000, 0.9), y)["ece"] == pytest.approx(0.9 - y.mean())
 
 
+def test_weights_count_every_video_equally():
+    """Hand-worked: video A has four frames at 0.9, all hits; video B one frame at 0.9,
+    a miss. Frames pooled: hit rate 4/5, gap 0.1. Videos weighted equally (1/4 per frame
+    of A, 1 for B's): hit rate 1/2, gap 0.4 — and weights of 1 give the unweighted
+    diagram."""
+    c = np.full(5, 0.9)
+    y = np.array([1, 1, 1, 1, 0])
+    assert reliability(c, y)["ece"] == pytest.approx(0.1)
+    r = reliability(c, y, weights=[0.25, 0.25, 0.25, 0.25, 1.0])
+    assert r["hit_rate"] == pytest.approx(0.5) and r["ece"] == pytest.approx(0.4)
+    assert r["brier"] == pytest.approx(0.5 * 0.01 + 0.5 * 0.81)
+    assert r["n"] == 5 and r["bins"][0]["n"] == 5 and r["bins"][0]["share"] == pytest.approx(1)
+    rng = np.random.default_rng(1)
+    c, y = rng.uniform(0, 1, 50), rng.uniform(0, 1, 50) < 0.5
+    assert reliability(c, y, weights=np.ones(50)) == reliability(c, y)
+    for bad in ([1.0] * 4, [1.0, 1.0, 1.0, -1.0, 1.0], [0.0] * 5, [np.nan] * 5):
+        with pytest.raises(ValueError, match="weights"):
+            reliability(np.full(5, 0.9), [1, 1, 1, 1, 0], weights=bad)
+
+
 def test_bad_input_is_refused():
     for c, y in (([0.5], [1, 0]), ([1.5], [1]), ([np.nan], [1]), ([0.5], [2]), ([], [])):
         with pytest.raises(ValueError):
