@@ -56,7 +56,7 @@ from sklearn.metrics import roc_auc_score  # noqa: E402
 from pgm.app.runner import output_target  # noqa: E402
 from pgm.core.frame import FrameContext  # noqa: E402
 from pgm.core.readout import posterior_spread  # noqa: E402
-from pgm.evaluation.calibration import reliability  # noqa: E402
+from pgm.evaluation.calibration import reliability, video_weights  # noqa: E402
 from pgm.evaluation.single_object import single_object_metrics  # noqa: E402
 from pgm.inference import Engine  # noqa: E402
 from pgm.models import single_object  # noqa: E402
@@ -92,17 +92,6 @@ def collect(tasks, seeds: int):
             shipped.append(np.array(c_seq)[idx])
             hits.append(np.array(m["ious"]) >= 0.5)
     return np.concatenate(feats), np.concatenate(hits), np.concatenate(shipped)
-
-
-def video_weights(groups: np.ndarray) -> np.ndarray:
-    """Per-frame weights under which every group (video) has the same total weight,
-    normalised to a mean of 1 (so the penalty's strength is unchanged)."""
-    groups = np.asarray(groups)
-    if groups.size == 0:
-        raise ValueError("no frames to weight")
-    _, inverse, counts = np.unique(groups, return_inverse=True, return_counts=True)
-    w = 1.0 / counts[inverse]
-    return w * (len(w) / w.sum())
 
 
 def fit(x: np.ndarray, y: np.ndarray, weights: np.ndarray | None = None

@@ -87,20 +87,6 @@ def test_detection_errors_matches_every_scored_truth_at_most_once(shared_data, m
     assert max(np.abs(same[k]).max() for k in keys) < 1e-9
 
 
-def test_confidence_fit_weights_every_video_equally():
-    """Three frames of one video and one of another: each video's weights sum to the
-    same total, and the weights average 1 (the L2 penalty keeps its strength)."""
-    import pytest
-    from confidence import video_weights
-
-    w = video_weights(np.array(["long", "long", "long", "short"]))
-    np.testing.assert_allclose(w, [2 / 3, 2 / 3, 2 / 3, 2.0])
-    np.testing.assert_allclose(w[:3].sum(), w[3:].sum())
-    np.testing.assert_allclose(w.mean(), 1.0)
-    with pytest.raises(ValueError, match="no frames"):
-        video_weights(np.array([], dtype=str))
-
-
 def test_confidence_benchmark_is_calibrated_on_data_drawn_from_its_own_model(monkeypatch,
                                                                                capsys):
     """Oracle for ``benchmarks/confidence.py``'s loop: three "videos" of 1500, 3000 and

@@ -25,7 +25,7 @@ from pgm.core.errors import InputError, Interrupted, user_message
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
 from pgm.core.readout import readout
-from pgm.evaluation.calibration import reliability
+from pgm.evaluation.calibration import confidence_outcomes, reliability
 from pgm.evaluation.single_object import single_object_metrics
 from pgm.inference.engine import Engine, StepRecord
 from pgm.inference.plates import make_engine
@@ -273,13 +273,10 @@ def confidence_metrics(metrics: dict[str, Any], frames: np.ndarray,
                        scores: np.ndarray) -> dict[str, Any]:
     """The per-frame confidence and its calibration on the scored frames (outcome: IoU
     at least 0.5), for ``metrics.json``."""
-    at = dict(zip(frames.tolist(), scores.tolist(), strict=True))
-    scored = [(at[f], iou) for f, iou in zip(metrics["frames"], metrics["ious"], strict=True)
-              if f in at]
+    c, hit = confidence_outcomes(frames, scores, metrics["frames"], metrics["ious"])
     out: dict[str, Any] = {"frames": frames.tolist(), "values": scores.tolist()}
-    if scored:
-        c, iou = np.array(scored, dtype=float).T
-        out["calibration"] = reliability(c, iou >= 0.5)
+    if c.size:
+        out["calibration"] = reliability(c, hit)
     return out
 
 

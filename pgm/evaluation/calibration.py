@@ -17,7 +17,41 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["reliability"]
+__all__ = ["reliability", "video_weights", "confidence_outcomes"]
+
+
+def confidence_outcomes(frames: Any, confidence: Any, scored_frames: Any, ious: Any
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """A track's confidence per frame (``frames``, ``confidence``) paired with its
+    outcome at the scored frames (``scored_frames``, IoU with the truth ``ious``; NaN:
+    no box, a miss): ``(c, hit)`` at the scored frames that have a confidence, ``hit``
+    meaning IoU ≥ 0.5."""
+    frames = np.asarray(frames, dtype=float).reshape(-1)
+    confidence = np.asarray(confidence, dtype=float).reshape(-1)
+    scored = np.asarray(scored_frames, dtype=float).reshape(-1)
+    ious = np.asarray(ious, dtype=float).reshape(-1)
+    if frames.size != confidence.size:
+        raise ValueError(f"{confidence.size} confidences for {frames.size} frames")
+    if scored.size != ious.size:
+        raise ValueError(f"{ious.size} IoUs for {scored.size} scored frames")
+    at = dict(zip(frames.tolist(), confidence.tolist(), strict=True))
+    keep = np.array([f in at for f in scored.tolist()], dtype=bool)
+    c = np.array([at[f] for f in scored[keep].tolist()], dtype=float)
+    with np.errstate(invalid="ignore"):
+        return c, ious[keep] >= 0.5
+
+
+def video_weights(videos: Any) -> np.ndarray:
+    """Per-frame weights under which every video (equal labels in ``videos``, one per
+    frame) has the same total weight, normalised to a mean of 1: pass them to
+    :func:`reliability` to pool several videos (seeds of one video share its weight),
+    or to a fit so that the longest video does not decide it alone."""
+    videos = np.asarray(videos)
+    if videos.size == 0:
+        raise ValueError("no frames to weight")
+    _, inverse, counts = np.unique(videos, return_inverse=True, return_counts=True)
+    w = 1.0 / counts[inverse]
+    return w * (len(w) / w.sum())
 
 
 def reliability(confidence: Any, outcome: Any, n_bins: int = 10,

@@ -137,14 +137,14 @@ def test_report_on_a_folder_of_runs(bench_dir, capsys):
     assert path == bench_dir / "report.html"
     text, page = _parse(path)
     _check_self_contained(text, page, bench_dir)
-    assert {"summary", "single-object", "otb-overall", "otb-walker", "multi-target",
-            "mot-crowd", "ospa-crowd", "fps", "models", "metrics", "metrics-crowd",
-            "metrics-walker", "runs"} <= page.ids
+    assert {"summary", "single-object", "otb-overall", "otb-walker", "calibration",
+            "multi-target", "mot-crowd", "ospa-crowd", "fps", "models", "metrics",
+            "metrics-crowd", "metrics-walker", "runs"} <= page.ids
     assert "Multi-target tracking" in page.h2 and "Single-object tracking" in page.h2
     names = {p.name for p in (bench_dir / FILES_DIR).glob("*.png")}
     assert {"otb-walker.png", "otb-overall.png", "mot-crowd.png", "ospa-crowd.png",
             "fps.png", "graph-phd.png", "graph-colour-pf.png",
-            "graph-single-object.png"} <= names
+            "graph-single-object.png", "calibration.png"} <= names
     # seeds are averaged: mean ± std, n=2 in the tables' headings
     assert "colour-pf (n=2)" in text and "phd (n=2)" in text and "±" in text
     # the unfinished run is listed as left out, not averaged
@@ -154,6 +154,47 @@ def test_report_on_a_folder_of_runs(bench_dir, capsys):
     write_report(bench_dir, title="Second")
     assert not (bench_dir / FILES_DIR / "stale.png").exists()
     assert "<title>Second</title>" in (bench_dir / "report.html").read_text()
+
+
+def _scored_run(folder, sequence, values, ious):
+    """A run folder with a model's per-frame confidence and IoU, as ``pgm track`` writes."""
+    folder.mkdir(parents=True)
+    frames = list(range(1, len(values) + 1))
+    (folder / "run.json").write_text(json.dumps({"model": "m", "source": f"/data/{sequence}",
+                                                 "complete": True}))
+    (folder / "metrics.json").write_text(json.dumps({
+        "frames": frames, "ious": ious, "success_auc": 0.5,
+        "confidence": {"frames": frames, "values": values}}))
+
+
+def test_confidence_calibration_weights_every_sequence_equally(tmp_path, bench_dir):
+    """Hand-worked: sequence A, four frames at confidence 0.9, all hits; sequence B,
+    one frame at 0.9, a miss (its IoU is NaN: no box). Pooled with each sequence
+    weighted equally the hit rate is 1/2 and the ECE |0.9 - 0.5| = 0.4 (pooled per frame
+    it would be 0.1); per sequence the ECEs are 0.1 and 0.9, mean 0.5. A second seed
+    of A with the same frames leaves the weighting of the sequences unchanged."""
+    root = tmp_path / "runs"
+    _scored_run(root / "A" / "m" / "0", "A", [0.9] * 4, [0.8] * 4)
+    _scored_run(root / "A" / "m" / "1", "A", [0.9] * 4, [0.7] * 4)
+    _scored_run(root / "B" / "m" / "0", "B", [0.9], [None])
+    text, page = _parse(write_report(root))
+    assert "calibration" in page.ids and "Confidence calibration" in page.h2
+    section = text[text.index('<section id="calibration">'):]
+    section = section[:section.index("</section>")]
+    row = section[section.index("<tbody><tr>") + len("<tbody><tr>"):section.index("</tr></tbody>")]
+    cells = [c.split(">", 1)[1] for c in row.split("</td>")[:-1]]
+    # model, sequences, runs, frames, ECE, Brier, mean confidence, hit rate, mean ECE
+    assert cells == ["m", "2", "3", "9", "0.400", "0.410", "0.900", "0.500", "0.500"]
+    assert (root / FILES_DIR / "calibration.png").is_file()
+    # runs without a confidence (colour-pf) get no calibration section
+    colour_only = tmp_path / "colour"
+    shutil.copytree(bench_dir / "runs" / "walker" / "colour-pf", colour_only)
+    assert 'id="calibration"' not in write_report(colour_only).read_text()
+    # a corrupt confidence is a one-line error naming the file
+    bad = tmp_path / "bad"
+    _scored_run(bad / "r", "A", [0.9, 1.5], [0.8, 0.8])
+    with pytest.raises(InputError, match="confidence.values must lie in"):
+        write_report(bad)
 
 
 def test_runs_are_grouped_by_sequence_and_model(bench_dir):

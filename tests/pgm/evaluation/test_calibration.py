@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from pgm.evaluation.calibration import reliability
+from pgm.evaluation.calibration import confidence_outcomes, reliability, video_weights
 
 
 def test_hand_worked_reliability():
@@ -49,6 +49,30 @@ def test_weights_count_every_video_equally():
     for bad in ([1.0] * 4, [1.0, 1.0, 1.0, -1.0, 1.0], [0.0] * 5, [np.nan] * 5):
         with pytest.raises(ValueError, match="weights"):
             reliability(np.full(5, 0.9), [1, 1, 1, 1, 0], weights=bad)
+
+
+def test_video_weights_give_every_video_the_same_total():
+    """Three frames of one video and one of another: each video's weights sum to the
+    same total, and the weights average 1 (a fit's L2 penalty keeps its strength)."""
+    w = video_weights(np.array(["long", "long", "long", "short"]))
+    np.testing.assert_allclose(w, [2 / 3, 2 / 3, 2 / 3, 2.0])
+    np.testing.assert_allclose(w[:3].sum(), w[3:].sum())
+    np.testing.assert_allclose(w.mean(), 1.0)
+    with pytest.raises(ValueError, match="no frames"):
+        video_weights(np.array([], dtype=str))
+
+
+def test_confidence_outcomes_pair_the_scored_frames():
+    """Confidence on frames 1-4; truth scored on frames 2, 4 and 5 (IoU 0.6, no box,
+    0.3): frames 2 and 4 pair, a hit and a miss; frame 5 has no confidence."""
+    c, hit = confidence_outcomes([1, 2, 3, 4], [0.9, 0.8, 0.7, 0.6], [2, 4, 5],
+                                 [0.6, np.nan, 0.3])
+    np.testing.assert_array_equal(c, [0.8, 0.6])
+    np.testing.assert_array_equal(hit, [True, False])
+    with pytest.raises(ValueError, match="3 confidences for 4 frames"):
+        confidence_outcomes([1, 2, 3, 4], [0.9, 0.8, 0.7], [2], [0.6])
+    with pytest.raises(ValueError, match="1 IoUs for 2 scored frames"):
+        confidence_outcomes([1], [0.9], [1, 2], [0.6])
 
 
 def test_bad_input_is_refused():
