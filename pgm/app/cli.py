@@ -156,9 +156,11 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--show-particles", action="store_true",
                    help="draw particles in the annotated video")
     t.add_argument("--max-frames", type=_positive_int("--max-frames"), default=None)
-    t.add_argument("--camera-motion", choices=("auto", "on", "off"), default="auto",
+    t.add_argument("--camera-motion", choices=("auto", "on", "off"), default=None,
                    help="global-motion compensation of every target's prediction: auto (on "
-                        "frames where the camera moves, default), on, off")
+                        "frames where the camera moves; the default for multi-target "
+                        "models), on, off (the default for one object, whose camera "
+                        "usually follows it)")
     t.add_argument("--detections", help="multi-target models: a MOTChallenge det.txt to "
                                         "use as measurements")
     t.add_argument("--gpdm", default=None, metavar="FILE.npz",
@@ -610,7 +612,8 @@ def cmd_track_multi(args, source, saved=None) -> int:
     result = track_multi(source, graph, detector, rng=as_generator(args.seed), out_dir=args.out,
                          gt=gt, write_video=not args.no_video, show_particles=args.show_particles,
                          progress=not args.quiet, max_frames=args.max_frames,
-                         camera_motion=args.camera_motion, engine_kwargs=engine_kwargs,
+                         camera_motion=args.camera_motion or "auto",
+                         engine_kwargs=engine_kwargs,
                          memory_limit_bytes=_memory_limit(args),
                          drop_frames=parse_drop_frames(args.drop_frames, len(source)),
                          record=_record_option(args))
@@ -693,7 +696,7 @@ def cmd_track(args) -> int:
     result = track(source, graph, rng=as_generator(args.seed), out_dir=args.out, gt=gt,
                    num_particles=args.particles, write_video=not args.no_video,
                    show_particles=args.show_particles, progress=not args.quiet,
-                   max_frames=args.max_frames, camera_motion=args.camera_motion,
+                   max_frames=args.max_frames, camera_motion=args.camera_motion or "off",
                    memory_limit_bytes=_memory_limit(args), record=_record_option(args))
     print(f"tracked {len(result.frames)} frames at {result.fps:.1f} frames/s "
           f"(inference only) -> {Path(args.out) / 'tracks.txt'}")

@@ -21,7 +21,9 @@ px on Crossing, PETS09-S2L1, TUD-Campus, TUD-Stadtmitte and Tiger1); a large obj
 crossing a still camera (FaceOcc1's face and magazine) can pass the per-frame tests
 for a few frames, not for 16 of 20: 12 of FaceOcc1's 888 frames are compensated, none
 of those five sequences' or of the synthetic scenes', against 282 of MOT16-11's 300
-(a moving camera) and 222 of David's 462 (a panning camera).
+(a moving camera) and 222 of David's 462 (a panning camera). The runners turn it on
+(``"auto"``) for multi-target models and leave it off for one object, whose camera
+usually follows it (see :func:`pgm.app.runner.track`).
 """
 
 from __future__ import annotations

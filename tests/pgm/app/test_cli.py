@@ -245,6 +245,8 @@ def test_multi_target_track_and_eval(mot_dir, tmp_path, capsys, model):
     # path is under test, the filters' accuracy is in test_phd_vb.py
     floor = {"phd": 0.3, "vb-phd": -0.5}[model]
     assert m["mota"] > floor and 0.0 < m["idf1"] <= 1.0, m
+    # several targets: camera-motion compensation on where the camera moves
+    assert json.loads((out / "run.json").read_text())["camera_motion"] == "auto"
     assert (out / "annotated.mp4").stat().st_size > 1000
     code, stdout, _ = run_cli(capsys, "eval", "--gt", mot_dir / "gt" / "gt.txt", "--pred",
                               out / "tracks.txt", "--json")
@@ -283,6 +285,13 @@ def test_no_model_runs_the_best_single_object_configuration(scene_dir, tmp_path,
     assert set(saved["meta"]["confidence"]) == {"factor", "intercept", "slope", "spread_slope"}
     scores = np.loadtxt(tmp_path / "tracks.txt", delimiter=",")[:, 6]
     assert len(scores) == 5 and np.all((scores >= 0) & (scores <= 1))
+    # one object: no camera-motion compensation unless asked for
+    assert json.loads((tmp_path / "run.json").read_text())["camera_motion"] == "off"
+    code, _, err = run_cli(capsys, "track", scene_dir, "--init", f"{x + 1},{y + 1},{w},{h}",
+                           "--out", tmp_path / "auto", "--no-video", "--max-frames", 5,
+                           "--camera-motion", "auto")
+    assert code == 0, err
+    assert json.loads((tmp_path / "auto" / "run.json").read_text())["camera_motion"] == "auto"
 
 
 def test_multi_target_scores_flag_is_saved_in_the_model(mot_dir, tmp_path, capsys):
