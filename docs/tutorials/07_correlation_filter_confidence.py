@@ -12,7 +12,9 @@ tutorial
 2. builds the tracker by hand from the factor, a heavy-tailed AR(2) transition and a
    declared confidence, and checks it equals the model config;
 3. reads the calibrated confidence per frame: the probability that the box overlaps the
-   truth by at least half, and its reliability on this scene.
+   truth by at least half, and its reliability on this scene;
+4. assesses it over several scenes, each weighted equally (what the confidence means on
+   a scene drawn at random), as ``pgm report`` draws it for a folder of runs.
 
 Run it as a script::
 
@@ -30,8 +32,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import pgm
+from pgm.app.report import write_report
 from pgm.app.runner import track
 from pgm.core.frame import FrameContext
+from pgm.evaluation.calibration import confidence_outcomes, reliability, video_weights
 from pgm.io.annotations import load_single_gt
 from pgm.io.video import open_source
 from pgm.models import single_object
@@ -113,3 +117,31 @@ plt.legend()
 plt.tight_layout()
 plt.savefig(out / "confidence.png", dpi=80)
 plt.close()
+
+# %%
+# 4. Over several scenes. A confidence is calibrated with respect to a population: here a
+# frame of a scene drawn at random, every scene weighted equally (a long scene must not
+# decide alone). Each run writes its folder (``runs/<scene>/<model>/<seed>``, as an
+# experiment does); ``pgm report`` draws the same diagram.
+cs, hits, scene_of = [], [], []
+for seed in (1, 2, 3):
+    demo_scene(seed=seed, n_frames=n).write_otb(out / f"scenes/s{seed}")
+    src = open_source(out / f"scenes/s{seed}")
+    sgt = load_single_gt(src.gt_path)
+    bx, by, bw, bh = sgt.boxes[0]
+    g = single_object.build_graph(single_object.Params(init_box=(bx + bw / 2, by + bh / 2,
+                                                                 bw, bh)))
+    res = track(src, g, rng=np.random.default_rng(0), gt=sgt, progress=False,
+                max_frames=args.max_frames, out_dir=out / f"runs/s{seed}/single-object/0",
+                write_video=False)
+    c, hit = confidence_outcomes(res.frames, res.scores, res.metrics["frames"],
+                                 res.metrics["ious"])  # at the scored frames
+    cs.append(c)
+    hits.append(hit)
+    scene_of += [seed] * len(c)
+pooled = reliability(np.concatenate(cs), np.concatenate(hits),
+                     weights=video_weights(scene_of))
+print(f"over 3 scenes ({len(scene_of)} frames), scenes weighted equally: hit rate "
+      f"{pooled['hit_rate']:.0%}, mean confidence {pooled['mean_confidence']:.0%}, "
+      f"ECE {pooled['ece']:.3f}")
+print(f"report with the reliability diagram: {write_report(out / 'runs')}")
