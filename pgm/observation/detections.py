@@ -528,8 +528,11 @@ def pair_boxes(ok: np.ndarray, score: np.ndarray) -> tuple[np.ndarray, np.ndarra
     ok = np.asarray(ok, dtype=bool)
     if ok.size == 0:
         return np.zeros(0, dtype=int), np.zeros(0, dtype=int)
-    # a valid pair is worth 1 + a tie-breaker in [0, 1); invalid pairs are worth 0
-    gain = np.where(ok, 2.0 + np.asarray(score, dtype=float), 0.0)
+    # a valid pair is worth 1 + eps * score, an invalid one 0: with eps = 1 / (2 m + 1)
+    # (m: the most pairs there can be) k pairs are worth more than any k - 1, whatever
+    # their scores, so the count comes first and the score only breaks ties
+    eps = 1.0 / (2 * min(ok.shape) + 1)
+    gain = np.where(ok, 1.0 + eps * np.clip(np.asarray(score, dtype=float), -1.0, 1.0), 0.0)
     r, c = linear_sum_assignment(gain, maximize=True)
     good = ok[r, c]
     return r[good], c[good]

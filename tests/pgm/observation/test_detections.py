@@ -266,6 +266,30 @@ def test_pair_boxes_counts_pairs_before_their_total():
     assert sorted(zip(r.tolist(), c.tolist(), strict=True)) == [(0, 0), (1, 1)]
     r, c = pair_boxes(np.zeros((0, 3), bool), np.zeros((0, 3)))
     assert len(r) == len(c) == 0
+    # seven boxes each way: six perfect pairs (i, i) leave box 6 alone, while a chain of
+    # seven half-overlaps (6, 0), (0, 1), ..., (5, 6) pairs everyone. A gain of 2 + IoU
+    # per pair would prefer the six (18 > 17.5); counting first takes the seven
+    iou = np.eye(7)
+    iou[6, 6] = 0.0
+    iou[6, 0] = 0.5
+    for i in range(6):
+        iou[i, i + 1] = 0.5
+    r, c = pair_boxes(iou >= 0.5, iou)
+    assert len(r) == 7
+    # the most pairs on random tables: as many as a maximum bipartite matching
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import maximum_bipartite_matching
+
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        n, m = rng.integers(1, 9, size=2)
+        s = rng.uniform(size=(n, m))
+        ok = s >= 0.6
+        most = int(np.count_nonzero(maximum_bipartite_matching(csr_matrix(ok),
+                                                               perm_type="column") >= 0))
+        r, c = pair_boxes(ok, s)
+        assert len(r) == most and np.all(ok[r, c])
+        assert len(set(r.tolist())) == len(r) and len(set(c.tolist())) == len(c)
 
 
 # --------------------------------------------------------------------------- real data
