@@ -163,10 +163,9 @@ def main() -> None:
                 title="Reliability per video, held out: hit rate (frames) in each confidence "
                       "bin")
     c, y = np.concatenate(pooled_c), np.concatenate(pooled_y)
-    per_frame = video_weights(np.concatenate([[n] * len(v) for n, v in zip(data, pooled_y,
-                                                                             strict=True)]))
-    for weights, how in ((per_frame, "every video weighted equally (a frame of a video "
-                                     "drawn at random)"),
+    video_of = np.concatenate([[n] * len(data[n][1]) for n in data])  # the order of pooled_*
+    for weights, how in ((video_weights(video_of), "every video weighted equally (a frame of "
+                                                   "a video drawn at random)"),
                          (None, "every frame weighted equally")):
         r = reliability(c, y, weights=weights)
         r_const = reliability(np.concatenate(pooled_const), y, weights=weights)
@@ -179,8 +178,7 @@ def main() -> None:
                           f"{r_const['ece']:.3f}, Brier {r_const['brier']:.3f})")
     xs, ys, ws = training(list(data))
     a, b, k = fit(xs, ys, ws)
-    r = reliability(sigmoid(a + xs @ np.array([b, k])), ys, weights=video_weights(
-        np.concatenate([[n] * len(v[1]) for n, v in data.items()])))
+    r = reliability(sigmoid(a + xs @ np.array([b, k])), ys, weights=video_weights(video_of))
     print(f"\nfitted on all {len(data)} groups: intercept {a:.3f}, slope {b:.3f}, "
           f"spread_slope {k:.3f} (shipped: {single_object.CONFIDENCE}); its ECE on them, "
           f"every video weighted equally: {r['ece']:.3f}")
