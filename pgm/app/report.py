@@ -478,15 +478,16 @@ def _calibration(runs: list[Run]) -> dict[str, Any] | None:
             per_seq.setdefault(r.sequence, []).append(co)
     if not per_seq:
         return None
-    seqs = list(per_seq)
-    c = np.concatenate([co[0] for q in seqs for co in per_seq[q]])
-    y = np.concatenate([co[1] for q in seqs for co in per_seq[q]])
-    who = np.concatenate([[q] * len(co[0]) for q in seqs for co in per_seq[q]])
-    pooled = reliability(c, y, weights=video_weights(who))
-    own = [reliability(np.concatenate([co[0] for co in per_seq[q]]),
-                       np.concatenate([co[1] for co in per_seq[q]]))["ece"] for q in seqs]
-    return {"pooled": pooled, "sequences": len(seqs), "runs": sum(map(len, per_seq.values())),
-            "mean_sequence_ece": float(np.mean(own))}
+    # each sequence's seeds together: (confidence, outcome)
+    joined = {q: tuple(np.concatenate(part) for part in zip(*cos, strict=True))
+              for q, cos in per_seq.items()}
+    c = np.concatenate([cy[0] for cy in joined.values()])
+    y = np.concatenate([cy[1] for cy in joined.values()])
+    who = np.concatenate([[q] * len(cy[0]) for q, cy in joined.items()])
+    return {"pooled": reliability(c, y, weights=video_weights(who)), "sequences": len(joined),
+            "runs": sum(map(len, per_seq.values())),
+            "mean_sequence_ece": float(np.mean([reliability(*cy)["ece"]
+                                                for cy in joined.values()]))}
 
 
 # --------------------------------------------------------------------------- figures
