@@ -36,6 +36,7 @@ import argparse
 import json
 import logging
 import os
+import re
 import signal
 import sys
 import warnings
@@ -117,8 +118,50 @@ def _finite_float(name: str, low: float = 0.0):
 _nonneg_int = _int_at_least("seed", 0)
 
 
+#: options whose value is a comma-separated list of numbers that may start with "-"
+NUMBER_LIST_OPTIONS = ("--init",)
+_NUMBER_LIST = re.compile(r"-[0-9.][0-9.eE+-]*(,[^,]*)*")
+
+
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Every ``--help`` of ``pgm``: each option's default is shown.
+
+    An option whose help already says its default (``(default: ...)``, or a word such as
+    "default" in the text) is left as written; an option with a value of its own gets
+    ``(default: VALUE)``; a flag (no value) is off unless given and says nothing. A
+    description or epilog with line breaks is printed as written (examples), a one-line
+    one is wrapped.
+    """
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if ("default" in text.lower() or action.nargs == 0 or action.default is None
+                or action.default is argparse.SUPPRESS or not action.option_strings):
+            return text
+        return f"{text} (default: %(default)s)" if text else "default: %(default)s"
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        if "\n" in text:
+            return "".join(indent + line for line in text.splitlines(keepends=True))
+        return super()._fill_text(text, width, indent)
+
+
 class _Parser(argparse.ArgumentParser):
-    """An argument parser whose errors are one line (``pgm: error: ...``), exit 2."""
+    """An argument parser whose errors are one line (``pgm: error: ...``), exit 2, and
+    whose help shows every default (:class:`HelpFormatter`)."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
+
+    def parse_known_args(self, args=None, namespace=None):
+        # argparse takes "-3,10,20,20" for an option, not for --init's value (it knows
+        # only "-3" and "-.5" as negative numbers): join such a value to its option
+        args = list(sys.argv[1:] if args is None else args)
+        for i in range(len(args) - 1, 0, -1):
+            if args[i - 1] in NUMBER_LIST_OPTIONS and _NUMBER_LIST.fullmatch(args[i]):
+                args[i - 1:i + 1] = [f"{args[i - 1]}={args[i]}"]
+        return super().parse_known_args(args, namespace)
 
     def error(self, message: str):
         self.exit(EXIT_BAD_INPUT, f"pgm: error: {' '.join(message.split())} "
@@ -138,42 +181,57 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     t = sub.add_parser("track", help="track an object through a video or image sequence")
-    t.add_argument("source", help="video file, image folder, MOTChallenge or OTB sequence folder")
+    t.add_argument("source", help="a video file, an image folder, a MOTChallenge, OTB or "
+                                  "MILTrack sequence folder, a camera index (0, 1, ...) or "
+                                  "a stream URL (rtsp://, rtmp://, http(s)://, udp://, "
+                                  "tcp://)")
     t.add_argument("--model", default=None,
                    help=f"model name ({', '.join(sorted(MODELS))}) or a saved model .json; "
                         f"default: single-object (the correlation-filter tracker), or "
                         f"vb-phd when --detections/--detector is given")
     init = t.add_mutually_exclusive_group()
-    init.add_argument("--init", help="box in frame 1: X,Y,W,H (top-left, 1-based like MOT/OTB)")
-    t.add_argument("--gt", help="ground-truth file (initialises from frame 1 when --init is "
-                                "absent; writes metrics.json)")
+    init.add_argument("--init", metavar="X,Y,W,H",
+                      help="box in frame 1: top-left corner and size, 1-based like MOT/OTB; "
+                           "may start left of or above the image, e.g. --init -3,10,20,20 "
+                           "(default: frame 1 of --gt, else of the sequence's own ground "
+                           "truth)")
+    t.add_argument("--gt", metavar="FILE",
+                   help="ground-truth file: initialises from frame 1 when --init is absent "
+                        "and writes metrics.json (default: the sequence's own, if any)")
     t.add_argument("--out", required=True, help="output folder")
     t.add_argument("--particles", type=_positive_int("--particles"), default=None,
                    help="particles per variable (default: the model's)")
     _model_options(t)
-    t.add_argument("--seed", type=_nonneg_int, default=0)
+    t.add_argument("--seed", type=_nonneg_int, default=0, metavar="S",
+                   help="seed of the run's random numbers; the same seed gives the same "
+                        "results")
     t.add_argument("--no-video", action="store_true", help="do not write annotated.mp4")
     t.add_argument("--show-particles", action="store_true",
                    help="draw particles in the annotated video")
-    t.add_argument("--max-frames", type=_positive_int("--max-frames"), default=None)
+    t.add_argument("--max-frames", type=_positive_int("--max-frames"), default=None,
+                   metavar="K", help="track the first K frames only (default: every frame)")
     t.add_argument("--camera-motion", choices=("auto", "on", "off"), default=None,
                    help="global-motion compensation of every target's prediction: auto (on "
                         "frames where the camera moves; the default for multi-target "
                         "models), on, off (the default for one object, whose camera "
                         "usually follows it)")
-    t.add_argument("--detections", help="multi-target models: a MOTChallenge det.txt to "
-                                        "use as measurements")
+    t.add_argument("--detections", metavar="FILE",
+                   help="multi-target models: a MOTChallenge det.txt to use as measurements "
+                        "(default: none; see --detector)")
     t.add_argument("--gpdm", default=None, metavar="FILE.npz",
-                   help="gpdm: the learned dynamics ('pgm learn gpdm')")
+                   help="gpdm: the learned dynamics ('pgm learn gpdm'); needed by --motion "
+                        "gpdm (default: none)")
     t.add_argument("--motion", choices=("gpdm", "cv", "cv3"), default=None,
                    help="gpdm: the motion model: the learned GPDM (default), constant "
                         "velocity, or constant velocity averaged over three frames")
     t.add_argument("--drop-frames", default=None, metavar="SPEC",
                    help="multi-pf/gpdm: withhold frames to simulate missing ones (predicted "
                         "through, still scored): ranges 'A-B,C-D' (1-based, inclusive) or "
-                        "'P/L' (the last L of every P frames), e.g. '50-59' or '30/10'")
-    t.add_argument("--dbn", help="phd/vb-phd: a DBN person likelihood trained by "
-                                 "'pgm learn dbn' (multiplies the detection terms)")
+                        "'P/L' (the last L of every P frames), e.g. '50-59' or '30/10' "
+                        "(default: none)")
+    t.add_argument("--dbn", metavar="FILE.npz",
+                   help="phd/vb-phd: a DBN person likelihood trained by 'pgm learn dbn' "
+                        "(multiplies the detection terms; default: none)")
     t.add_argument("--scale-aware", action="store_true",
                    help="phd/vb-phd: track each box's scale; noise in units of each target's "
                         "own height (experimental: see the README's MOT table)")
@@ -205,15 +263,18 @@ def build_parser() -> argparse.ArgumentParser:
                     "the unweighted mean over sequences.",
         epilog="examples:\n  pgm eval --gt ../shared/data/TUD-Campus/gt/gt.txt --pred "
                "out/tracks.txt\n  pgm eval --gt-dir ../shared/data --pred-dir results/ "
-               "--json",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
-    e.add_argument("--gt", help="ground truth (OTB, MILTrack or MOT gt.txt); with --pred")
-    e.add_argument("--pred", help="tracks.txt written by pgm track; with --gt")
+               "--json")
+    e.add_argument("--gt", metavar="FILE",
+                   help="ground truth (OTB, MILTrack or MOT gt.txt); with --pred (default: "
+                        "none: give --gt/--pred or --gt-dir/--pred-dir)")
+    e.add_argument("--pred", metavar="FILE",
+                   help="tracks.txt written by pgm track; with --gt (default: none)")
     e.add_argument("--gt-dir", default=None, metavar="DIR",
                    help="folder of ground truth: <SEQ>/gt/gt.txt folders or <SEQ>.txt files "
-                        "(MOT); with --pred-dir")
+                        "(MOT); with --pred-dir (default: none)")
     e.add_argument("--pred-dir", default=None, metavar="DIR",
-                   help="folder of results <SEQ>.txt (MOTChallenge rows); with --gt-dir")
+                   help="folder of results <SEQ>.txt (MOTChallenge rows); with --gt-dir "
+                        "(default: none)")
     e.add_argument("--json", action="store_true", help="print JSON instead of a table")
 
     g = sub.add_parser("graph", help="draw a model's factor graph")
@@ -230,17 +291,21 @@ def build_parser() -> argparse.ArgumentParser:
     ld.add_argument("--out", required=True, help="output .npz file")
     ld.add_argument("--every", type=_positive_int("--every"), default=3,
                     help="use every K-th annotated frame")
-    ld.add_argument("--seed", type=_nonneg_int, default=0)
+    ld.add_argument("--seed", type=_nonneg_int, default=0, metavar="S",
+                    help="seed of the patch sampling and the network's initial weights")
     ld.add_argument("--epochs", type=_positive_int("--epochs"), default=40,
                     help="fine-tuning epochs")
     _learn_gpdm_options(lsub)
 
     d = sub.add_parser("demo", help="render a synthetic scene, track it, write every output")
     d.add_argument("--out", required=True, help="output folder")
-    d.add_argument("--seed", type=_nonneg_int, default=0)
-    d.add_argument("--frames", type=_positive_int("--frames"), default=90)
-    d.add_argument("--particles", type=_positive_int("--particles"), default=100)
-    d.add_argument("--quiet", action="store_true")
+    d.add_argument("--seed", type=_nonneg_int, default=0, metavar="S",
+                   help="seed of the synthetic scene and of the trackers")
+    d.add_argument("--frames", type=_positive_int("--frames"), default=90, metavar="K",
+                   help="length of the synthetic scene")
+    d.add_argument("--particles", type=_positive_int("--particles"), default=100,
+                   metavar="N", help="particles of the colour particle filter")
+    d.add_argument("--quiet", action="store_true", help="no progress bar")
     for module in _extensions():
         module.add_parser(sub)
     return p
@@ -275,14 +340,13 @@ def _learn_gpdm_options(lsub) -> None:
                     "'pgm track SOURCE --model gpdm --gpdm FILE.npz'.",
         epilog="example:\n  pgm learn gpdm --train ../shared/data/TUD-Stadtmitte "
                "../shared/data/TUD-Campus \\\n      --out gpdm_tud.npz --plot gpdm_tud.png "
-               "--mirror",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+               "--mirror")
     lg.add_argument("--train", nargs="+", required=True, metavar="SEQ",
                     help="MOTChallenge sequence folders with gt/gt.txt and seqinfo.ini "
                          "(frameRate); never the one you will evaluate on")
     lg.add_argument("--out", required=True, metavar="FILE.npz", help="output model file")
     lg.add_argument("--plot", default=None, metavar="FILE.png",
-                    help="also draw the latent space (.png, .svg or .pdf)")
+                    help="also draw the latent space (.png, .svg or .pdf; default: none)")
     lg.add_argument("--latent-dim", type=_positive_int("--latent-dim"), default=None,
                     metavar="D",
                     help=f"latent dimension d (default: {d['latent_dim']})")
@@ -329,13 +393,17 @@ def _record_option(args: argparse.Namespace):
 def _model_options(p: argparse.ArgumentParser) -> None:
     """Options that set a model config's ``Params`` fields (used where the model has them)."""
     p.add_argument("--parts", type=_int_in("--parts", 1, 3), default=None,
-                   help="part-graph: number of bands (2 for a person, 3 for a face)")
+                   help="part-graph, multi-pf: number of bands (2 for a person, 3 for a "
+                        "face; default: the model's)")
     p.add_argument("--split", choices=("rows", "cols"), default=None,
-                   help="part-graph: horizontal (rows, default) or vertical bands")
+                   help="part-graph: horizontal (rows) or vertical bands (default: the "
+                        "model's, rows)")
     p.add_argument("--topology", choices=("chain", "full"), default=None,
-                   help="part-graph: couplings between neighbours (chain) or all pairs")
+                   help="part-graph: couplings between neighbours (chain) or all pairs "
+                        "(default: the model's, chain)")
     p.add_argument("--fusion", choices=("mixture", "product"), default=None,
-                   help="part-graph: particle-BP fusion rule (default mixture)")
+                   help="part-graph: particle-BP fusion rule (default: the model's, "
+                        "mixture)")
     p.add_argument("--appearance", default=None, metavar="CUE[+CUE...]",
                    help="single-object/colour-pf/part-graph: likelihood cues per node, "
                         "multiplied: colour (one colour histogram), fragments (3x3 colour "
@@ -343,10 +411,12 @@ def _model_options(p: argparse.ArgumentParser) -> None:
                         "rings (rotation-invariant), contrast (foreground/background colour "
                         "log-odds), template (grey NCC; sees scale), cf (online correlation "
                         "filter; the default's cue); options in parentheses, e.g. "
-                        "'cf(lam=40,padding=2)+template'")
+                        "'cf(lam=40,padding=2)+template' (default: the model's: cf for "
+                        "single-object, colour for the others)")
     p.add_argument("--scale-noise", type=_finite_float("--scale-noise"), default=None,
                    help="single-object/colour-pf/part-graph: std of a shared log-scale step "
-                        "per frame (0: fixed size; use with a cue that sees scale)")
+                        "per frame (0: fixed size; use with a cue that sees scale; "
+                        "default: the model's)")
 
 
 # -- commands ---------------------------------------------------------------------------

@@ -1192,16 +1192,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     "seeds). See docs/experiments/example.toml for the file's format.",
         epilog="examples:\n  pgm bench docs/experiments/example.toml --out bench_out "
                "--jobs 2\n  pgm bench exp.toml --out /shared/exp --backend dask "
-               "--address tcp://10.0.0.5:8786",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+               "--address tcp://10.0.0.5:8786")
     b.add_argument("experiment", metavar="EXPERIMENT.toml", help="the experiment file")
     b.add_argument("--out", required=True, metavar="DIR", help="the experiment's folder")
     b.add_argument("--jobs", type=_positive_int("--jobs"), default=1, metavar="N",
                    help="worker processes on this machine: the local pool (1: in this "
                         "process) or the Dask LocalCluster (default: %(default)s)")
     b.add_argument("--backend", default="local", metavar="local|dask",
-                   help="local processes (default) or Dask distributed "
-                        f"({CLUSTER_EXTRA})")
+                   help="local processes or Dask distributed "
+                        f"({CLUSTER_EXTRA}) (default: %(default)s)")
     b.add_argument("--address", default=None, metavar="ADDR",
                    help="dask: the scheduler, e.g. tcp://10.0.0.5:8786 (default: start a "
                         "LocalCluster of --jobs workers)")

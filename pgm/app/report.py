@@ -1131,8 +1131,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     "to DIR/report_files/.",
         epilog="examples:\n  pgm track ../shared/data/TUD-Campus --model phd --out runs/tud "
                "--no-video\n  pgm report runs/tud\n  pgm report bench_out/   # every run "
-               "under it",
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+               "under it")
     p.add_argument("dir", metavar="DIR", help="a run folder or a folder of runs")
     p.add_argument("--title", default=None,
                    help="heading of the page (default: 'Tracking report — <DIR name>')")
