@@ -35,10 +35,14 @@ A run's *sequence* is the last component of ``run.json``'s ``source`` (the folde
 without its suffix for a video); its *model* is ``run.json``'s ``model`` (the graph's
 name). Runs sharing a sequence and model are the seeds of one configuration and are
 averaged: the tables show ``mean ± standard deviation`` over seeds (``n - 1`` in the
-denominator), the plots the mean curve with the seeds' range shaded. When runs of one
-model name sit in differently named parent folders (two configurations of one model,
-e.g. ``runs/<seq>/phd/`` and ``runs/<seq>/phd-scores/``), the parent folder's name
-tells them apart.
+denominator), the plots the mean curve with the seeds' range shaded. Runs of one
+sequence and model that differ in length (``run.json``'s ``frames``) or settings
+(particles, camera motion, dropped frames, ``model.json``'s engine settings) are not
+seeds of one configuration: each gets the settings that differ in its label
+(``colour-pf (50 frames)``), a row of its own, and the page and a warning say so. When
+runs of one model name sit in differently named parent folders (two configurations of
+one model, e.g. ``runs/<seq>/phd/`` and ``runs/<seq>/phd-scores/``), the parent
+folder's name tells them apart.
 
 Bad input — ``DIR`` missing or not a folder, no run under it, no finished run, a
 ``run.json`` or ``metrics.json`` that is not a JSON object, a malformed per-frame
@@ -53,6 +57,7 @@ import base64
 import html
 import io
 import json
+import logging
 import math
 import os
 import re
@@ -66,7 +71,8 @@ import numpy as np
 from pgm.core.errors import InputError, one_line
 from pgm.io.outputs import write_text
 
-__all__ = ["Run", "Group", "find_runs", "load_run", "group_runs", "write_report",
+__all__ = ["Run", "Group", "find_runs", "load_run", "group_runs", "split_configurations",
+           "write_report",
            "add_parser", "cmd_report", "COMMANDS", "REPORT_NAME", "FILES_DIR"]
 
 REPORT_NAME = "report.html"
@@ -99,6 +105,7 @@ METRIC_NAMES = {
 MOT_SCORES = (("MOTA", "mota"), ("IDF1", "idf1"), ("HOTA", "hota"), ("MOTP", "motp"),
               ("DetA", "deta"), ("AssA", "assa"))
 _IMAGE_DIRS = ("img", "img1", "imgs")
+_log = logging.getLogger("pgm")
 _VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".webm", ".mpg", ".mpeg", ".m4v", ".wmv")
 
 
@@ -293,10 +300,88 @@ def _parent_name(r: Run) -> str:
     return "" if r.rel == "." or str(parent) in ("", ".") else parent.name
 
 
+#: ``run.json`` fields that make two runs of one model different configurations (not
+#: seeds of one): how many frames were tracked and the settings the runner recorded
+CONFIG_FIELDS = ("frames", "num_particles", "camera_motion", "dropped_frames")
+
+
+def _config(run: Run) -> dict[str, str]:
+    """What a run was run with, each value as compact JSON: the :data:`CONFIG_FIELDS` of
+    ``run.json`` (``frames`` from ``metrics.json``'s ``n_frames`` when it has none) and
+    the engine settings of ``model.json``."""
+    out = {k: run.info[k] for k in CONFIG_FIELDS if k in run.info}
+    if "frames" not in out and _is_number((run.metrics or {}).get("n_frames")):
+        out["frames"] = run.metrics["n_frames"]
+    if run.model_file is not None:
+        try:
+            meta = json.loads(run.model_file.read_text(encoding="utf-8")).get("meta")
+            engine = meta.get("engine") if isinstance(meta, dict) else None
+        except (OSError, ValueError, AttributeError, RecursionError):
+            engine = None
+        if isinstance(engine, dict):
+            out["engine"] = engine
+    return {k: json.dumps(v, sort_keys=True, separators=(",", ":")) for k, v in out.items()}
+
+
+def _describe(key: str, text: str) -> str:
+    """One differing setting, in words: ``50 frames``, ``particles 100``."""
+    value = json.loads(text)
+    if key == "frames":
+        return f"{value} frames"
+    if key == "num_particles" and isinstance(value, dict) and len(set(
+            map(str, value.values()))) == 1:
+        value = next(iter(value.values()))
+    if key == "dropped_frames" and isinstance(value, list):
+        return f"{len(value)} frames dropped"
+    name = {"num_particles": "particles", "camera_motion": "camera motion"}.get(key, key)
+    if isinstance(value, (dict, list)):
+        value = text
+    return f"{name} {value}"
+
+
+def split_configurations(runs: list[Run]) -> list[str]:
+    """Tell apart runs of one sequence and label that are not seeds of one configuration
+    (a 300-frame and a 50-frame run; other particle counts or engine settings): each
+    such run's label gets the settings that differ, e.g. ``colour-pf (50 frames)``, so
+    they are separate rows, never averaged. Returns one line per (sequence, label) split.
+    """
+    by_key: dict[tuple[str, str], list[Run]] = {}
+    for r in runs:
+        by_key.setdefault((r.sequence, r.label), []).append(r)
+    notes = []
+    for (sequence, label), members in sorted(by_key.items()):
+        configs = [_config(r) for r in members]
+        keys = sorted({k for c in configs for k in c})
+        differing = [k for k in keys if len({c.get(k) for c in configs}) > 1]
+        if not differing:
+            continue
+        if "engine" in differing:  # name the engine settings that differ, not all of them
+            engines = [json.loads(c.get("engine", "{}")) for c in configs]
+            sub = sorted({k for e in engines for k in e
+                          if len({json.dumps(e.get(k), sort_keys=True) for e in engines}) > 1})
+            for c, e in zip(configs, engines):
+                c.update({f"engine.{k}": json.dumps(e.get(k), sort_keys=True) for k in sub})
+            differing = [k for k in differing if k != "engine"] + [f"engine.{k}" for k in sub]
+        for r, c in zip(members, configs):
+            words = [_describe(k, c[k]) for k in differing if k in c]
+            r.label = f"{label} ({', '.join(words)})" if words else label
+        notes.append(f"{sequence}, {label}: {len(members)} runs differ in "
+                     f"{', '.join(k.replace('_', ' ') for k in differing)}; shown as "
+                     f"{len({r.label for r in members})} rows, not averaged")
+    return notes
+
+
 def group_runs(runs: Iterable[Run]) -> list[Group]:
-    """Runs grouped by (sequence, label), sorted; labels assigned on the way."""
+    """Runs grouped by (sequence, label), sorted; labels assigned on the way (runs of one
+    label that differ in length or settings get distinct labels:
+    :func:`split_configurations`)."""
     runs = list(runs)
     _assign_labels(runs)
+    split_configurations(runs)
+    return _group(runs)
+
+
+def _group(runs: list[Run]) -> list[Group]:
     groups: dict[tuple[str, str], Group] = {}
     for r in runs:
         groups.setdefault((r.sequence, r.label), Group(r.sequence, r.label)).runs.append(r)
@@ -878,7 +963,11 @@ def write_report(root: str | Path, title: str | None = None) -> Path:
 
     base = Path(root)
     runs, left = _load_all(base)
-    groups = group_runs(runs)
+    _assign_labels(runs)
+    splits = split_configurations(runs)
+    for line in splits:
+        _log.warning("report: %s", line)
+    groups = _group(runs)
     stats = {(g.sequence, g.label): _group_stats(g) for g in groups}
     labels = sorted({g.label for g in groups})
     colours = _colours(labels)
@@ -891,7 +980,11 @@ def write_report(root: str | Path, title: str | None = None) -> Path:
     # -- summary
     parts.append('<section id="summary"><h2>Summary</h2>' + _summary(groups, stats)
                  + '<p class="note">Several runs of one sequence and model (seeds) are '
-                   "averaged: mean ± standard deviation over the runs.</p></section>")
+                   "averaged: mean ± standard deviation over the runs. Runs that differ in "
+                   "length or settings are not seeds of one configuration: they are "
+                   "separate rows, labelled with what differs.</p>"
+                 + "".join(f'<p class="note warning">{_e(line)}.</p>' for line in splits)
+                 + "</section>")
 
     # -- single object
     single = [g for g in groups if g.kind == "single"]
