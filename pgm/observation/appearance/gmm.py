@@ -98,7 +98,11 @@ class MixtureTemplate:
             chol = np.linalg.cholesky(c)
         except np.linalg.LinAlgError:
             raise ValueError("mixture template: a covariance is not positive definite") from None
-        for name, a in (("weights", w / w.sum()), ("means", m), ("covariances", c),
+        # normalise only weights that are not already (to rounding): renormalising a
+        # normalised vector can move it by an ulp, and a saved model must reload exactly
+        if abs(w.sum() - 1.0) > 1e-9:
+            w = w / w.sum()
+        for name, a in (("weights", w), ("means", m), ("covariances", c),
                         ("samples", s), ("_chol", chol)):
             object.__setattr__(self, name, a)
 

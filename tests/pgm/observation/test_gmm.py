@@ -186,3 +186,15 @@ def test_contrast_box_sums_equal_a_plain_loop_and_round_trip(tmp_path):
         ColourContrastLikelihood("object", ref_area=10.0)
     with pytest.raises(ValueError, match="adapt_rate"):
         ColourContrastLikelihood("object", adapt_rate=2.0)
+
+
+def test_mixture_template_keeps_normalised_weights_bit_for_bit():
+    # 0.1 + 0.2 + 0.7 is not exactly 1 in floating point; dividing by the sum would move
+    # the weights by an ulp, and a saved model would not reload exactly
+    rng = np.random.default_rng(0)
+    w = rng.dirichlet(np.ones(7), size=50)
+    for row in w:
+        t = MixtureTemplate(row, np.zeros((7, 1)), np.ones((7, 1, 1)), [[0.5]])
+        assert t.weights.tobytes() == row.tobytes()
+    t = MixtureTemplate([1.0, 3.0], [[0.0], [1.0]], np.ones((2, 1, 1)), [[0.5]])
+    np.testing.assert_array_equal(t.weights, [0.25, 0.75])
