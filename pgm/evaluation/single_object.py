@@ -131,10 +131,12 @@ def single_object_metrics(gt: SingleTrack, pred_frames: Any,
             Annotated frames with no prediction (or a non-finite one): IoU 0 and centre
             error ``+inf`` — a miss for precision, left out of the centre-error mean
             and median.
-        ``success_auc``, ``success_curve`` (21 values), ``precision_at_20``,
-        ``precision_curve`` (51 values), ``mean_iou``, ``mean_centre_error``,
-        ``median_centre_error``
+        ``success_auc``, ``precision_at_20``, ``mean_iou``
             See the module docstring; ``success_auc`` of a perfect track is ``20/21``.
+        ``success_curve``, ``precision_curve``
+            21 and 51 values, at the ``thresholds`` below.
+        ``mean_centre_error``, ``median_centre_error``
+            See the module docstring.
         ``thresholds``
             ``{'success': [0, 0.05, ..., 1], 'precision': [0, 1, ..., 50]}``.
         ``frames``, ``ious``, ``centre_errors``

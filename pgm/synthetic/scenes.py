@@ -127,16 +127,16 @@ def multi_target_scene(seed: int | np.random.Generator = 0, n_frames: int = 100,
     The first ``n_objects`` (1..6) of this fixed layout (object ``k`` has MOT id
     ``k + 1``; ``t = frame - start``; later objects are drawn in front):
 
-    ====  ======================  ========================  ===========  ==============
-    id    box at start (x,y,w,h)  velocity (px/frame)       frames       colours (top..)
-    ====  ======================  ========================  ===========  ==============
-    1     (20, 200, 32, 84)       (3.0, 0.3), y-wobble 2    1-end        red / blue
-    2     (600, 190, 30, 76)      (-4.5, 0.4)               1-89, dies   yellow / purple
-    3     (250, -80, 28, 72)      (0.3, 4.0), from the top  13-end       green / orange
-    4     (80, 380, 40, 60)       (2.0, -1.0), x-wobble 2   30-84, dies  cyan/red/green
-    5     (520, 40, 26, 70)       (-1.5, 2.0), x1.004/frame 45-end       pink / green
-    6     (-34, 360, 34, 90)      (5.0, -0.3), from left    21-end       orange / navy
-    ====  ======================  ========================  ===========  ==============
+    ==  ======================  =========================  ===========  ===============
+    id  box at start (x,y,w,h)  velocity (px/frame)        frames       colours (top..)
+    ==  ======================  =========================  ===========  ===============
+    1   (20, 200, 32, 84)       (3.0, 0.3), y-wobble 2     1-end        red / blue
+    2   (600, 190, 30, 76)      (-4.5, 0.4)                1-89, dies   yellow / purple
+    3   (250, -80, 28, 72)      (0.3, 4.0), from the top   13-end       green / orange
+    4   (80, 380, 40, 60)       (2.0, -1.0), x-wobble 2    30-84, dies  cyan/red/green
+    5   (520, 40, 26, 70)       (-1.5, 2.0), x1.004/frame  45-end       pink / green
+    6   (-34, 360, 34, 90)      (5.0, -0.3), from left     21-end       orange / navy
+    ==  ======================  =========================  ===========  ===============
 
     ("frames" lists the frames where the box overlaps the image; object 3 is born at
     frame 10 above the image, object 6 at frame 20 left of it.) Wobble periods are 28
