@@ -4,6 +4,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from pgm.app.runner import track
 from pgm.inference import Engine
@@ -25,6 +26,7 @@ def test_time_engine_boxes_equal_the_runner_boxes():
     assert secs > 0
 
 
+@pytest.mark.slow
 def test_plates_benchmark_quick_prints_its_table():
     """``benchmarks/plates.py --quick`` runs and prints one row per (K, N) of its tiny grid,
     with the plate and separate-engine timings (no wall-clock thresholds)."""
@@ -122,6 +124,7 @@ def test_confidence_benchmark_is_calibrated_on_data_drawn_from_its_own_model(mon
     assert "mean held-out ECE per video" in out
 
 
+@pytest.mark.slow
 def test_mot_sequences_no_peers_prints_only_the_toolkit_rows(shared_data):
     """``--no-peers`` (for sweeps) prints the PHD and VB-PHD rows of the sequence, with
     finite scores, and no peer row."""

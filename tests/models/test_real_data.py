@@ -13,7 +13,7 @@ import pytest
 
 from pgm.app.cli import main
 
-pytestmark = pytest.mark.data
+pytestmark = [pytest.mark.data, pytest.mark.slow]
 
 
 @pytest.mark.parametrize("sequence, floor_auc, floor_prec", [("FaceOcc1", 0.70, 0.70),

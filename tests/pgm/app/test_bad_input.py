@@ -433,6 +433,7 @@ def test_tracks_symlink_is_not_followed(files, tmp_path, capsys):
 
 
 # -- defect 10: SIGTERM is handled like SIGINT ---------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_signal_keeps_rows_and_a_playable_video(tmp_path, sig):
     seq = tmp_path / "seq"
@@ -478,6 +479,7 @@ def test_size_change_is_reported_by_the_source(files):
 
 
 # -- defect 12: one line on the terminal ---------------------------------------------
+@pytest.mark.slow
 def test_ffmpeg_and_warnings_are_one_line(files, tmp_path):
     """FFmpeg's own 'moov atom not found' never reaches the terminal (a fresh process:
     FFmpeg reads its log level once), and a toolkit warning is one ``pgm: warning:`` line

@@ -184,6 +184,7 @@ def test_api_raises_value_error(scene_dir):
         colour_pf.build_graph(colour_pf.Params(init_box=(50, np.nan, 5, 10)))
 
 
+@pytest.mark.slow
 def test_console_script_end_to_end(tmp_path):
     """The installed entry point: demo writes everything; a bad call is one line, exit 2."""
     res = subprocess.run([sys.executable, "-m", "pgm.app.cli", "demo", "--out", str(tmp_path),

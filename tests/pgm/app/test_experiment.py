@@ -111,6 +111,7 @@ def test_grid_order_and_seeds_do_not_depend_on_order_or_subset(tiny):
 
 
 # -- backends: one table ------------------------------------------------------------------------
+@pytest.mark.slow
 def test_jobs_2_writes_every_run_and_the_tables(reference):
     rows = table(reference)
     assert [(r["sequence"], r["model"], r["seed"]) for r in rows[:3]] == [
@@ -140,6 +141,7 @@ def test_jobs_2_writes_every_run_and_the_tables(reference):
     assert float(iou[0]["min"]) <= float(iou[0]["mean"]) <= float(iou[0]["max"])
 
 
+@pytest.mark.slow
 def test_dask_cluster_gives_the_same_table(tiny, reference, tmp_path):
     try:
         import distributed
@@ -158,6 +160,7 @@ def test_dask_cluster_gives_the_same_table(tiny, reference, tmp_path):
 
 
 # -- interrupted and resumed -------------------------------------------------------------------
+@pytest.mark.slow
 def test_interrupted_experiment_resumes_and_loses_nothing(tiny, reference, tmp_path,
                                                           monkeypatch):
     from pgm.app import runner
@@ -210,6 +213,7 @@ def test_interrupted_experiment_resumes_and_loses_nothing(tiny, reference, tmp_p
 
 
 # -- the command line --------------------------------------------------------------------------
+@pytest.mark.slow
 def test_cli_runs_the_example_and_then_skips_it(shared_data, tmp_path, capsys):
     out = tmp_path / "bench"
     assert main(["bench", str(EXAMPLE), "--out", str(out), "--jobs", "2"]) == 0

@@ -27,6 +27,7 @@ def _mot_folder(root, name, people, *, frames=12, frame_rate="25"):
     return folder
 
 
+@pytest.mark.slow
 def test_learn_gpdm_on_a_shared_sequence(shared_data, tmp_path, capsys):
     seq = shared_data / "TUD-Campus"
     if not (seq / "gt" / "gt.txt").is_file():

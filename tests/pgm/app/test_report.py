@@ -132,6 +132,7 @@ def test_report_on_one_single_object_run(sequences, tmp_path, capsys):
     assert f"{metrics['success_auc']:.4g}" in text  # the table holds the stored value
 
 
+@pytest.mark.slow
 def test_report_on_a_folder_of_runs(bench_dir, capsys):
     path = write_report(bench_dir)
     assert path == bench_dir / "report.html"
@@ -167,6 +168,7 @@ def _scored_run(folder, sequence, values, ious):
         "confidence": {"frames": frames, "values": values}}))
 
 
+@pytest.mark.slow
 def test_confidence_calibration_weights_every_sequence_equally(tmp_path, bench_dir):
     """Hand-worked: sequence A, four frames at confidence 0.9, all hits; sequence B,
     one frame at 0.9, a miss (its IoU is NaN: no box). Pooled with each sequence

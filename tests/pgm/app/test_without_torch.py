@@ -4,6 +4,8 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
 
 def _run(code: str) -> subprocess.CompletedProcess:
     # a fresh interpreter in which `import torch` fails, as on an install without the extra
@@ -15,6 +17,7 @@ def _run(code: str) -> subprocess.CompletedProcess:
                           capture_output=True, text=True, timeout=300)
 
 
+@pytest.mark.slow
 def test_tracking_runs_without_torch(tmp_path):
     res = _run(f"""
         from pgm.app.cli import main

@@ -119,6 +119,7 @@ def _planted(rng, n_seq, length):
     return seqs
 
 
+@pytest.mark.slow
 def test_learning_recovers_a_planted_latent_dynamic():
     """One-step prediction error near the generating noise.
 

@@ -52,6 +52,7 @@ def synthetic_mot(tmp_path_factory):
     return d
 
 
+@pytest.mark.slow
 def test_dbn_separates_people_from_background_on_held_out_frames(synthetic_mot, tmp_path):
     """Synthetic scenes: trained on one rendering, tested on another (different seed).
 
@@ -105,6 +106,7 @@ def test_dbn_file_errors(tmp_path):
         DBN().fit(np.zeros((20, 4)), np.zeros(20), np.random.default_rng(0))
 
 
+@pytest.mark.slow
 def test_learn_and_track_with_dbn_from_the_cli(synthetic_mot, tmp_path, capsys):
     code = main(["learn", "dbn", "--train", str(synthetic_mot / "train"), "--out",
                  str(tmp_path / "dbn.npz"), "--every", "6", "--epochs", "10"])
@@ -122,6 +124,7 @@ def test_learn_and_track_with_dbn_from_the_cli(synthetic_mot, tmp_path, capsys):
     assert fac.log_likelihood(x, FrameContext(1, img)).shape == (2,)
 
 
+@pytest.mark.slow
 @pytest.mark.data
 def test_dbn_trained_on_tud_recognises_people_in_pets(shared_data):
     """Leave-one-sequence-out: trained on TUD-Campus + TUD-Stadtmitte, tested on
