@@ -10,6 +10,8 @@ score the result. Run it as a script::
     python docs/tutorials/01_colour_pf.py --source ../shared/data/FaceOcc1 --out faceocc
 
 Without ``--source`` it renders the built-in synthetic scene, so it needs no data.
+Without ``--out`` every tutorial writes to ``pgm-tutorials/<its name>`` in the system's
+temporary folder (``PGM_TUTORIAL_OUT`` names another parent folder) and prints where.
 
 References
 ----------
@@ -29,6 +31,8 @@ References
 #   between the box's colour histogram and a template taken in the first frame.
 
 import argparse
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -43,7 +47,9 @@ from pgm.observation.appearance.likelihoods import ColourHistogramLikelihood
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n")[1])
 parser.add_argument("--source", help="a video or sequence folder (default: synthetic scene)")
-parser.add_argument("--out", default="tutorial_out")
+OUT_ROOT = os.environ.get("PGM_TUTORIAL_OUT") or os.path.join(tempfile.gettempdir(), "pgm-tutorials")
+parser.add_argument("--out", default=os.path.join(OUT_ROOT, Path(__file__).stem),
+                    help="output folder (default: %(default)s; $PGM_TUTORIAL_OUT sets its parent)")
 parser.add_argument("--max-frames", type=int, default=None)
 parser.add_argument("--particles", type=int, default=100)
 args = parser.parse_args()
@@ -111,3 +117,4 @@ result = track(source, graph, rng=np.random.default_rng(0), out_dir=out, gt=gt,
 m = result.metrics
 print(f"{len(result.frames)} frames at {result.fps:.0f} frames/s: success AUC "
       f"{m['success_auc']:.3f}, precision@20px {m['precision_at_20']:.3f}")
+print(f"outputs in {out}")

@@ -17,6 +17,8 @@ messages of a hidden frame, and compares the two::
 # %%
 # Set-up
 import argparse
+import os
+import tempfile
 from pathlib import Path
 
 import cv2
@@ -31,7 +33,9 @@ from pgm.models import colour_pf, part_graph
 from pgm.plotting.annotate import annotate
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n")[1])
-parser.add_argument("--out", default="tutorial_out")
+OUT_ROOT = os.environ.get("PGM_TUTORIAL_OUT") or os.path.join(tempfile.gettempdir(), "pgm-tutorials")
+parser.add_argument("--out", default=os.path.join(OUT_ROOT, Path(__file__).stem),
+                    help="output folder (default: %(default)s; $PGM_TUTORIAL_OUT sets its parent)")
 parser.add_argument("--source", help="a real sequence with ground truth (optional)")
 parser.add_argument("--parts", type=int, default=2)
 parser.add_argument("--max-frames", type=int, default=None)
@@ -112,3 +116,4 @@ result = track(source, graph, rng=np.random.default_rng(0), out_dir=out, gt=gt,
                show_particles=True, max_frames=args.max_frames, progress=False)
 print(f"{len(result.frames)} frames at {result.fps:.0f} frames/s: success AUC "
       f"{result.metrics['success_auc']:.3f}")
+print(f"outputs in {out}")

@@ -17,6 +17,8 @@ Run it as a script::
 # potential, broadcasting over leading axes: product fusion evaluates an N x M matrix)
 # and, if message particles should be jittered, ``propagate``.
 import argparse
+import os
+import tempfile
 from pathlib import Path
 
 import cv2
@@ -119,7 +121,9 @@ def head_and_body(box, particles=20):
 # Use it like any built-in model: draw it, save and reload it (plain JSON: your
 # classes are found by name once this module has defined them), track, score.
 parser = argparse.ArgumentParser(description=__doc__.split("\n")[1])
-parser.add_argument("--out", default="tutorial_out")
+OUT_ROOT = os.environ.get("PGM_TUTORIAL_OUT") or os.path.join(tempfile.gettempdir(), "pgm-tutorials")
+parser.add_argument("--out", default=os.path.join(OUT_ROOT, Path(__file__).stem),
+                    help="output folder (default: %(default)s; $PGM_TUTORIAL_OUT sets its parent)")
 parser.add_argument("--max-frames", type=int, default=None)
 args = parser.parse_args()
 out = Path(args.out)
@@ -140,3 +144,4 @@ for fusion in ("mixture", "product"):
                    engine_kwargs={"fusion": fusion}, progress=False)
     print(f"{fusion:8s}: {len(result.frames)} frames at {result.fps:.0f} frames/s, success AUC "
           f"{result.metrics['success_auc']:.3f}")
+print(f"outputs in {out}")

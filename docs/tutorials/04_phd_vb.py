@@ -28,6 +28,8 @@ References
 # A synthetic scene with births, deaths and crossings, written as a MOTChallenge
 # sequence whose detections get noisier over time (σ drifts from 2 to 8 px).
 import argparse
+import os
+import tempfile
 from pathlib import Path
 
 import matplotlib
@@ -46,7 +48,9 @@ from pgm.observation.detections import Detections  # noqa: E402
 from pgm.synthetic import multi_target_scene  # noqa: E402
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n")[1])
-parser.add_argument("--out", default="tutorial_out")
+OUT_ROOT = os.environ.get("PGM_TUTORIAL_OUT") or os.path.join(tempfile.gettempdir(), "pgm-tutorials")
+parser.add_argument("--out", default=os.path.join(OUT_ROOT, Path(__file__).stem),
+                    help="output folder (default: %(default)s; $PGM_TUTORIAL_OUT sets its parent)")
 parser.add_argument("--max-frames", type=int, default=None)
 args = parser.parse_args()
 out = Path(args.out)
@@ -184,3 +188,4 @@ ax.set_xlabel("detection score")
 ax.legend(fontsize=7)
 fig.tight_layout()
 fig.savefig(out / "score_mixture.png", dpi=100)
+print(f"outputs in {out}")

@@ -24,6 +24,8 @@ References
 # and sharing per-frame work (colour quantisation, gradient integral images) through
 # the frame cache.
 import argparse
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -48,7 +50,9 @@ from pgm.observation.detections import PublicDetections
 from pgm.synthetic import demo_scene, multi_target_scene
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n")[1])
-parser.add_argument("--out", default="tutorial_out")
+OUT_ROOT = os.environ.get("PGM_TUTORIAL_OUT") or os.path.join(tempfile.gettempdir(), "pgm-tutorials")
+parser.add_argument("--out", default=os.path.join(OUT_ROOT, Path(__file__).stem),
+                    help="output folder (default: %(default)s; $PGM_TUTORIAL_OUT sets its parent)")
 parser.add_argument("--max-frames", type=int, default=None)
 args = parser.parse_args()
 out = Path(args.out)
@@ -122,3 +126,4 @@ for graph in (base, with_dbn):
                     progress=False, max_frames=args.max_frames)
     print(f"{graph.name:8s}: MOTA {r.metrics['mota']:.3f} IDF1 {r.metrics['idf1']:.3f} "
           f"over {r.n_frames} frames")
+print(f"outputs in {out}")

@@ -21,6 +21,8 @@ withheld from the tracker. Run it as a script::
 # %%
 # A synthetic scene with births, deaths and crossings, and its noisy detections.
 import argparse
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +37,9 @@ from pgm.observation.detections import Detections
 from pgm.synthetic import multi_target_scene
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n")[1])
-parser.add_argument("--out", default="tutorial_out")
+OUT_ROOT = os.environ.get("PGM_TUTORIAL_OUT") or os.path.join(tempfile.gettempdir(), "pgm-tutorials")
+parser.add_argument("--out", default=os.path.join(OUT_ROOT, Path(__file__).stem),
+                    help="output folder (default: %(default)s; $PGM_TUTORIAL_OUT sets its parent)")
 parser.add_argument("--max-frames", type=int, default=None)
 args = parser.parse_args()
 out = Path(args.out)

@@ -23,6 +23,8 @@ Run it as a script::
 
 # %%
 import argparse
+import os
+import tempfile
 from pathlib import Path
 
 import matplotlib
@@ -43,7 +45,9 @@ from pgm.observation.appearance.correlation import CorrelationFilterLikelihood
 from pgm.synthetic import demo_scene
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n")[1])
-parser.add_argument("--out", default="tutorial_out")
+OUT_ROOT = os.environ.get("PGM_TUTORIAL_OUT") or os.path.join(tempfile.gettempdir(), "pgm-tutorials")
+parser.add_argument("--out", default=os.path.join(OUT_ROOT, Path(__file__).stem),
+                    help="output folder (default: %(default)s; $PGM_TUTORIAL_OUT sets its parent)")
 parser.add_argument("--max-frames", type=int, default=None)
 args = parser.parse_args()
 out = Path(args.out)
