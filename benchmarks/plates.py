@@ -9,7 +9,7 @@ The model is the single-object colour particle filter (``colour_pf.build_graph``
 mass prior, damped AR(2), colour histogram with the template learned in frame 1) with
 its transition replaced by ``AR2Transition(relative=True)`` (position noise 0.03 of the
 box height, sizes fixed) so one shared transition serves every box, and its variable put
-in a plate. The plate engine's replicas are started with ``PlateEngine.add`` on the true
+in a plate. The engine's replicas are started with ``Engine.add`` on the true
 boxes of frame 1 and stepped with ``lifecycle=False``. The comparison runs ``K``
 separate single-object ``Engine`` instances of *the same graph* (without the plate, prior
 re-centred on one target's box with ``born_at``; the same per-target generators) one
@@ -49,7 +49,7 @@ single_thread()
 
 from pgm import FactorGraph, Plate  # noqa: E402
 from pgm.core.frame import FrameContext  # noqa: E402
-from pgm.inference import Engine, PlateEngine  # noqa: E402
+from pgm.inference import Engine  # noqa: E402
 from pgm.models import colour_pf  # noqa: E402
 from pgm.synthetic.scene import ObjectSpec, Scene  # noqa: E402
 
@@ -107,7 +107,7 @@ def run_plate(plated, seq, k, n, warmup, seed, trace_memory=False):
     mem = PeakMemory() if trace_memory else None
     if mem is not None:
         mem.__enter__()
-    eng = PlateEngine(plated, np.random.default_rng(seed), num_particles=n)
+    eng = Engine(plated, np.random.default_rng(seed), num_particles=n)
     boxes = np.stack([centre_box(seq, i, 1) for i in range(k)])
     eng.add(boxes, FrameContext(1, seq.frames[0]),
             rngs=[np.random.default_rng([seed, i]) for i in range(k)])

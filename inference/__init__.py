@@ -11,8 +11,8 @@ from .engine import (
     message_order,
 )
 from .kalman import KalmanResult, kalman_filter, linear_gaussian_matrices
-from .plates import PlateEngine, make_engine
+
 
 __all__ = ["Engine", "RuleTable", "DEFAULT_RULES", "Schedule", "StepRecord", "derive_schedule",
            "kalman_filter", "KalmanResult", "linear_gaussian_matrices", "resampling", "pbp",
-           "message_order", "phd", "vb", "plates", "PlateEngine", "make_engine"]
+           "message_order", "phd", "vb", "plates"]

@@ -5,7 +5,8 @@ module turns them into checks, so a new rule (yours, or one of the toolkit's) is
 held to them by running any model with ``rules=checked(table)``:
 
 * **likelihood** rules on a belief that likelihoods reweight (:class:`~pgm.Particles`)
-  return a float array ``(N,)`` (NaN counts as ``-inf``; ``+inf`` is refused), leave
+  return a float array ``(N,)`` (``(K, N)`` on a plate's
+  :class:`~pgm.core.batched.BatchedParticles`) (NaN counts as ``-inf``; ``+inf`` is refused), leave
   ``engine.beliefs`` untouched — the same belief object, particles and weights
   unchanged — and the engine's evidence is then exactly that increment;
 * **prior** rules leave a belief for their variable; **transition** rules keep a
@@ -42,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from pgm.core.batched import BatchedParticles
 from pgm.core.beliefs import Particles
 from pgm.core.errors import RuleContractError
 from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
@@ -59,13 +61,16 @@ def _fail(rule, what: str, msg: str):
     raise RuleContractError(f"rule {_name(rule)!r} ({what}): {msg}")
 
 
-def check_likelihood_increment(out: Any, num: int, rule=None, what: str = "") -> np.ndarray:
-    """Check a likelihood rule's return value: a float array ``(num,)``, no ``+inf``."""
+def check_likelihood_increment(out: Any, num: int | tuple[int, ...], rule=None,
+                               what: str = "") -> np.ndarray:
+    """Check a likelihood rule's return value: a float array ``(num,)`` (or of the shape
+    ``num``, e.g. ``(K, N)`` for a plate), no ``+inf``."""
+    shape = (num,) if isinstance(num, (int, np.integer)) else tuple(num)
     if not isinstance(out, np.ndarray):
         _fail(rule, what, f"returned {type(out).__name__}, not a log-likelihood increment "
-                          f"of shape ({num},)")
-    if out.shape != (num,):
-        _fail(rule, what, f"returned shape {out.shape}, expected ({num},)")
+                          f"of shape {shape}")
+    if out.shape != shape:
+        _fail(rule, what, f"returned shape {out.shape}, expected {shape}")
     if not np.issubdtype(out.dtype, np.floating):
         _fail(rule, what, f"returned dtype {out.dtype}, expected floats")
     if np.isposinf(out).any():
@@ -73,8 +78,11 @@ def check_likelihood_increment(out: Any, num: int, rule=None, what: str = "") ->
     return out
 
 
+_PARTICLES = (Particles, BatchedParticles)
+
+
 def _snapshot(b: Any):
-    if isinstance(b, Particles):
+    if isinstance(b, _PARTICLES):
         return b, b.x.copy(), b.log_weights.copy(), tuple(h.copy() for h in b.history)
     return b, None, None, None
 
@@ -102,7 +110,7 @@ def _wrap_factor_rule(key: type, rule):
                         _fail(rule, what, f"changed the belief of {v!r}: a likelihood rule "
                                           f"returns its increment and never moves, reorders "
                                           f"or resamples particles")
-                return check_likelihood_increment(out, b.num, rule, what)
+                return check_likelihood_increment(out, b.log_weights.shape, rule, what)
         before = engine.beliefs.get(var)
         out = rule(engine, factor, frame, *message)
         if out is not None and not isinstance(out, dict):
@@ -111,10 +119,10 @@ def _wrap_factor_rule(key: type, rule):
         if issubclass(key, PriorFactor) and after is None:
             _fail(rule, what, f"left no belief for {var!r}")
         if (issubclass(key, TransitionFactor) and likelihood_reweights(type(before))
-                and isinstance(after, Particles)):
-            if after.num != before.num:
+                and isinstance(after, _PARTICLES)):
+            if after.log_weights.shape != before.log_weights.shape:
                 _fail(rule, what, f"changed the particle count of {var!r} "
-                                  f"({before.num} -> {after.num})")
+                                  f"({before.log_weights.shape} -> {after.log_weights.shape})")
             if np.isnan(after.x).any():
                 _fail(rule, what, f"produced NaN particles for {var!r}")
         return out
@@ -135,10 +143,10 @@ def _wrap_belief_rule(operation: str, rule):
         if out is not None and not isinstance(out, dict):
             _fail(rule, what, f"returned {type(out).__name__}; expected None or a dict")
         after = engine.beliefs[variable]
-        if (operation == "resample" and isinstance(before, Particles) and before.num
-                and not np.isclose(after.log_mass, before.log_mass, rtol=0, atol=1e-9)):
-            _fail(rule, what, f"changed the total mass (log {before.log_mass:.6g} -> "
-                              f"{after.log_mass:.6g})")
+        if (operation == "resample" and isinstance(before, _PARTICLES) and before.num
+                and not np.allclose(after.log_mass, before.log_mass, rtol=0, atol=1e-9)):
+            _fail(rule, what, f"changed the total mass (log {before.log_mass} -> "
+                              f"{after.log_mass})")
         return out
 
     return run

@@ -21,13 +21,20 @@ The first frame replaces *predict* by *prior*: each variable's belief is drawn f
 prior factor and likelihood factors may learn from the frame (e.g. a colour template at
 the prior mean) before it is weighted.
 
-Every stage dispatches through a :class:`RuleTable` keyed by *(factor class, belief
-type)* — as ReactiveMP keys rules by node and edge — each resolved along its MRO (the
-factor's first, then the belief's), so ``rules.register(MyLikelihood, Particles)``
-gives a user's factor its own rule and a subclass (e.g. :class:`~pgm.Intensity`)
-inherits rules it does not override. Belief operations (``fuse``, ``resample``,
-``estimate``) are keyed by *(operation, belief type)*. The engine never knows which
-model it runs: particle BP, VB and the PHD corrector are rules registered in this table.
+Every stage dispatches through a :class:`~pgm.inference.rules.RuleTable` keyed by
+*(factor class, belief type)*, each resolved along its MRO, so
+``rules.register(MyLikelihood, Particles)`` gives a user's factor its own rule. The
+engine never knows which model it runs: particle BP, VB and the PHD corrector are rules
+registered in this table.
+
+**Plates.** A graph with a :class:`~pgm.core.plate.Plate` runs on the same engine and the
+same schedule: the plate's variables hold *batched* beliefs (:mod:`pgm.core.batched`:
+particles ``(K, N, d)``, one Gaussian or noise belief per replica), rules registered for
+the batched types act on all ``K`` replicas at once, and any other single-graph rule runs
+once per replica (:mod:`pgm.inference.plates`). Interaction factors between replicas are
+the ``interaction`` stage; the ``associate`` stage is the track layer (births from
+unmatched detections, confirmation, coasting, the lost stage, identities). Each replica
+draws from its own generator, so ``K = 1`` reproduces a single-graph run bit for bit.
 
 **The weight-stage contract.** On a belief that likelihoods reweight
 (``belief_type.likelihood_reweights``, true for :class:`~pgm.Particles`), a likelihood
@@ -62,6 +69,7 @@ from typing import Any
 
 import numpy as np
 
+from pgm.core.batched import batched_type
 from pgm.core.beliefs import Intensity, Particles
 from pgm.core.errors import RuleContractError
 from pgm.core.expfam import InverseGamma
@@ -69,18 +77,17 @@ from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
 from pgm.core.motion import warp_states
+from pgm.core.rng import as_generator
 from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
 
 from .resampling import ess_triggered, get_resampler
-from .settings import FUSIONS, EngineSettings
+from .rules import BELIEF_OPERATIONS, DEFAULT_RULES, Rule, RuleTable, likelihood_reweights
+from .schedule import STAGES, Schedule, derive_schedule, message_order
+from .settings import EngineSettings
 
 __all__ = ["Engine", "RuleTable", "DEFAULT_RULES", "StepRecord", "Schedule", "derive_schedule",
            "STAGES", "BELIEF_FOR_ROLE", "BELIEF_OPERATIONS", "RuleContractError",
-           "likelihood_reweights"]
-
-STAGES = ("prior", "predict", "weight", "inframe", "fuse", "estimate", "resample")
-#: operations on one variable's belief (rules keyed by name, not by a factor class)
-BELIEF_OPERATIONS = ("fuse", "resample", "estimate")
+           "likelihood_reweights", "message_order"]
 
 #: belief type the engine creates for each variable role (override per variable with
 #: ``Engine(..., belief_types={name: type})``, e.g. :class:`~pgm.core.expfam.Gaussian` for an
@@ -88,194 +95,6 @@ BELIEF_OPERATIONS = ("fuse", "resample", "estimate")
 BELIEF_FOR_ROLE: dict[str, type] = {"part": Particles, "state": Particles,
                                     "latent": Particles, "set": Intensity,
                                     "noise": InverseGamma}
-
-Rule = Callable[..., Any]
-
-
-def likelihood_reweights(belief_type: type) -> bool:
-    """Whether likelihood factors act on ``belief_type`` by reweighting (the contract)."""
-    return bool(getattr(belief_type, "likelihood_reweights", False))
-
-
-def _key_name(key: type | str) -> str:
-    return key if isinstance(key, str) else key.__name__
-
-
-class RuleTable:
-    """Inference rules keyed by ``(factor class, belief type)`` or ``(operation, belief type)``.
-
-    Factor rules are looked up along the factor class's MRO first, then the belief
-    type's: ``register(PHDLikelihood, Intensity)`` wins over ``register(LikelihoodFactor,
-    Intensity)`` for a PHD factor, and both over ``(LikelihoodFactor, Particles)``.
-
-    Calling conventions
-    -------------------
-    * prior, transition, conjugate factors: ``rule(engine, factor, frame)``; updates
-      ``engine.beliefs``; may return a dict of diagnostics;
-    * likelihood factors on a belief that likelihoods reweight (:class:`~pgm.Particles`):
-      ``rule(engine, factor, frame) -> log_lik`` of shape ``(N,)``, touching no belief;
-      on other beliefs, as a prior rule;
-    * coupling factors: ``rule(engine, factor, frame, src, dst)`` (one directed message);
-    * belief operations (``fuse``, ``resample``, ``estimate``):
-      ``rule(engine, variable_name, frame)``.
-
-    Diagnostics are stored in the step record under the factor's (or variable's) name.
-    """
-
-    def __init__(self, rules: dict[tuple[type | str, type], Rule] | None = None):
-        self._rules: dict[tuple[type | str, type], Rule] = dict(rules or {})
-        self._resolved: dict[tuple[type | str, type], Rule] = {}
-
-    @staticmethod
-    def _check_key(key: type | str, belief_type: type) -> None:
-        if isinstance(key, str):
-            if key not in BELIEF_OPERATIONS:
-                raise ValueError(f"unknown operation {key!r}: register a factor class, or one "
-                                 f"of {BELIEF_OPERATIONS}")
-        elif not (isinstance(key, type) and issubclass(key, Factor)):
-            raise ValueError(f"rule key must be a Factor subclass or one of "
-                             f"{BELIEF_OPERATIONS}, got {key!r}")
-        if not isinstance(belief_type, type):
-            raise ValueError(f"belief type must be a class, got {belief_type!r}")
-
-    def register(self, key: type | str, belief_type: type) -> Callable[[Rule], Rule]:
-        """Decorator registering a rule for ``(factor class | operation, belief type)``."""
-        self._check_key(key, belief_type)
-
-        def deco(rule: Rule) -> Rule:
-            self._rules[(key, belief_type)] = rule
-            self._resolved.clear()
-            return rule
-
-        return deco
-
-    def _find(self, key: type | str, belief_type: type) -> Rule | None:
-        keys = [key] if isinstance(key, str) else [
-            k for k in key.__mro__ if isinstance(k, type) and issubclass(k, Factor)]
-        for k in keys:
-            for b in belief_type.__mro__:
-                rule = self._rules.get((k, b))
-                if rule is not None:
-                    return rule
-        return None
-
-    def lookup(self, key: type | str, belief_type: type) -> Rule:
-        """The rule for ``key`` (a factor class or a belief operation) on ``belief_type``."""
-        hit = self._resolved.get((key, belief_type))
-        if hit is not None:
-            return hit
-        rule = self._find(key, belief_type)
-        if rule is None:
-            raise ValueError(f"no inference rule for ({_key_name(key)}, {belief_type.__name__}):"
-                             f" register one with RuleTable.register")
-        self._resolved[(key, belief_type)] = rule
-        return rule
-
-    def has(self, key: type | str, belief_type: type) -> bool:
-        """Whether :meth:`lookup` would succeed."""
-        return self._find(key, belief_type) is not None
-
-    def remove(self, key: type | str, belief_type: type) -> None:
-        """Drop the rule registered exactly for ``(key, belief_type)``."""
-        self._rules.pop((key, belief_type), None)
-        self._resolved.clear()
-
-    def items(self) -> list[tuple[tuple[type | str, type], Rule]]:
-        """Every registered ``((key, belief type), rule)`` pair."""
-        return list(self._rules.items())
-
-    def copy(self) -> RuleTable:
-        """An independent copy (to add rules for one engine only)."""
-        return RuleTable(self._rules)
-
-    def __repr__(self) -> str:
-        keys = ", ".join(f"({_key_name(k)}, {t.__name__})" for k, t in self._rules)
-        return f"RuleTable([{keys}])"
-
-
-DEFAULT_RULES = RuleTable()
-
-
-@dataclass
-class Schedule:
-    """The per-frame schedule: ``phases`` is a list of ``(stage, items)``.
-
-    ``items`` are factor names for factor stages, ``(coupling, src, dst)`` triples for
-    directed messages in the ``inframe`` stage, and variable names for ``fuse``,
-    ``estimate`` and ``resample``.
-    """
-
-    first_frame: list[tuple[str, list]]
-    phases: list[tuple[str, list]]
-
-    def __repr__(self) -> str:
-        def item(i):
-            return f"{i[1]}→{i[2]}" if isinstance(i, tuple) else str(i)
-
-        def fmt(ph):
-            return " → ".join(f"{s}[{', '.join(item(i) for i in items)}]"
-                              for s, items in ph if items)
-
-        return f"Schedule(\n  first: {fmt(self.first_frame)}\n  step:  {fmt(self.phases)}\n)"
-
-
-def message_order(graph: FactorGraph, fusion: str = "mixture",
-                  iterations: int = 1) -> list[tuple[str, str, str]]:
-    """Directed coupling messages ``(factor, src, dst)`` for one frame.
-
-    ``"mixture"``: every directed edge once (all messages leave this frame's predicted
-    particles). ``"product"``: on a forest, a leaves-to-root then root-to-leaves sweep
-    (exact for trees); with loops, ``iterations`` flooding rounds.
-    """
-    import networkx as nx
-
-    couplings = graph.factors_by_kind("coupling")
-    if not couplings:
-        return []
-    flood = [(f.name, f.variables[1], f.variables[0]) for f in couplings] + \
-            [(f.name, f.variables[0], f.variables[1]) for f in couplings]
-    if fusion == "mixture":
-        return flood
-    g = nx.MultiGraph()
-    for f in couplings:
-        g.add_edge(*f.variables, key=f.name)
-    if not nx.is_forest(nx.Graph(g)) or g.number_of_edges() != nx.Graph(g).number_of_edges():
-        return flood * max(1, iterations)
-    by_pair = {frozenset(f.variables): f.name for f in couplings}
-    order: list[tuple[str, str, str]] = []
-    for comp in nx.connected_components(g):
-        root = min(comp, key=list(graph.variables).index)
-        tree_edges = list(nx.dfs_edges(nx.Graph(g).subgraph(comp), root))  # parent -> child
-        up = [(by_pair[frozenset((p, c))], c, p) for p, c in reversed(tree_edges)]
-        down = [(by_pair[frozenset((p, c))], p, c) for p, c in tree_edges]
-        order += up + down
-    return order
-
-
-def derive_schedule(graph: FactorGraph, inframe_iterations: int = 1,
-                    fusion: str = "mixture") -> Schedule:
-    """Derive the per-frame schedule from the factor kinds of ``graph``."""
-    if inframe_iterations < 0:
-        raise ValueError(f"inframe_iterations must be >= 0, got {inframe_iterations}")
-    if fusion not in FUSIONS:
-        raise ValueError(f"unknown fusion {fusion!r} (choose from {FUSIONS})")
-    names = lambda kind: [f.name for f in graph.factors_by_kind(kind)]  # noqa: E731
-    # likelihoods parameterised by a noise variable are updated inside the VB fixed point
-    under_vb: set[str] = set()
-    for c in graph.factors_by_kind("conjugate"):
-        lik = getattr(c, "likelihood", None)
-        under_vb |= ({lik} if lik else {f.name for f in graph.factors_of(c.variables[1],
-                                                                         "likelihood")})
-    messages = message_order(graph, fusion, inframe_iterations)
-    conjugates = names("conjugate") * (inframe_iterations if names("conjugate") else 0)
-    receivers = [v for v in graph.variables if any(dst == v for _, _, dst in messages)]
-    particle_vars = [v.name for v in graph.variables.values() if v.role != "noise"]
-    weighted = [n for n in names("likelihood") if n not in under_vb]
-    tail = [("weight", weighted), ("inframe", messages + conjugates),
-            ("fuse", receivers), ("estimate", list(graph.variables)),
-            ("resample", particle_vars)]
-    return Schedule(first_frame=[("prior", names("prior"))] + tail,
-                    phases=[("predict", names("transition"))] + tail)
 
 
 @dataclass
@@ -286,13 +105,14 @@ class StepRecord:
     ----------
     frame : int
     estimates : dict
-        Variable name → estimate (the weighted mean for particle beliefs).
+        Variable name → estimate (the weighted mean for particle beliefs; ``(K, d)`` for
+        a plate variable, one row per replica).
     beliefs : dict
         Variable name → posterior belief after resampling (immutable objects).
     messages : dict
         ``(src, dst)`` → the message of this frame (particle BP), for inspection.
     ess : dict
-        ESS after weighting, before resampling.
+        ESS after weighting, before resampling (``(K,)`` for a plate variable).
     resampled : dict
         Whether each variable was resampled.
     log_evidence : dict
@@ -316,8 +136,11 @@ class StepRecord:
 Hook = Callable[["Engine", str, FrameContext, StepRecord], None]
 
 
+Hook = Callable[["Engine", str, FrameContext, StepRecord], None]
+
+
 class Engine:
-    """Runs a :class:`~pgm.FactorGraph` frame by frame.
+    """Runs a :class:`~pgm.FactorGraph` frame by frame, with or without a plate.
 
     Parameters
     ----------
@@ -325,8 +148,9 @@ class Engine:
         The model. The engine works on a deep copy, so factors that learn from the
         first frame (templates) never change the caller's graph; the learned copy is
         ``engine.graph``.
-    rng : numpy.random.Generator
-        The only source of randomness.
+    rng : int or numpy.random.Generator
+        The only source of randomness (an int is a seed). In a plate, each replica
+        gets a generator spawned from it at its birth (or given to :meth:`add`).
     settings : EngineSettings, optional
         Default: ``EngineSettings.from_dict(graph.meta["engine"])`` (what the model
         config asked for). The keyword arguments below override single fields.
@@ -344,10 +168,11 @@ class Engine:
         Defaults to :data:`DEFAULT_RULES`.
     belief_types : dict, optional
         Variable name → belief class, overriding :data:`BELIEF_FOR_ROLE` (e.g.
-        :class:`~pgm.core.expfam.Gaussian` for an exact Kalman filter).
+        :class:`~pgm.core.expfam.Gaussian` for an exact Kalman filter). For a plate
+        variable name the belief of one replica; the engine keeps its batched form.
     """
 
-    def __init__(self, graph: FactorGraph, rng: np.random.Generator, *,
+    def __init__(self, graph: FactorGraph, rng: int | np.random.Generator, *,
                  settings: EngineSettings | None = None,
                  num_particles: int | dict[str, int] | None = None,
                  resampling: str | Callable | None = None, ess_threshold: float | None = None,
@@ -356,11 +181,8 @@ class Engine:
                  belief_types: dict[str, type] | None = None):
         if not isinstance(graph, FactorGraph):
             raise ValueError(f"Engine needs a FactorGraph, got {type(graph).__name__}")
-        if not isinstance(rng, np.random.Generator):
-            raise ValueError("Engine needs rng=numpy.random.Generator (e.g. "
-                             "numpy.random.default_rng(seed))")
+        self.rng = as_generator(rng)
         self.graph = copy.deepcopy(graph)
-        self.rng = rng
         if settings is None:
             settings = EngineSettings.from_dict(self.graph.meta.get("engine"))
         elif not isinstance(settings, EngineSettings):
@@ -392,6 +214,13 @@ class Engine:
         self.frame: FrameContext | None = None
         self.t = 0
         self._hooks: dict[str, list[Hook]] = {s: [] for s in STAGES}
+        #: the plate's replicas (:class:`pgm.inference.plates.Replicas`), or None
+        self.replicas = None
+        self.plate = self.graph.plates[0] if self.graph.plates else None
+        if self.plate is not None:
+            from . import plates
+
+            plates.setup(self)
         self._check_rules()
 
     # -- set-up ------------------------------------------------------------------------
@@ -406,13 +235,20 @@ class Engine:
             counts = {n: num_particles for n in names}
         return {n: int(c) for n, c in counts.items()}  # validated by EngineSettings
 
-    def belief_type(self, variable: str) -> type:
-        """Belief class of a variable (from its role)."""
+    def row_belief_type(self, variable: str) -> type:
+        """Belief class of one replica of a variable (from its role)."""
         role = self.graph.variables[variable].role
         bt = self.belief_types.get(variable) or BELIEF_FOR_ROLE.get(role)
         if bt is None:
             raise ValueError(f"variable {variable!r}: no belief type for role {role!r} in this "
                              f"engine")
+        return bt
+
+    def belief_type(self, variable: str) -> type:
+        """Belief class of a variable: its role's, batched for a plate variable."""
+        bt = self.row_belief_type(variable)
+        if self.plate is not None and variable in self.plate.variables:
+            return batched_type(bt)
         return bt
 
     def factor_belief_type(self, factor: Factor) -> type:
@@ -428,7 +264,7 @@ class Engine:
 
     def _check_rules(self) -> None:
         """Fail at construction, naming the factor, if some stage has no rule."""
-        factor_stages = ("prior", "predict", "inframe", "weight")
+        factor_stages = ("prior", "predict", "inframe", "weight", "interaction")
         for phases in (self.schedule.first_frame, self.schedule.phases):
             for stage, items in phases:
                 for item in items:
@@ -439,7 +275,7 @@ class Engine:
                             raise ValueError(f"factor {f.name!r}: no inference rule for "
                                              f"({type(f).__name__}, {bt.__name__}) in this "
                                              f"engine")
-                    else:
+                    elif stage != "associate":
                         bt = self.belief_type(item)
                         if not self.rules.has(stage, bt):
                             raise ValueError(f"variable {item!r}: no {stage} rule for "
@@ -451,24 +287,79 @@ class Engine:
             raise ValueError(f"unknown stage {stage!r} (expected one of {STAGES})")
         self._hooks[stage].append(hook)
 
+    # -- a plate's replicas ------------------------------------------------------------
+    @property
+    def predicts_missing_frames(self) -> bool:
+        """Whether a frame with neither image nor detections is predicted through (a
+        plate's replicas are; a single graph's likelihoods need their frame)."""
+        return self.plate is not None
+
+    @property
+    def num_targets(self) -> int:
+        """Number of replicas ``K`` of the plate (tentative, confirmed and lost); 0 without."""
+        return self.replicas.K if self.replicas is not None else 0
+
+    @property
+    def tracks(self) -> list:
+        """The replicas' track records (identities, hits, existence), in replica order."""
+        return list(self.replicas.tracks) if self.replicas is not None else []
+
+    def factor(self, name: str, replica: int | None = None) -> Factor:
+        """The factor ``name`` (as replica ``replica`` uses it: its own copy if it learns)."""
+        if replica is None or self.replicas is None:
+            return self.graph.factors[name]
+        return self.replicas.graphs[replica].factors[name]
+
+    def add(self, boxes: np.ndarray | None, frame: FrameContext, rngs=None,
+            confirmed: bool = False, count: int | None = None) -> list[int]:
+        """Start replicas of the plate on ``boxes`` ``(M, 4)`` (cx, cy, w, h) in ``frame``
+        (:func:`pgm.inference.plates.add`); returns their indices."""
+        from . import plates
+
+        return plates.add(self, boxes, frame, rngs=rngs, confirmed=confirmed, count=count)
+
+    def remove(self, indices) -> None:
+        """Remove the replicas at ``indices``."""
+        from . import plates
+
+        plates.remove(self, indices)
+
     # -- running -----------------------------------------------------------------------
-    def step(self, frame: FrameContext) -> StepRecord:
-        """Process one frame (the first call initialises from the priors)."""
+    def step(self, frame: FrameContext, *, lifecycle: bool = True) -> StepRecord:
+        """Process one frame (the first call initialises from the priors).
+
+        With a plate, replicas are born at the ``associate`` stage (and run the
+        first-frame stages there); ``lifecycle=False`` skips that stage (replicas managed
+        by the caller with :meth:`add` and :meth:`remove`). A frame with neither image nor
+        detections is *missing* for a plate: its replicas are only predicted."""
         if not isinstance(frame, FrameContext):
             raise ValueError(f"step() needs a FrameContext, got {type(frame).__name__}")
         self.frame = frame
         self.evidence = {}
         self.messages = {}
         record = StepRecord(frame=frame.index)
-        phases = self.schedule.first_frame if self.t == 0 else self.schedule.phases
-        for stage, items in phases:
-            getattr(self, f"_stage_{stage}")(items, frame, record)
-            for hook in self._hooks[stage]:
-                hook(self, stage, frame, record)
+        if self.plate is None:
+            self._run(self.schedule.first_frame if self.t == 0 else self.schedule.phases,
+                      frame, record)
+        else:
+            from . import plates
+
+            plates.step(self, frame, record, lifecycle)
         record.beliefs = dict(self.beliefs)
         record.messages = dict(self.messages)
         self.t += 1
         return record
+
+    def _run(self, phases, frame: FrameContext, record: StepRecord, hooks: bool = True,
+             skip: tuple[str, ...] = ()) -> None:
+        """Run the stages ``phases`` (calling the hooks after each)."""
+        for stage, items in phases:
+            if stage in skip:
+                continue
+            getattr(self, f"_stage_{stage}")(items, frame, record)
+            if hooks:
+                for hook in self._hooks[stage]:
+                    hook(self, stage, frame, record)
 
     def run(self, frames: Iterable[FrameContext]) -> Iterator[StepRecord]:
         """Step through ``frames`` lazily, yielding one :class:`StepRecord` per frame."""
@@ -485,14 +376,18 @@ class Engine:
     def _stage_prior(self, items, frame, record) -> None:
         for name in items:
             self._apply_factor(name, frame, record)
-        for f in self.graph.factors_by_kind("likelihood"):
-            priors = self.graph.factors_of(f.variables[0], "prior")
-            if priors:
-                f.initialize(frame, priors[0].mean())
+        graphs = [self.graph] if self.replicas is None else self.replicas.graphs
+        for g in graphs:  # templates learned at the prior mean (each replica its own)
+            for f in g.factors_by_kind("likelihood"):
+                priors = g.factors_of(f.variables[0], "prior")
+                if priors:
+                    f.initialize(frame, priors[0].mean())
 
     def _stage_predict(self, items, frame, record) -> None:
         for name in items:
             self._apply_factor(name, frame, record)
+
+    _stage_interaction = _stage_predict
 
     def _stage_inframe(self, items, frame, record) -> None:
         for item in items:
@@ -535,20 +430,24 @@ class Engine:
             for names in groups:
                 fs = [self.graph.factors[n] for n in names]
                 rules = [self.rule_for(f) for f in fs]
-                resolved.append((fs, rules,
-                                 len(fs) > 1 and all(r is _weight_particles for r in rules)))
+                if self.replicas is None:
+                    batched = len(fs) > 1 and all(r is _weight_particles for r in rules)
+                else:  # a plate: replicas' copies scored together (pgm.inference.plates)
+                    from .plates import weight_batched
+
+                    batched = all(r is weight_batched for r in rules)
+                resolved.append((fs, rules, batched))
             groups = self._groups_cache[key] = resolved
         return groups
 
     def _stage_weight(self, items, frame, record) -> None:
         """Apply the likelihood factors (the weight-stage contract: module docstring)."""
-        before: dict[str, Particles] = {}  # reweighted beliefs as they entered the stage
+        before: dict[str, Any] = {}  # reweighted beliefs as they entered the stage
         log_lik: dict[str, np.ndarray] = {}
         for fs, rules, batched in self._weight_groups(items):
             vs = [f.variables[0] for f in fs]
             if batched:
-                lls = type(fs[0]).log_likelihood_batch(fs, [self.beliefs[v].x for v in vs],
-                                                       frame)
+                lls = self._score_group(fs, frame)
             else:
                 lls = [self._likelihood_increment(f, r, frame, record)
                        for f, r in zip(fs, rules, strict=True)]
@@ -556,7 +455,7 @@ class Engine:
                 if ll is None:  # a belief the rule updated itself
                     continue
                 b = self.beliefs[v]
-                ll = _check_ll(f, ll, b.num)
+                ll = _check_ll(f, ll, b.log_weights.shape)
                 before.setdefault(v, b)
                 log_lik[v] = log_lik[v] + ll if v in log_lik else ll
                 self.beliefs[v] = b.reweight(ll)
@@ -565,7 +464,23 @@ class Engine:
             self.evidence[v] = (b0.log_weights, log_lik[v])
             record.log_evidence[v] = b.log_mass - b0.log_mass
             record.ess[v] = b.ess
-            self.beliefs[v] = b.normalized()
+            if self.replicas is None:
+                self.beliefs[v] = b.normalized()
+                continue
+            # a replica no particle of which explains the frame keeps its prediction
+            self.beliefs[v], bad = b.normalized(fallback=b0)
+            if bad.any():
+                self.evidence[v] = (b0.log_weights, np.where(bad[:, None], 0.0, log_lik[v]))
+                record.info.setdefault(v, {})["degenerate"] = np.flatnonzero(bad)
+
+    def _score_group(self, fs: list[Factor], frame: FrameContext) -> list[np.ndarray]:
+        """Log-likelihoods of a group of factors scored in one batched pass."""
+        if self.replicas is not None:
+            from . import plates
+
+            return plates.score_group(self, fs, frame)
+        return type(fs[0]).log_likelihood_batch(fs, [self.beliefs[f.variables[0]].x
+                                                     for f in fs], frame)
 
     def _likelihood_increment(self, factor: Factor, rule: Rule, frame: FrameContext,
                               record: StepRecord) -> np.ndarray | None:
@@ -587,27 +502,36 @@ class Engine:
             raise RuleContractError(
                 f"likelihood rule {getattr(rule, '__qualname__', rule)!r} for factor "
                 f"{factor.name!r} returned {type(out).__name__}, not its log-likelihood "
-                f"increment (an array of shape ({b.num},))")
+                f"increment (an array of shape {b.log_weights.shape})")
         return out
 
     def _stage_resample(self, items, frame, record) -> None:
         for v in items:
             rule = self.rules.lookup("resample", type(self.beliefs[v]))
             info = rule(self, v, frame)
-            record.resampled.setdefault(v, False)
             if info:
                 record.info.setdefault(v, {}).update(info)
-                record.resampled[v] = bool(info.get("resampled", False))
+            res = (info or {}).get("resampled", False)
+            record.resampled[v] = res if isinstance(res, np.ndarray) else bool(res)
 
     def _stage_estimate(self, items, frame, record) -> None:
         for v in items:
             rule = self.rules.lookup("estimate", type(self.beliefs[v]))
             record.estimates[v] = rule(self, v, frame)
-        if self._learners:
+        if self.replicas is not None:
+            from . import plates
+
+            plates.learn(self, items, frame, record)
+        elif self._learners:
             scores = {v: self.score_at(v, record.estimates[v], frame) for v in items
                       if self.graph.factors_of(v, "likelihood")}
             for f in self._learners:
                 f.update(record.estimates, scores, frame)
+
+    def _stage_associate(self, items, frame, record) -> None:
+        from . import plates
+
+        plates.associate(self, frame, record)
 
     def log_likelihood(self, variable: str, x: np.ndarray, frame: FrameContext) -> np.ndarray:
         """Sum of ``variable``'s likelihood factors at particles ``x`` ``(N, d)``."""
@@ -654,11 +578,11 @@ def _predict_particles(engine: Engine, factor, frame) -> None:
     engine.beliefs[var] = b.moved(x_new, history_len=max(0, factor.order - 1))
 
 
-def _check_ll(factor, ll, n: int) -> np.ndarray:
+def _check_ll(factor, ll, shape: tuple[int, ...]) -> np.ndarray:
     ll = np.asarray(ll, dtype=float)
-    if ll.shape != (n,):
+    if ll.shape != shape:
         raise ValueError(f"factor {factor.name!r}: log_likelihood returned shape {ll.shape}, "
-                         f"expected ({n},)")
+                         f"expected {shape}")
     if np.isnan(ll).any():  # NaN evidence is no evidence: -inf, as Particles.reweight does
         ll = np.where(np.isnan(ll), -np.inf, ll)
     return ll

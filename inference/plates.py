@@ -1,57 +1,50 @@
-r"""The plate engine: one sub-graph per target, all replicas stepped in one batched pass.
+r"""Plates in the one engine: batched rules, per-replica rules, births and the track layer.
 
-A graph with a :class:`~pgm.core.plate.Plate` declares the model of *one* target; this
-engine runs ``K`` replicas of it, ``K`` changing as tracks start and end. Each plate
-variable's belief is kept as arrays with a leading target axis — particles ``(K, N, d)``,
-normalised log-weights ``(K, N)``, histories ``(K, N, d)`` — and every stage acts on all
-replicas at once:
+A graph with a :class:`~pgm.core.plate.Plate` declares the model of *one* target;
+:class:`~pgm.inference.Engine` runs ``K`` replicas of it with the schedule it derives
+for any graph, ``K`` changing as tracks start and end. This module holds what a plate
+adds to that engine, and no step loop of its own:
 
-* **predict** — a transition shared by the replicas samples the ``K·N`` particles in one
-  call of ``factor.sample`` (particles flattened to ``(K·N, d)``);
-* **weight** — a likelihood shared by the replicas (detections, a learned person model)
-  scores all ``K·N`` particles in one call; a likelihood that learns a per-target
-  template is copied per replica at its birth and the copies are scored together by
-  ``log_likelihood_batch`` (one pass for colour histograms);
-* **interaction** — factors between replicas (kind ``"interaction"``, e.g. mutual
-  exclusion) reweight every replica's particles against the other replicas' current
-  estimates, all ``(K, N, K)`` pairs in one array expression;
-* **in-frame** — coupling messages between the parts of each replica (particle BP,
-  mixture fusion with source weights: :mod:`pgm.inference.pbp`) for all replicas at
-  once;
-* **estimate, learn, resample** — weighted means ``(K, d)``; factors that learn are
-  updated per replica; ESS-triggered resampling per replica.
+* **batched rules**, registered in :data:`~pgm.inference.DEFAULT_RULES` for
+  :class:`~pgm.core.batched.BatchedParticles` (``(K, N, d)`` particles): a transition
+  shared by the replicas samples the ``K·N`` particles in one call of
+  ``factor.sample``; a shared likelihood scores them in one call, and per-target
+  templates are scored together by ``log_likelihood_batch`` (one pass per cluster of
+  overlapping replicas); interaction factors (mutual exclusion) reweight every replica
+  against the others' estimates; mixture messages of particle BP, fusion, estimates
+  and ESS-triggered resampling act on all replicas at once;
+* :func:`per_replica`, which runs any single-graph rule once per replica where no
+  batched rule is registered — VB noise per target, product fusion, exact Gaussian
+  rules, a user's own rule — so everything a single graph can hold, a plate can hold;
+* **births and deaths** (:func:`add`, :func:`remove`, and the ``associate`` stage,
+  :func:`associate`): the replicas' boxes are matched to the frame's detections
+  (Hungarian on ``1 − IoU``, :mod:`pgm.inference.tracks`); a detection that matches no
+  replica starts one, its prior re-centred on the detection (``prior.born_at``), its
+  templates learned from this frame and the first-frame stages run on it.
 
 **Randomness.** Each replica owns a ``numpy.random.Generator`` (given at its birth, else
 spawned from the engine's), and a batched draw of shape ``(K·N, ...)`` is made of ``K``
 draws of shape ``(N, ...)``, one from each replica's generator (:class:`ReplicaRNG`).
-A replica therefore consumes its stream exactly as a single-target
-:class:`~pgm.inference.Engine` run of the same graph would: ``K = 1`` reproduces that
-engine bit for bit, and ``K`` replicas without interaction reproduce ``K`` separate
-runs (tested). A factor whose ``sample``/``propagate`` draws numbers whose leading axis
-is not the particle count cannot be split this way and is refused with its name.
+A replica therefore consumes its stream exactly as a single-graph run of the same graph
+would: ``K = 1`` reproduces that run bit for bit, and ``K`` replicas without interaction
+reproduce ``K`` separate runs (tested). A factor whose ``sample``/``propagate`` draws
+numbers whose leading axis is not the particle count cannot be split this way and is
+refused with its name.
 
-**Births and deaths** follow the plate's :class:`~pgm.core.plate.Lifecycle`: after the
-replicas are stepped, their boxes are matched to the frame's detections (Hungarian on
-``1 − IoU``); a detection matching no replica starts one (its prior re-centred on the
-detection, ``prior.born_at``; its templates learned from this frame; the first-frame
-stages run on it), confirmed after ``confirm_hits`` matches; identities, coasting, the
-lost stage and the existence score are those of :mod:`pgm.inference.tracks`.
-
-The target's box is the bounding box of the output variables' boxes (one variable: its
-box). New replicas' part boxes are placed relative to the detection as the prior means
-of the declaration are placed relative to ``graph.meta["reference_box"]`` (default:
-the bounding box of the output variables' prior means).
-
-Limits: one plate per graph, every variable inside it (no shared *variables*: shared
-parameters live in the factors' declarations); couplings use mixture fusion with
-``message_weight="source"`` and one message particle per particle.
+**What is per replica.** A factor that learns, or a likelihood that learns a template
+from the first frame, is copied per replica at its birth (``engine.factor(name, k)``);
+every other factor's parameters are shared. The target's box is the bounding box of the
+output variables' boxes; new replicas' part boxes are placed relative to the detection as
+the prior means of the declaration are placed relative to ``graph.meta["reference_box"]``
+(default: the bounding box of the output variables' prior means).
 
 Example
 -------
 >>> import numpy as np
+>>> from pgm.inference import Engine
 >>> from pgm.models import multi_pf
 >>> g = multi_pf.build_graph(multi_pf.Params(num_particles=30))
->>> engine = PlateEngine(g, rng=np.random.default_rng(0))
+>>> engine = Engine(g, rng=np.random.default_rng(0))
 >>> engine.num_targets
 0
 """
@@ -59,27 +52,34 @@ Example
 from __future__ import annotations
 
 import copy
+import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
+from pgm.core.batched import BatchedParticles, batched_type
 from pgm.core.boxes import cxcywh_to_xywh, iou_xywh
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
 from pgm.core.motion import warp_states
 from pgm.core.readout import Targets, register_readout
-from pgm.factors import LikelihoodFactor
+from pgm.factors import CouplingFactor, LikelihoodFactor, TransitionFactor
+from pgm.factors.plates import InteractionFactor
 
-from .engine import StepRecord, message_order
-from .resampling import ess_triggered, get_resampler
-from .settings import EngineSettings
-from .tracks import Track
+from .engine import Engine, StepRecord
+from .pbp import MixtureMessage, coupling_message, fuse
+from .resampling import ess_triggered
+from .rules import DEFAULT_RULES
+from .tracks import Track, match_boxes
 
-__all__ = ["PlateEngine", "ReplicaRNG", "plate_boxes", "make_engine"]
+if TYPE_CHECKING:
+    from pgm.core.plate import Plate
+
+__all__ = ["ReplicaRNG", "Replicas", "plate_boxes", "per_replica", "add", "remove",
+           "associate", "BatchedMixtureMessage"]
 
 _BOX = ("cx", "cy", "w", "h")
 
@@ -164,6 +164,7 @@ class ReplicaRNG:
 # boxes of a plate model
 # -------------------------------------------------------------------------------------
 def _box_columns(graph: FactorGraph, variable: str) -> list[int]:
+    """Columns of cx, cy, w, h in ``variable`` (a ``ValueError`` if it is not a box)."""
     v = graph.variables[variable]
     if v.labels is None or not all(b in v.labels for b in _BOX):
         raise ValueError(f"plate variable {variable!r} must have the labels cx, cy, w, h "
@@ -191,569 +192,612 @@ def plate_boxes(graph: FactorGraph, estimates: dict[str, np.ndarray]) -> np.ndar
 
 
 # -------------------------------------------------------------------------------------
-# the replicas' state
+# the replicas
 # -------------------------------------------------------------------------------------
 @dataclass
-class _Batch:
-    """Beliefs and per-replica objects of ``K`` replicas (leading axis ``K``)."""
+class Replicas:
+    """What a plate keeps per replica besides its beliefs (which live in
+    ``engine.beliefs`` as batched beliefs): its generator, its view of the graph (shared
+    factors and its own copies of those that learn), its track record, the state rules
+    keep across frames (``aux``) and its latest estimates ``est`` (variable →
+    ``(K, d)``)."""
 
-    x: dict[str, np.ndarray] = field(default_factory=dict)
-    lw: dict[str, np.ndarray] = field(default_factory=dict)
-    hist: dict[str, tuple[np.ndarray, ...]] = field(default_factory=dict)
     rngs: list[np.random.Generator] = field(default_factory=list)
-    local: dict[str, list] = field(default_factory=dict)
+    graphs: list[FactorGraph] = field(default_factory=list)
     tracks: list[Track] = field(default_factory=list)
+    aux: list[dict] = field(default_factory=list)
     est: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def K(self) -> int:  # noqa: N802 - the plate's size is called K
         return len(self.rngs)
 
-    def select(self, keep: np.ndarray) -> _Batch:
-        idx = np.flatnonzero(keep)
-        return _Batch({v: a[idx] for v, a in self.x.items()},
-                      {v: a[idx] for v, a in self.lw.items()},
-                      {v: tuple(h[idx] for h in hs) for v, hs in self.hist.items()},
-                      [self.rngs[i] for i in idx],
-                      {n: [fs[i] for i in idx] for n, fs in self.local.items()},
-                      [self.tracks[i] for i in idx],
-                      {v: a[idx] for v, a in self.est.items()})
+    def select(self, idx: np.ndarray) -> Replicas:
+        pick = lambda xs: [xs[i] for i in idx]  # noqa: E731
+        return Replicas(pick(self.rngs), pick(self.graphs), pick(self.tracks), pick(self.aux),
+                        {v: a[idx] for v, a in self.est.items()})
 
-    @staticmethod
-    def join(a: _Batch, b: _Batch) -> _Batch:
-        if a.K == 0:
-            return b
-        if b.K == 0:
-            return a
-        cat = np.concatenate
-        return _Batch({v: cat([a.x[v], b.x[v]]) for v in a.x},
-                      {v: cat([a.lw[v], b.lw[v]]) for v in a.lw},
-                      {v: tuple(cat([h, g]) for h, g in zip(a.hist[v], b.hist[v], strict=True))
-                       for v in a.hist},
-                      a.rngs + b.rngs,
-                      {n: a.local[n] + b.local[n] for n in a.local},
-                      a.tracks + b.tracks,
-                      {v: cat([a.est[v], b.est[v]]) for v in a.est})
+    def join(self, other: Replicas) -> Replicas:
+        est = {v: np.concatenate([self.est[v], other.est[v]]) if v in self.est else other.est[v]
+               for v in other.est}
+        return Replicas(self.rngs + other.rngs, self.graphs + other.graphs,
+                        self.tracks + other.tracks, self.aux + other.aux, est)
 
 
-def _log_mass(lw: np.ndarray) -> np.ndarray:
-    """Per-row ``logsumexp`` of ``(K, N)`` log-weights, computed as
-    :func:`pgm.core.numerics.logsumexp` computes one row (so one replica's numbers are
-    those of a single-target run, to the last bit)."""
-    m = lw.max(axis=1) if lw.shape[1] else np.full(lw.shape[0], -np.inf)
-    finite = np.isfinite(m)
-    safe = np.where(finite, m, 0.0)
-    e = np.exp(lw - safe[:, None])
-    # row by row: numpy's axis-1 reduction may round differently from a 1-D sum
-    return np.array([mk + math.log(float(row.sum())) if ok else -np.inf
-                     for mk, row, ok in zip(m.tolist(), e, finite.tolist(), strict=True)])
+@dataclass
+class PlateSpec:
+    """What an engine derives once from a plate declaration."""
+
+    plate: Plate
+    template: FactorGraph  # factors as declared: copied per new replica
+    local: list[str]  # factors copied per replica (they learn per target)
+    learners: list[str]
+    boxed: bool  # the output variables are boxes (births from detections possible)
+    reference_box: np.ndarray | None
+    prior_boxes: dict[str, np.ndarray]
+    next_id: int = 1
 
 
-def _row_normalize(lw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per-row normalisation of ``(K, N)`` log-weights; returns (normalised, log mass).
-    Rows with no finite weight are returned unchanged (their log mass is ``-inf``)."""
-    lm = _log_mass(lw)
-    return lw - np.where(np.isfinite(lm), lm, 0.0)[:, None], lm
+def setup(engine: Engine) -> None:
+    """Check a plate graph and give ``engine`` its (empty) replicas."""
+    g = engine.graph
+    plate = engine.plate
+    outside = [v for v in g.variables if v not in plate.variables]
+    if outside:
+        raise ValueError(f"graph {g.name!r}: variables {outside} are outside the plate "
+                         f"{plate.name!r}; a plate graph holds every variable in its plate "
+                         f"(shared parameters belong in factors)")
+    for v in g.variables.values():
+        if v.role == "set":
+            raise ValueError(f"plate variable {v.name!r} has role 'set': a random finite set "
+                             f"already holds every target; it needs no plate")
+        if len(g.factors_of(v.name, "prior")) != 1:
+            raise ValueError(f"plate variable {v.name!r} needs one prior factor")
+    priors = g.factors_by_kind("prior")
+    boxed = bool(g.output) and all(_has_box(g, v) for v in g.output)
+    means = {f.variables[0]: np.asarray(f.mean(), dtype=float) for f in priors
+             if _has_box(g, f.variables[0])}
+    ref = g.meta.get("reference_box")
+    reference = (np.asarray(ref, dtype=float) if ref is not None else
+                 plate_boxes(g, {v: m[None] for v, m in means.items()})[0] if boxed else None)
+    local = [f.name for f in g.factors.values() if f.kind != "prior"
+             and (f.learns or (isinstance(f, LikelihoodFactor) and
+                               type(f).initialize is not LikelihoodFactor.initialize))]
+    engine.plate_spec = PlateSpec(plate, copy.deepcopy(g), local,
+                                  [f.name for f in g.factors.values() if f.learns], boxed,
+                                  reference, {v: m[_box_columns(g, v)] for v, m in means.items()})
+    engine.replicas = Replicas()
+    engine.beliefs = _empty_beliefs(engine)
+
+
+def _has_box(graph: FactorGraph, variable: str) -> bool:
+    labels = graph.variables[variable].labels
+    return labels is not None and all(b in labels for b in _BOX)
+
+
+def _empty_beliefs(engine: Engine) -> dict[str, Any]:
+    out = {}
+    for v, var in engine.graph.variables.items():
+        bt = engine.belief_type(v)
+        if bt is BatchedParticles:
+            tr = engine.graph.factors_of(v, "transition")
+            out[v] = BatchedParticles.empty(engine.num_particles[v], var.dim,
+                                            max(0, getattr(tr[0], "order", 1) - 1) if tr else 0)
+        else:
+            out[v] = bt.stack([])
+    return out
+
+
+def _replica_graph(engine: Engine, values: dict[str, dict[str, float]] | None) -> FactorGraph:
+    """A replica's view of the graph: the shared factors, its own copies of those that
+    learn, and its priors re-centred on its birth box (``values``)."""
+    spec = engine.plate_spec
+    g = copy.copy(engine.graph)
+    factors = dict(engine.graph.factors)
+    for name in spec.local:
+        factors[name] = copy.deepcopy(spec.template.factors[name])
+    if values is not None:
+        for f in engine.graph.factors_by_kind("prior"):
+            v = f.variables[0]
+            if v in values:
+                factors[f.name] = f.born_at(values[v], g.variables[v].labels)
+    g.factors = factors
+    return g
+
+
+def _part_values(engine: Engine, box: np.ndarray) -> dict[str, dict[str, float]]:
+    """Each variable's box for a target whose box is ``box`` (cx, cy, w, h)."""
+    spec = engine.plate_spec
+    ref = spec.reference_box
+    sw, sh = box[2] / ref[2], box[3] / ref[3]
+    return {v: {"cx": box[0] + (p[0] - ref[0]) * sw, "cy": box[1] + (p[1] - ref[1]) * sh,
+                "w": p[2] * sw, "h": p[3] * sh} for v, p in spec.prior_boxes.items()}
+
+
+def add(engine: Engine, boxes: np.ndarray | None, frame: FrameContext,
+        rngs: Sequence[np.random.Generator] | None = None, confirmed: bool = False,
+        count: int | None = None) -> list[int]:
+    """Start replicas on ``boxes`` ``(M, 4)`` (cx, cy, w, h) in ``frame``.
+
+    Each replica's prior is re-centred on its box (``boxes=None``: ``count`` replicas
+    from the priors as declared); the engine's first-frame stages run on the new
+    replicas (prior, templates learned from ``frame``, weight, in-frame, fuse, estimate,
+    resample), as a single-graph engine treats its first frame. ``rngs`` gives each
+    replica its generator (default: spawned from the engine's); ``confirmed`` starts them
+    with identities (targets given by the user). Returns their indices."""
+    if engine.plate is None:
+        raise ValueError(f"graph {engine.graph.name!r} declares no plate: it has no replicas")
+    if not isinstance(frame, FrameContext):
+        raise ValueError(f"add() needs a FrameContext, got {type(frame).__name__}")
+    spec = engine.plate_spec
+    if boxes is None:
+        m = 1 if count is None else int(count)
+        values: list[dict | None] = [None] * m
+        states = [np.full(4, np.nan)] * m
+    else:
+        if not spec.boxed:
+            raise ValueError(f"graph {engine.graph.name!r}: the output variables are not boxes "
+                             f"(cx, cy, w, h); start replicas with boxes=None")
+        boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
+        if not np.all(np.isfinite(boxes)) or np.any(boxes[:, 2:] <= 0):
+            raise ValueError("replica boxes must be finite with positive width and height")
+        m = len(boxes)
+        values = [_part_values(engine, b) for b in boxes]
+        states = [b.copy() for b in boxes]
+    rngs = list(engine.rng.spawn(m) if rngs is None else rngs)
+    if len(rngs) != m:
+        raise ValueError(f"{m} replicas but {len(rngs)} generators")
+    if m == 0:
+        return []
+    tracks = [Track(s) for s in states]
+    if confirmed:
+        for t in tracks:
+            t.track_id = spec.next_id
+            spec.next_id += 1
+    newborn = Replicas(rngs, [_replica_graph(engine, v) for v in values], tracks,
+                       [{} for _ in range(m)])
+    saved = engine.beliefs, engine.replicas, engine.evidence, engine.messages
+    engine.beliefs, engine.replicas, engine.evidence, engine.messages = {}, newborn, {}, {}
+    rec = StepRecord(frame=frame.index)
+    try:
+        engine._run(engine.schedule.first_frame, frame, rec, hooks=False,
+                    skip=("interaction", "associate"))
+        born = engine.beliefs
+    finally:
+        engine.beliefs, engine.replicas, engine.evidence, engine.messages = saved
+    first = engine.replicas.K
+    for v, b in born.items():
+        engine.beliefs[v] = engine.beliefs[v].concat(b)
+    newborn.est = dict(rec.estimates)
+    engine.replicas = engine.replicas.join(newborn)
+    return list(range(first, first + m))
+
+
+def remove(engine: Engine, indices: Sequence[int]) -> None:
+    """Remove the replicas at ``indices``."""
+    keep = np.ones(engine.num_targets, dtype=bool)
+    keep[np.asarray(list(indices), dtype=int)] = False
+    _keep(engine, np.flatnonzero(keep))
+
+
+def _keep(engine: Engine, idx: np.ndarray) -> None:
+    engine.beliefs = {v: b.select(idx) for v, b in engine.beliefs.items()}
+    engine.replicas = engine.replicas.select(idx)
+
+
+# -------------------------------------------------------------------------------------
+# one frame
+# -------------------------------------------------------------------------------------
+def step(engine: Engine, frame: FrameContext, record: StepRecord, lifecycle: bool) -> None:
+    """The engine's frame for a plate graph: the schedule on the replicas there are, then
+    the ``associate`` stage. A frame with neither image nor detections is *missing*: the
+    replicas are only predicted (no weighting, learning, resampling, births or deaths)."""
+    reps = engine.replicas
+    missing = frame.image is None and frame.detections is None and frame.measurements is None
+    if reps.K:
+        if missing:
+            engine._run(engine.schedule.phases[:1], frame, record)
+            for v in engine.graph.variables:
+                rule = engine.rules.lookup("estimate", type(engine.beliefs[v]))
+                record.estimates[v] = rule(engine, v, frame)
+            reps.est = dict(record.estimates)
+        else:
+            engine._run(engine.schedule.phases, frame, record, skip=("associate",))
+    info = record.info.setdefault(engine.plate.name, {})
+    if lifecycle and not missing:
+        engine._run([("associate", [engine.plate.name])], frame, record)
+    info["missing"] = missing
+    reps = engine.replicas
+    record.estimates = {v: reps.est.get(v, np.zeros((0, engine.graph.variables[v].dim)))
+                        for v in engine.graph.variables}
+    lc = engine.plate.lifecycle
+    info.update(
+        ids=np.array([t.track_id or 0 for t in reps.tracks], dtype=np.int64),
+        boxes=(plate_boxes(engine.graph, reps.est) if reps.K and engine.plate_spec.boxed
+               else np.zeros((reps.K, 4))),
+        reported=np.array([t.track_id is not None and t.misses <= lc.max_coast
+                           and not t.recovering for t in reps.tracks], dtype=bool),
+        existence=np.array([t.existence for t in reps.tracks], dtype=float))
+
+
+def learn(engine: Engine, items: list[str], frame: FrameContext, record: StepRecord) -> None:
+    """After the estimate stage: every replica's learning factors are updated with its
+    estimates and scores (as a single-graph engine updates its own)."""
+    reps = engine.replicas
+    reps.est = {v: np.asarray(record.estimates[v]) for v in items}
+    learners = engine.plate_spec.learners
+    if not learners:
+        return
+    for k in range(reps.K):
+        g = reps.graphs[k]
+        est = {v: reps.est[v][k] for v in items}
+        scores = {}
+        for v in items:
+            fs = g.factors_of(v, "likelihood")
+            if fs:
+                x = np.asarray(est[v], dtype=float).reshape(1, -1)
+                total = np.zeros(1)
+                for f in fs:
+                    total = total + f.log_likelihood(x, frame)
+                scores[v] = float(total[0])
+        for name in learners:
+            g.factors[name].update(est, scores, frame)
+
+
+def associate(engine: Engine, frame: FrameContext, record: StepRecord) -> None:
+    """The ``associate`` stage: the replicas' boxes against the frame's detections
+    (:func:`pgm.inference.tracks.match_boxes`), the track life cycle of the plate's
+    :class:`~pgm.core.plate.Lifecycle`, births from the detections no replica explains."""
+    spec = engine.plate_spec
+    info = record.info.setdefault(engine.plate.name, {})
+    dets = frame.detections
+    if dets is None or not spec.boxed:
+        det_boxes, scores = np.zeros((0, 4)), np.zeros(0)
+    else:
+        d = np.asarray(dets.boxes, dtype=float).reshape(-1, 4)
+        det_boxes = np.column_stack([d[:, 0] + d[:, 2] / 2, d[:, 1] + d[:, 3] / 2,
+                                     d[:, 2], d[:, 3]])
+        scores = np.asarray(dets.scores, dtype=float)
+    reps = engine.replicas
+    lc = engine.plate.lifecycle
+    boxes = plate_boxes(engine.graph, reps.est) if reps.K and spec.boxed else np.zeros((0, 4))
+    iou = _iou(boxes[:, None, :], det_boxes[None, :, :])
+    matched = match_boxes(iou, [t.misses > lc.max_coast for t in reps.tracks], lc.match_iou)
+    keep = np.ones(reps.K, dtype=bool)
+    for k, t in enumerate(reps.tracks):
+        t.age += 1
+        if k in matched:
+            if t.misses > lc.max_coast and t.track_id is not None:
+                t.recovering, t.streak = True, 0
+            t.hit(lc.confirm_hits, lc.hit_log_odds)
+            t.state = det_boxes[matched[k]].copy()
+        else:
+            t.miss(lc.miss_log_odds)
+            if t.track_id is None or t.misses > lc.max_lost:
+                keep[k] = False
+        if t.track_id is None and t.hits >= lc.confirm_hits and keep[k]:
+            t.track_id = spec.next_id
+            spec.next_id += 1
+    used = set(matched.values())
+    free = [j for j in range(len(det_boxes)) if j not in used
+            and scores[j] >= lc.birth_min_score
+            and (not reps.K or iou[:, j].max() < lc.birth_iou)]
+    # the free detections must not overlap each other either (one birth per person)
+    births: list[int] = []
+    for j in sorted(free, key=lambda j: -scores[j]):
+        if all(_iou(det_boxes[j], det_boxes[i]) < lc.birth_iou for i in births):
+            births.append(j)
+    info["deaths"] = np.array([reps.tracks[k].track_id or 0 for k in np.flatnonzero(~keep)],
+                              dtype=np.int64)
+    _keep(engine, np.flatnonzero(keep))
+    # the frame's per-replica diagnostics follow the replicas (births: none yet)
+    for per_variable, fill in ((record.ess, np.nan), (record.log_evidence, np.nan),
+                               (record.resampled, False)):
+        for v, a in per_variable.items():
+            if isinstance(a, np.ndarray) and a.shape == keep.shape:
+                per_variable[v] = np.concatenate([a[keep], np.full(len(births), fill,
+                                                                   dtype=a.dtype)])
+    info["births"] = len(births)
+    if births:
+        add(engine, det_boxes[sorted(births)], frame)
+
+
+# -------------------------------------------------------------------------------------
+# single-graph rules, once per replica
+# -------------------------------------------------------------------------------------
+class _ReplicaView:
+    """Replica ``k`` of a plate engine as a single-graph rule sees an engine: its own
+    beliefs (rows of the batched beliefs), generator, graph, evidence, messages and
+    ``aux``; everything else is the engine's."""
+
+    log_likelihood = Engine.log_likelihood
+    score_at = Engine.score_at
+    factor_belief_type = Engine.factor_belief_type
+    rule_for = Engine.rule_for
+
+    def __init__(self, engine: Engine, k: int):
+        self._engine = engine
+        reps = engine.replicas
+        self.replica = k
+        self.graph = reps.graphs[k]
+        self.rng = reps.rngs[k]
+        self.aux = reps.aux[k]
+        self.rows = {v: b.row(k) for v, b in engine.beliefs.items()}
+        self.beliefs = dict(self.rows)
+        self.evidence = {v: (a[k], ll[k]) for v, (a, ll) in engine.evidence.items()}
+        self.message_rows = {key: m.row(k) for key, m in engine.messages.items()}
+        self.messages = dict(self.message_rows)
+
+    def __getattr__(self, name: str):
+        return getattr(self._engine, name)
+
+    def belief_type(self, variable: str) -> type:
+        return self._engine.row_belief_type(variable)
+
+
+class RowMessages:
+    """Messages of one directed edge, one per replica (from a per-replica rule)."""
+
+    def __init__(self, items: Sequence[Any]):
+        self.items = list(items)
+
+    def row(self, k: int) -> Any:
+        return self.items[k]
+
+
+def _merge(outs: list[Any]) -> Any:
+    """The replicas' returns of one rule as one value: arrays stacked ``(K, ...)``, dicts
+    merged key by key, ``None`` where every replica returned ``None``."""
+    if all(o is None for o in outs):
+        return None
+    if all(isinstance(o, dict) for o in outs):
+        keys = list(dict.fromkeys(k for o in outs for k in o))
+        return {k: _merge([o.get(k) for o in outs]) for k in keys}
+    if all(isinstance(o, (np.ndarray, float, int, bool, np.number, np.bool_)) for o in outs):
+        try:
+            return np.stack([np.asarray(o) for o in outs])
+        except ValueError:  # shapes differ
+            return list(outs)
+    return list(outs)
+
+
+@functools.cache
+def per_replica(rule: Callable, key: type | str) -> Callable:
+    """``rule`` (a single-graph rule for the replica's belief type) run once per replica:
+    on each replica's view of the engine (its rows of the batched beliefs, its generator,
+    its factor copies), writing the rows it changes back into the batched beliefs. Its
+    returns are merged (likelihood increments stacked to ``(K, N)``)."""
+    operation = isinstance(key, str)
+
+    def run(engine: Engine, item, frame: FrameContext, *args: Any) -> Any:
+        reps = engine.replicas
+        outs, views = [], []
+        for k in range(reps.K):
+            view = _ReplicaView(engine, k)
+            target = item if operation else view.graph.factors[item.name]
+            outs.append(rule(view, target, frame, *args))
+            views.append(view)
+        if not views:
+            return None
+        for v in dict.fromkeys(v for view in views for v in view.beliefs):
+            if any(view.beliefs.get(v) is not view.rows.get(v) for view in views):
+                engine.beliefs[v] = engine.belief_type(v).stack([view.beliefs[v]
+                                                                 for view in views])
+        for m in dict.fromkeys(m for view in views for m in view.messages):
+            if any(view.messages.get(m) is not view.message_rows.get(m) for view in views):
+                engine.messages[m] = RowMessages([view.messages[m] for view in views])
+        return _merge(outs)
+
+    run.__qualname__ = f"per_replica({getattr(rule, '__qualname__', rule)})"
+    run.row_rule = rule
+    return run
+
+
+# -------------------------------------------------------------------------------------
+# batched rules (all replicas at once)
+# -------------------------------------------------------------------------------------
+def _local(engine: Engine, name: str) -> bool:
+    return name in engine.plate_spec.local
+
+
+@DEFAULT_RULES.register(TransitionFactor, BatchedParticles)
+def predict_batched(engine: Engine, factor, frame: FrameContext) -> None:
+    """Move every replica's particles: one ``factor.sample`` call on ``(K·N, d)`` for a
+    shared transition (draws split per replica), one call per replica for its own copy."""
+    var = factor.variables[0]
+    b: BatchedParticles = engine.beliefs[var]
+    reps = engine.replicas
+    K, n, d = b.x.shape  # noqa: N806
+    flat = b.x.reshape(K * n, d)
+    past = [h.reshape(K * n, d) for h in b.history]
+    if frame.camera_motion is not None:  # past states into this frame's image coordinates
+        labels = engine.graph.variables[var].labels
+        flat = warp_states(flat, labels, frame.camera_motion)
+        past = [warp_states(h, labels, frame.camera_motion) for h in past]
+    if _local(engine, factor.name):  # a transition that learns per target: one call each
+        new = np.concatenate([np.asarray(reps.graphs[k].factors[factor.name].sample(
+            reps.rngs[k], flat[k * n:(k + 1) * n], *(h[k * n:(k + 1) * n] for h in past)),
+            dtype=float) for k in range(K)])
+    else:
+        rng = ReplicaRNG(reps.rngs, n, owner=f"transition {factor.name!r}")
+        new = np.asarray(factor.sample(rng, flat, *past), dtype=float)
+    if new.shape != flat.shape:
+        raise ValueError(f"factor {factor.name!r}: sample() returned shape {new.shape}, "
+                         f"expected {flat.shape}")
+    n_hist = max(0, getattr(factor, "order", 1) - 1)
+    engine.beliefs[var] = BatchedParticles._trusted(
+        new.reshape(K, n, d), b.log_weights,
+        tuple(a.reshape(K, n, d) for a in ([flat] + past)[:n_hist]))
+
+
+@DEFAULT_RULES.register(LikelihoodFactor, BatchedParticles)
+def weight_batched(engine: Engine, factor, frame: FrameContext) -> np.ndarray:
+    """``(K, N)`` log-likelihood increments of every replica's particles."""
+    return score_group(engine, [factor], frame)[0]
+
+
+def score_group(engine: Engine, fs: list, frame: FrameContext) -> list[np.ndarray]:
+    """``(K, N)`` log-likelihoods of each factor of one weight group ``fs`` (equal
+    ``batch_key``)."""
+    reps = engine.replicas
+    K = reps.K  # noqa: N806
+    local = [_local(engine, f.name) for f in fs]
+    if K * len(fs) > 1 and fs[0].batch_key is not None and all(local):
+        # the copies of the group's factors scored together, one pass per cluster of
+        # replicas whose particles' boxes overlap (a joint pass costs the area of its
+        # boxes' union, so distant targets are not scored through the empty space
+        # between them); replica-major, so that one replica's order is the
+        # single-graph engine's
+        out = [np.empty(engine.beliefs[f.variables[0]].log_weights.shape) for f in fs]
+        for members in _clusters(_extents(engine, fs)):
+            copies = [reps.graphs[k].factors[f.name] for k in members for f in fs]
+            xs = [engine.beliefs[f.variables[0]].x[k] for k in members for f in fs]
+            lls = type(fs[0]).log_likelihood_batch(copies, xs, frame)
+            for i, ll in enumerate(lls):
+                out[i % len(fs)][members[i // len(fs)]] = ll
+        return out
+    out = []
+    for f, own in zip(fs, local, strict=True):
+        x = engine.beliefs[f.variables[0]].x
+        _, n, d = x.shape
+        if not own:  # shared: all replicas' particles in one call
+            out.append(np.asarray(f.log_likelihood(x.reshape(K * n, d), frame),
+                                  dtype=float).reshape(K, n))
+        else:
+            out.append(np.stack([np.asarray(reps.graphs[k].factors[f.name].log_likelihood(
+                x[k], frame), dtype=float) for k in range(K)]))
+    return out
+
+
+def _extents(engine: Engine, fs: list) -> np.ndarray:
+    """``(K, 4)`` rectangles ``x0, y0, x1, y1`` around every particle's box of the
+    group ``fs`` in each replica."""
+    lo, hi = [], []
+    for f in fs:
+        v = f.variables[0]
+        bx = engine.beliefs[v].x[..., _box_columns(engine.graph, v)]  # (K, N, 4)
+        lo.append((bx[..., :2] - np.abs(bx[..., 2:]) / 2).min(axis=1))
+        hi.append((bx[..., :2] + np.abs(bx[..., 2:]) / 2).max(axis=1))
+    return np.concatenate([np.min(lo, axis=0), np.max(hi, axis=0)], axis=1)
+
+
+@DEFAULT_RULES.register(InteractionFactor, BatchedParticles)
+def interact_batched(engine: Engine, factor, frame: FrameContext) -> None:
+    """Reweight every replica's particles against the other replicas' current estimates
+    (a replica the potential leaves with no finite weight keeps its weights)."""
+    v = factor.variables[0]
+    b: BatchedParticles = engine.beliefs[v]
+    if b.K < 2:
+        return
+    pot = np.asarray(factor.log_potential(b.x, b.mean(), frame), dtype=float)
+    engine.beliefs[v], _ = b.reweight(pot).normalized(fallback=b)
+    if v in engine.evidence:
+        lw0, ll = engine.evidence[v]
+        engine.evidence[v] = (lw0, ll + pot)
+
+
+def _batched_mixture(engine: Engine) -> bool:
+    s = engine.settings
+    return s.fusion == "mixture" and s.message_weight == "source" and not s.message_particles
+
+
+@dataclass(frozen=True)
+class BatchedMixtureMessage:
+    """Mixture messages of all replicas: ``x`` ``(K, M, d)``, log-weights ``(K, M)`` on
+    the common scale, histories ``(K, M, d)``."""
+
+    x: np.ndarray
+    log_weights: np.ndarray
+    history: tuple[np.ndarray, ...]
+
+    def row(self, k: int) -> MixtureMessage:
+        return MixtureMessage(self.x[k], self.log_weights[k], tuple(h[k] for h in self.history))
+
+
+def _evidence(engine: Engine, v: str) -> tuple[np.ndarray, np.ndarray]:
+    b = engine.beliefs[v]
+    return engine.evidence.get(v, (b.log_weights, np.zeros_like(b.log_weights)))
+
+
+@DEFAULT_RULES.register(CouplingFactor, BatchedParticles)
+def coupling_batched(engine: Engine, factor, frame: FrameContext, src: str, dst: str):
+    """The message ``src → dst`` of every replica (mixture with source weights batched;
+    any other setting per replica, :func:`pgm.inference.pbp.coupling_message`)."""
+    if not _batched_mixture(engine):
+        return per_replica(coupling_message, CouplingFactor)(engine, factor, frame, src, dst)
+    reps = engine.replicas
+    b = engine.beliefs[src]
+    K, n, d = b.x.shape  # noqa: N806
+    flat = b.x.reshape(K * n, d)
+    if _local(engine, factor.name):
+        x_msg = np.concatenate([np.asarray(reps.graphs[k].factors[factor.name].propagate(
+            reps.rngs[k], flat[k * n:(k + 1) * n], src)) for k in range(K)])
+    else:
+        x_msg = np.asarray(factor.propagate(ReplicaRNG(reps.rngs, n,
+                                                       owner=f"coupling {factor.name!r}"),
+                                            flat, src), dtype=float)
+    d_dst = engine.beliefs[dst].dim
+    x_msg = x_msg.reshape(K, n, d_dst)
+    n_hist = len(engine.beliefs[dst].history)
+    hist = [np.asarray(factor.map(h.reshape(K * n, d), src)).reshape(K, n, d_dst)
+            for h in b.history[:n_hist]]
+    hist += [x_msg.copy() for _ in range(n_hist - len(hist))]
+    lw0, ll = _evidence(engine, src)
+    engine.messages[(src, dst)] = BatchedMixtureMessage(x_msg, lw0 + ll, tuple(hist))
+    return None
 
 
 def _row_log_normalize(lw: np.ndarray) -> np.ndarray:
     """Per-row :func:`pgm.core.numerics.log_normalize` (the same arithmetic per row)."""
-    m = lw.max(axis=1, keepdims=True)
-    shifted = lw - m
+    lw = np.where(np.isnan(lw), -np.inf, lw)
+    shifted = lw - lw.max(axis=1, keepdims=True)
     e = np.exp(shifted)
     return shifted - np.array([math.log(float(row.sum())) for row in e])[:, None]
 
 
-def _weights(lw: np.ndarray) -> np.ndarray:
-    """Normalised weights of rows of *normalised* log-weights, as
-    :attr:`pgm.core.beliefs.Particles.weights` computes them for a normalised belief
-    (whose log mass is known to be 0)."""
-    w = np.exp(lw)
-    return w / np.array([row.sum() for row in w])[:, None]
+@DEFAULT_RULES.register("fuse", BatchedParticles)
+def fuse_batched(engine: Engine, variable: str, frame: FrameContext) -> dict:
+    """Every replica's own weighted particles joined with its incoming mixture messages
+    (product fusion: per replica, :func:`pgm.inference.pbp.fuse`)."""
+    if not _batched_mixture(engine):
+        return per_replica(fuse, "fuse")(engine, variable, frame)
+    b: BatchedParticles = engine.beliefs[variable]
+    lw0, ll = _evidence(engine, variable)
+    incoming = [m for (_, dst), m in engine.messages.items() if dst == variable]
+    lw = _row_log_normalize(np.concatenate([lw0 + ll] + [m.log_weights for m in incoming],
+                                           axis=1))
+    x = np.concatenate([b.x] + [m.x for m in incoming], axis=1)
+    hist = tuple(np.concatenate([h] + [m.history[i] for m in incoming], axis=1)
+                 for i, h in enumerate(b.history))
+    engine.beliefs[variable] = BatchedParticles._trusted(x, lw, hist, log_mass=np.zeros(b.K))
+    return {"own_mass": np.array([float(np.exp(row[:b.num]).sum()) for row in lw])}
+
+
+@DEFAULT_RULES.register("estimate", BatchedParticles)
+def estimate_batched(engine: Engine, variable: str, frame: FrameContext) -> np.ndarray:
+    """``(K, d)`` weighted means."""
+    return engine.beliefs[variable].mean()
+
+
+@DEFAULT_RULES.register("resample", BatchedParticles)
+def resample_batched(engine: Engine, variable: str, frame: FrameContext) -> dict[str, Any]:
+    """ESS-triggered resampling per replica, each with its own generator (a fused
+    mixture: every replica back to the variable's particle count)."""
+    b: BatchedParticles = engine.beliefs[variable]
+    n = engine.num_particles[variable]
+    ess = b.ess
+    if b.num != n:
+        rows = np.arange(b.K)
+    else:
+        rows = np.array([k for k in range(b.K)
+                         if ess_triggered(float(ess[k]), b.num, engine.ess_threshold)], int)
+    engine.beliefs[variable] = b.resample_rows(engine.replicas.rngs, engine.resampler, n, rows)
+    return {"resampled": np.isin(np.arange(b.K), rows), "ess": ess}
 
 
 def _iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """IoU of centre boxes ``a`` and ``b``, broadcasting over the leading axes."""
     return iou_xywh(cxcywh_to_xywh(a), cxcywh_to_xywh(b))
-
-
-class PlateEngine:
-    """Runs a graph with a plate over a video: ``K`` replicas, batched.
-
-    Parameters
-    ----------
-    graph : FactorGraph
-        A graph with one :class:`~pgm.core.plate.Plate` holding all its variables.
-    rng : numpy.random.Generator
-        Source of the replicas' generators (each spawned from it at the replica's birth
-        unless :meth:`add` is given generators).
-    settings, num_particles, resampling, ess_threshold :
-        As for :class:`~pgm.inference.Engine`.
-    """
-
-    def __init__(self, graph: FactorGraph, rng: np.random.Generator, *,
-                 settings: EngineSettings | None = None,
-                 num_particles: int | dict[str, int] | None = None,
-                 resampling: str | None = None, ess_threshold: float | None = None,
-                 **unused: Any):
-        if not isinstance(graph, FactorGraph):
-            raise ValueError(f"PlateEngine needs a FactorGraph, got {type(graph).__name__}")
-        if not graph.plates:
-            raise ValueError(f"graph {graph.name!r} declares no plate; run it with Engine")
-        if not isinstance(rng, np.random.Generator):
-            raise ValueError("PlateEngine needs rng=numpy.random.Generator")
-        bad = sorted(k for k, v in unused.items() if v is not None)
-        if bad:
-            raise ValueError(f"PlateEngine does not take {bad}")
-        self.graph = copy.deepcopy(graph)
-        self.template = copy.deepcopy(graph)  # factors as declared: copied per new replica
-        self.rng = rng
-        self.plate = self.graph.plates[0]
-        outside = [v for v in self.graph.variables if v not in self.plate.variables]
-        if outside:
-            raise ValueError(f"graph {graph.name!r}: variables {outside} are outside the plate "
-                             f"{self.plate.name!r}; the plate engine runs graphs whose every "
-                             f"variable is in the plate (shared parameters belong in factors)")
-        if settings is None:
-            settings = EngineSettings.from_dict(self.graph.meta.get("engine"))
-        self.settings = settings.replace(num_particles=num_particles, resampling=resampling,
-                                         ess_threshold=ess_threshold)
-        if self.settings.fusion != "mixture" or self.settings.message_weight != "source":
-            raise ValueError("the plate engine fuses part messages as a mixture with source "
-                             "weights (fusion='mixture', message_weight='source')")
-        self.graph.meta["engine"] = self.settings.to_dict(full=True)
-        counts = self.settings.num_particles
-        self.num_particles = {v: int(counts.get(v, EngineSettings.num_particles)
-                                     if isinstance(counts, dict) else counts)
-                              for v in self.graph.variables}
-        if self.settings.message_particles not in (None, *self.num_particles.values()):
-            raise ValueError("the plate engine sends one message particle per particle "
-                             "(message_particles must be unset)")
-        self.resampler = get_resampler(self.settings.resampling)
-        self.ess_threshold = self.settings.ess_threshold
-        g = self.graph
-        for v in g.variables.values():
-            if v.role not in ("part", "state", "latent"):
-                raise ValueError(f"plate variable {v.name!r} has role {v.role!r}; the plate "
-                                 f"engine keeps particle beliefs (part, state, latent)")
-            if len(g.factors_of(v.name, "prior")) != 1:
-                raise ValueError(f"plate variable {v.name!r} needs one prior factor")
-            _box_columns(g, v.name)
-        self.priors = [f for f in g.factors.values() if f.kind == "prior"]
-        self.learners = [f for f in g.factors.values() if f.learns]
-        self.transitions = {f.variables[0]: f for f in g.factors_by_kind("transition")}
-        self.likelihoods = g.factors_by_kind("likelihood")
-        self.interactions = g.factors_by_kind("interaction")
-        self.messages = message_order(g, "mixture")
-        self.couplings = g.factors_by_kind("coupling")
-        for f in g.factors_by_kind("conjugate"):
-            raise ValueError(f"conjugate factor {f.name!r}: the plate engine has no VB stage")
-        self.receivers = [v for v in g.variables if any(d == v for _, _, d in self.messages)]
-        self._groups = self._weight_groups()
-        #: factors copied per replica (they learn per target), by name
-        self.per_replica = [f.name for f in g.factors.values() if f.kind != "prior"
-                            and (f.learns or (isinstance(f, LikelihoodFactor) and
-                                              type(f).initialize is not
-                                              LikelihoodFactor.initialize))]
-        ref = g.meta.get("reference_box")
-        means = {f.variables[0]: np.asarray(f.mean(), dtype=float) for f in self.priors}
-        self.reference_box = (np.asarray(ref, dtype=float) if ref is not None else
-                              plate_boxes(g, {v: m[None] for v, m in means.items()})[0])
-        self._prior_boxes = {v: m[_box_columns(g, v)] for v, m in means.items()}
-        self.batch = _Batch()
-        self._next_id = 1
-        self.t = 0
-        self.frame: FrameContext | None = None
-
-    # -- queries -----------------------------------------------------------------------
-    @property
-    def num_targets(self) -> int:
-        """Number of replicas ``K`` (tentative, confirmed and lost)."""
-        return self.batch.K
-
-    @property
-    def tracks(self) -> list[Track]:
-        """The replicas' track records (identities, hits, existence), in replica order."""
-        return list(self.batch.tracks)
-
-    def beliefs(self, variable: str) -> tuple[np.ndarray, np.ndarray]:
-        """Particles ``(K, N, d)`` and normalised log-weights ``(K, N)`` of ``variable``."""
-        return self.batch.x[variable], self.batch.lw[variable]
-
-    def factor(self, name: str, replica: int):
-        """The factor ``name`` as replica ``replica`` uses it (its own copy if it learns)."""
-        local = self.batch.local.get(name)
-        return local[replica] if local is not None else self.graph.factors[name]
-
-    # -- births and deaths ------------------------------------------------------------
-    def _part_values(self, box: np.ndarray) -> dict[str, dict[str, float]]:
-        """Each variable's box for a target whose box is ``box`` (cx, cy, w, h)."""
-        ref = self.reference_box
-        sw, sh = box[2] / ref[2], box[3] / ref[3]
-        out = {}
-        for v, p in self._prior_boxes.items():
-            out[v] = {"cx": box[0] + (p[0] - ref[0]) * sw, "cy": box[1] + (p[1] - ref[1]) * sh,
-                      "w": p[2] * sw, "h": p[3] * sh}
-        return out
-
-    def add(self, boxes: np.ndarray, frame: FrameContext,
-            rngs: Sequence[np.random.Generator] | None = None,
-            confirmed: bool = False) -> list[int]:
-        """Start replicas on ``boxes`` ``(M, 4)`` (cx, cy, w, h) in ``frame``.
-
-        Each replica's prior is re-centred on its box; its templates are learned from
-        ``frame``; it is weighted, estimated and resampled there as a single-target
-        engine treats its first frame. ``rngs`` gives each replica its generator
-        (default: spawned from the engine's). ``confirmed`` starts them with identities
-        (e.g. targets given by the user). Returns their indices.
-        """
-        boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
-        if not np.all(np.isfinite(boxes)) or np.any(boxes[:, 2:] <= 0):
-            raise ValueError("replica boxes must be finite with positive width and height")
-        m = len(boxes)
-        if rngs is None:
-            rngs = self.rng.spawn(m) if m else []
-        rngs = list(rngs)
-        if len(rngs) != m:
-            raise ValueError(f"{m} boxes but {len(rngs)} generators")
-        if m == 0:
-            return []
-        g = self.graph
-        nb = _Batch(rngs=rngs)
-        xs: dict[str, list[np.ndarray]] = {v: [] for v in g.variables}
-        born: dict[str, list] = {}
-        for box, r in zip(boxes, rngs, strict=True):
-            values = self._part_values(box)
-            for f in self.priors:  # declaration order, as the engine's prior stage
-                v = f.variables[0]
-                prior = f.born_at(values[v], g.variables[v].labels)
-                xs[v].append(np.asarray(prior.sample(r, self.num_particles[v]), dtype=float))
-                born.setdefault(v, []).append(prior)
-        for v in g.variables:
-            n = self.num_particles[v]
-            nb.x[v] = np.stack(xs[v]).reshape(m, n, -1)
-            nb.lw[v] = np.full((m, n), -np.log(n))
-            tr = self.transitions.get(v)
-            h = max(0, getattr(tr, "order", 1) - 1) if tr is not None else 0
-            nb.hist[v] = tuple(nb.x[v].copy() for _ in range(h))
-        for name in self.per_replica:
-            nb.local[name] = [copy.deepcopy(self.template.factors[name]) for _ in range(m)]
-        for f in self.likelihoods:  # templates learned at the prior mean, as the engine
-            v = f.variables[0]
-            for k in range(m):
-                self._local(nb, f.name, k).initialize(frame, born[v][k].mean())
-        for box in boxes:
-            t = Track(np.asarray(box, dtype=float).copy())
-            if confirmed:
-                t.track_id = self._next_id
-                self._next_id += 1
-            nb.tracks.append(t)
-        self._tail(nb, frame, {}, interact=False)
-        first = self.batch.K
-        self.batch = _Batch.join(self.batch, nb)
-        return list(range(first, first + m))
-
-    def remove(self, indices: Sequence[int]) -> None:
-        """Remove the replicas at ``indices``."""
-        keep = np.ones(self.batch.K, dtype=bool)
-        keep[np.asarray(list(indices), dtype=int)] = False
-        self.batch = self.batch.select(keep)
-
-    # -- one frame ----------------------------------------------------------------------
-    def step(self, frame: FrameContext, *, lifecycle: bool = True) -> StepRecord:
-        """Step every replica through ``frame``; then births and deaths from its detections
-        (``lifecycle=False``: none, e.g. for targets managed by the caller).
-
-        A frame with neither image nor detections is *missing*: the replicas are only
-        predicted (no weighting, learning, resampling, births or deaths) and their
-        predicted boxes reported."""
-        if not isinstance(frame, FrameContext):
-            raise ValueError(f"step() needs a FrameContext, got {type(frame).__name__}")
-        self.frame = frame
-        record = StepRecord(frame=frame.index)
-        info: dict[str, Any] = {}
-        b = self.batch
-        missing = frame.image is None and frame.detections is None
-        if b.K:
-            self._predict(b, frame)
-            if missing:  # a missing frame: prediction only, the chains go on
-                for v in self.graph.variables:
-                    b.est[v] = self._means(b, v)
-            else:
-                self._tail(b, frame, info, interact=True)
-        if lifecycle and not missing:
-            self._lifecycle(frame, info)
-        info["missing"] = missing
-        b = self.batch
-        for v in self.graph.variables:
-            record.estimates[v] = b.est.get(v, np.zeros((0, self.graph.variables[v].dim)))
-        boxes = (plate_boxes(self.graph, b.est) if b.K else np.zeros((0, 4)))
-        lc = self.plate.lifecycle
-        reported = np.array([t.track_id is not None and t.misses <= lc.max_coast
-                             and not t.recovering for t in b.tracks], dtype=bool)
-        info.update(ids=np.array([t.track_id or 0 for t in b.tracks], dtype=np.int64),
-                    boxes=boxes, reported=reported,
-                    existence=np.array([t.existence for t in b.tracks], dtype=float))
-        record.info[self.plate.name] = info
-        self.t += 1
-        return record
-
-    def _local(self, b: _Batch, name: str, k: int):
-        local = b.local.get(name)
-        return local[k] if local is not None else self.graph.factors[name]
-
-    def _predict(self, b: _Batch, frame: FrameContext) -> None:
-        g = self.graph
-        for v, f in self.transitions.items():
-            x, hist = b.x[v], b.hist[v]
-            K, n, d = x.shape  # noqa: N806
-            labels = g.variables[v].labels
-            flat = x.reshape(K * n, d)
-            past = [h.reshape(K * n, d) for h in hist]
-            if frame.camera_motion is not None:
-                flat = warp_states(flat, labels, frame.camera_motion)
-                past = [warp_states(h, labels, frame.camera_motion) for h in past]
-            if f.name in b.local:  # a transition that learns per target: one call each
-                new = np.concatenate([
-                    np.asarray(b.local[f.name][k].sample(
-                        b.rngs[k], flat[k * n:(k + 1) * n], *(h[k * n:(k + 1) * n]
-                                                              for h in past)), dtype=float)
-                    for k in range(K)])
-            else:
-                rng = ReplicaRNG(b.rngs, n, owner=f"transition {f.name!r}")
-                new = np.asarray(f.sample(rng, flat, *past), dtype=float)
-            if new.shape != flat.shape:
-                raise ValueError(f"factor {f.name!r}: sample() returned shape {new.shape}, "
-                                 f"expected {flat.shape}")
-            n_hist = max(0, getattr(f, "order", 1) - 1)
-            b.hist[v] = tuple(a.reshape(K, n, d) for a in ([flat] + past)[:n_hist])
-            b.x[v] = new.reshape(K, n, d)
-
-    def _weight_groups(self) -> list[list]:
-        """Likelihood factors grouped as the single-target engine groups them: those with
-        equal ``(type, batch_key)`` are scored in one ``log_likelihood_batch`` pass."""
-        groups: list[list] = []
-        by_key: dict[Any, list] = {}
-        for f in self.likelihoods:
-            key = f.batch_key
-            if key is None:
-                groups.append([f])
-                continue
-            key = (type(f), key)
-            if key not in by_key:
-                by_key[key] = []
-                groups.append(by_key[key])
-            by_key[key].append(f)
-        return groups
-
-    def _log_likelihoods(self, b: _Batch, fs: list, frame: FrameContext) -> list[np.ndarray]:
-        """``(K, N)`` log-likelihoods of each factor in ``fs`` (one group)."""
-        K = b.K  # noqa: N806
-        shared = [f.name not in b.local for f in fs]
-        pairs = K * len(fs)
-        if pairs > 1 and fs[0].batch_key is not None and not any(shared):
-            # the copies of the group's factors scored together, one pass per cluster of
-            # replicas whose particles' boxes overlap (a joint pass costs the area of its
-            # boxes' union, so distant targets are not scored through the empty space
-            # between them); replica-major, so that one replica's order is the
-            # single-target engine's
-            out = [np.empty(b.lw[f.variables[0]].shape) for f in fs]
-            for members in _clusters(self._extents(b, fs)):
-                copies = [b.local[f.name][k] for k in members for f in fs]
-                xs = [b.x[f.variables[0]][k] for k in members for f in fs]
-                lls = type(fs[0]).log_likelihood_batch(copies, xs, frame)
-                for i, ll in enumerate(lls):
-                    out[i % len(fs)][members[i // len(fs)]] = ll
-            return out
-        out = []
-        for f in fs:
-            x = b.x[f.variables[0]]
-            _, n, d = x.shape
-            if f.name not in b.local:  # shared: all replicas' particles in one call
-                out.append(np.asarray(f.log_likelihood(x.reshape(K * n, d), frame),
-                                      dtype=float).reshape(K, n))
-            else:
-                out.append(np.stack([np.asarray(fk.log_likelihood(x[k], frame), dtype=float)
-                                     for k, fk in enumerate(b.local[f.name])]))
-        return out
-
-    def _extents(self, b: _Batch, fs: list) -> np.ndarray:
-        """``(K, 4)`` rectangles ``x0, y0, x1, y1`` around every particle's box of the
-        group ``fs`` in each replica."""
-        lo, hi = [], []
-        for f in fs:
-            c = _box_columns(self.graph, f.variables[0])
-            bx = b.x[f.variables[0]][..., c]  # (K, N, 4) cx, cy, w, h
-            lo.append((bx[..., :2] - np.abs(bx[..., 2:]) / 2).min(axis=1))
-            hi.append((bx[..., :2] + np.abs(bx[..., 2:]) / 2).max(axis=1))
-        return np.concatenate([np.min(lo, axis=0), np.max(hi, axis=0)], axis=1)
-
-    def _tail(self, b: _Batch, frame: FrameContext, info: dict, *, interact: bool) -> None:
-        """weight → interaction → in-frame → fuse → estimate → learn → resample."""
-        g = self.graph
-        evidence: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-        for fs in self._groups:
-            for f, ll in zip(fs, self._log_likelihoods(b, fs, frame), strict=True):
-                v = f.variables[0]
-                if ll.shape != b.lw[v].shape:
-                    raise ValueError(f"factor {f.name!r}: log_likelihood returned "
-                                     f"{ll.size} values, expected {b.lw[v].shape[1]} per "
-                                     f"replica")
-                ll = np.where(np.isnan(ll), -np.inf, ll)
-                lw0, tot = evidence.get(v, (b.lw[v], None))
-                evidence[v] = (lw0, ll if tot is None else tot + ll)
-        for v, (lw0, ll) in evidence.items():
-            new, lm = _row_normalize(lw0 + ll)
-            bad = ~np.isfinite(lm)  # no particle explains the frame: keep the prediction
-            if bad.any():
-                new[bad] = lw0[bad]
-                info.setdefault("degenerate", {})[v] = np.flatnonzero(bad)
-            b.lw[v] = new
-        if interact and b.K > 1:
-            for f in self.interactions:
-                v = f.variables[0]
-                est = self._means(b, v)
-                pot = np.asarray(f.log_potential(b.x[v], est, frame), dtype=float)
-                new, lm = _row_normalize(b.lw[v] + pot)
-                ok = np.isfinite(lm)
-                b.lw[v] = np.where(ok[:, None], new, b.lw[v])
-                if v in evidence:
-                    lw0, ll = evidence[v]
-                    evidence[v] = (lw0, ll + pot)
-        fused: dict[str, list[tuple[np.ndarray, np.ndarray, tuple]]] = {}
-        for name, src, dst in self.messages:
-            f = g.factors[name]
-            x = b.x[src]
-            K, n, d = x.shape  # noqa: N806
-            flat = x.reshape(K * n, d)
-            if name in b.local:
-                x_msg = np.concatenate([np.asarray(b.local[name][k].propagate(
-                    b.rngs[k], flat[k * n:(k + 1) * n], src)) for k in range(K)])
-            else:
-                x_msg = np.asarray(f.propagate(ReplicaRNG(b.rngs, n, owner=f"coupling {name!r}"),
-                                               flat, src), dtype=float)
-            d_dst = b.x[dst].shape[2]
-            x_msg = x_msg.reshape(K, n, d_dst)
-            n_hist = len(b.hist[dst])
-            hist = [np.asarray(f.map(h.reshape(K * n, d), src)).reshape(K, n, d_dst)
-                    for h in b.hist[src][:n_hist]]
-            hist += [x_msg.copy() for _ in range(n_hist - len(hist))]
-            lw0, ll = evidence.get(src, (b.lw[src], np.zeros_like(b.lw[src])))
-            fused.setdefault(dst, []).append((x_msg, lw0 + ll, tuple(hist)))
-        for v in self.receivers:
-            lw0, ll = evidence.get(v, (b.lw[v], np.zeros_like(b.lw[v])))
-            parts = [(b.x[v], lw0 + ll, b.hist[v])] + fused.get(v, [])
-            b.lw[v] = _row_log_normalize(np.concatenate([p[1] for p in parts], axis=1))
-            b.x[v] = np.concatenate([p[0] for p in parts], axis=1)
-            b.hist[v] = tuple(np.concatenate([p[2][i] for p in parts], axis=1)
-                              for i in range(len(b.hist[v])))
-        for v in g.variables:
-            b.est[v] = self._means(b, v)
-        learners = self.learners
-        if learners:
-            for k in range(b.K):
-                est = {v: b.est[v][k] for v in g.variables}
-                scores = {}
-                for v in g.variables:
-                    fs = [self._local(b, f.name, k) for f in self.likelihoods
-                          if f.variables[0] == v]
-                    if fs:
-                        xv = est[v].reshape(1, -1)
-                        scores[v] = float(sum(fk.log_likelihood(xv, frame)[0] for fk in fs))
-                for f in learners:
-                    self._local(b, f.name, k).update(est, scores, frame)
-        for v in g.variables:
-            self._resample(b, v, info)
-
-    def _means(self, b: _Batch, v: str) -> np.ndarray:
-        w = _weights(b.lw[v])
-        return np.stack([w[k] @ b.x[v][k] for k in range(b.K)]) if b.K else \
-            np.zeros((0, b.x[v].shape[2]))
-
-    def _resample(self, b: _Batch, v: str, info: dict) -> None:
-        n = self.num_particles[v]
-        x, lw = b.x[v], b.lw[v]
-        if not b.K:
-            return
-        w = _weights(lw)
-        fused = x.shape[1] != n
-        ess = np.array([1.0 / float(np.dot(wk, wk)) for wk in w])
-        pick = np.arange(b.K) if fused else np.array(
-            [k for k in range(b.K) if ess_triggered(float(ess[k]), x.shape[1],
-                                                    self.ess_threshold)], dtype=int)
-        info.setdefault("ess", {})[v] = ess
-        info.setdefault("resampled", {})[v] = np.isin(np.arange(b.K), pick)
-        if not len(pick):
-            return
-        idx = np.stack([self.resampler(b.rngs[k], w[k], n) for k in pick])
-        rows = pick[:, None]
-        if fused:
-            b.x[v] = x[rows, idx]
-            b.hist[v] = tuple(h[rows, idx] for h in b.hist[v])
-            b.lw[v] = np.full((b.K, n), -np.log(n))
-            return
-        b.x[v] = x.copy()
-        b.x[v][pick] = x[rows, idx]
-        b.hist[v] = tuple(_assign_rows(h, pick, h[rows, idx]) for h in b.hist[v])
-        b.lw[v] = lw.copy()
-        b.lw[v][pick] = -np.log(n)
-
-    # -- the track layer -----------------------------------------------------------------
-    def _lifecycle(self, frame: FrameContext, info: dict) -> None:
-        lc = self.plate.lifecycle
-        dets = frame.detections
-        if dets is None:
-            det_boxes = np.zeros((0, 4))
-            scores = np.zeros(0)
-        else:
-            d = np.asarray(dets.boxes, dtype=float).reshape(-1, 4)
-            det_boxes = np.column_stack([d[:, 0] + d[:, 2] / 2, d[:, 1] + d[:, 3] / 2,
-                                         d[:, 2], d[:, 3]])
-            scores = np.asarray(dets.scores, dtype=float)
-        b = self.batch
-        boxes = plate_boxes(self.graph, b.est) if b.K else np.zeros((0, 4))
-        iou = _iou(boxes[:, None, :], det_boxes[None, :, :])
-        matched: dict[int, int] = {}
-        for group in (lambda t: t.misses <= lc.max_coast, lambda t: t.misses > lc.max_coast):
-            rows_ok = [k for k, t in enumerate(b.tracks) if group(t) and k not in matched]
-            cols_ok = [j for j in range(len(det_boxes)) if j not in matched.values()]
-            if not rows_ok or not cols_ok:
-                continue
-            sub = iou[np.ix_(rows_ok, cols_ok)]
-            r, c = linear_sum_assignment(-sub)
-            for i, j in zip(r, c, strict=True):
-                if sub[i, j] >= lc.match_iou:
-                    matched[rows_ok[i]] = cols_ok[j]
-        keep = np.ones(b.K, dtype=bool)
-        for k, t in enumerate(b.tracks):
-            t.age += 1
-            if k in matched:
-                if t.misses > lc.max_coast and t.track_id is not None:
-                    t.recovering, t.streak = True, 0
-                t.hit(lc.confirm_hits, lc.hit_log_odds)
-                t.state = det_boxes[matched[k]].copy()
-            else:
-                t.miss(lc.miss_log_odds)
-                if t.track_id is None or t.misses > lc.max_lost:
-                    keep[k] = False
-            if t.track_id is None and t.hits >= lc.confirm_hits and keep[k]:
-                t.track_id = self._next_id
-                self._next_id += 1
-        used = set(matched.values())
-        free = [j for j in range(len(det_boxes)) if j not in used
-                and scores[j] >= lc.birth_min_score
-                and (not b.K or iou[:, j].max() < lc.birth_iou)]
-        # the free detections must not overlap each other either (one birth per person)
-        births: list[int] = []
-        for j in sorted(free, key=lambda j: -scores[j]):
-            if all(_iou(det_boxes[j], det_boxes[i]) < lc.birth_iou for i in births):
-                births.append(j)
-        info["deaths"] = np.array([b.tracks[k].track_id or 0 for k in np.flatnonzero(~keep)],
-                                  dtype=np.int64)
-        self.batch = b.select(keep)
-        info["births"] = len(births)
-        if births:
-            self.add(det_boxes[sorted(births)], frame)
 
 
 def _clusters(rects: np.ndarray) -> list[list[int]]:
@@ -772,21 +816,6 @@ def _clusters(rects: np.ndarray) -> list[list[int]]:
         groups.setdefault(lab, []).append(i)
     return sorted(groups.values(), key=lambda g: g[0])
 
-
-def _assign_rows(a: np.ndarray, rows: np.ndarray, values: np.ndarray) -> np.ndarray:
-    out = a.copy()
-    out[rows] = values
-    return out
-
-
-def make_engine(graph: FactorGraph, rng: np.random.Generator, **kwargs: Any):
-    """The engine that runs ``graph``: :class:`PlateEngine` for a graph with a plate, else
-    :class:`~pgm.inference.Engine` (keyword arguments passed on)."""
-    if isinstance(graph, FactorGraph) and graph.plates:
-        return PlateEngine(graph, rng, **kwargs)
-    from .engine import Engine
-
-    return Engine(graph, rng, **kwargs)
 
 
 @register_readout("plate")

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["Track", "TrackManager"]
+__all__ = ["Track", "TrackManager", "match_boxes"]
 
 
 @dataclass
@@ -211,3 +211,27 @@ class TrackManager:
             return
         t.size = size.copy() if t.size is None else (
             (1 - self.size_smoothing) * t.size + self.size_smoothing * size)
+
+
+def match_boxes(similarity: np.ndarray, lost: list[bool] | np.ndarray,
+                min_similarity: float) -> dict[int, int]:
+    """Tracks (rows) matched to measurements (columns) of a ``(K, M)`` similarity (IoU):
+    Hungarian assignment in two rounds, the tracks seen recently first, then the lost
+    ones against the measurements left over; a pair below ``min_similarity`` is no
+    match. Returns ``{track: measurement}``."""
+    similarity = np.asarray(similarity, dtype=float)
+    lost = np.asarray(lost, dtype=bool).reshape(-1)
+    matched: dict[int, int] = {}
+    for round_lost in (False, True):
+        rows_ok = [k for k in range(similarity.shape[0])
+                   if lost[k] == round_lost and k not in matched]
+        cols_ok = [j for j in range(similarity.shape[1]) if j not in matched.values()]
+        if not rows_ok or not cols_ok:
+            continue
+        sub = similarity[np.ix_(rows_ok, cols_ok)]
+        r, c = linear_sum_assignment(-sub)
+        for i, j in zip(r, c, strict=True):
+            if sub[i, j] >= min_similarity:
+                matched[rows_ok[i]] = cols_ok[j]
+    return matched
+

@@ -1,6 +1,6 @@
 """Seed 003's tracker: a particle filter per person whose proposals come from a GPDM.
 
-A plate (one sub-graph per person, :class:`pgm.inference.plates.PlateEngine`) over one
+A plate (one sub-graph per person, :class:`pgm.inference.Engine`) over one
 ``part`` variable ``person = (cx, cy, w, h, z_0 … z_{q−1})``: the box and the person's
 ``q``-dimensional latent coordinate of a Gaussian-process dynamical model learned from
 trajectories (``pgm learn gpdm``, :mod:`pgm.dynamics.gpdm`). The factors:

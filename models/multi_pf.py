@@ -1,7 +1,7 @@
 """One particle filter per person — or one part graph per person — as a plate.
 
-The model of one person, declared once and replicated per target by the plate engine
-(:class:`pgm.inference.plates.PlateEngine`):
+The model of one person, declared once and replicated per target by the engine
+(:class:`pgm.inference.Engine`, whose plate variables hold batched beliefs):
 
 * one ``part`` variable ``person = (cx, cy, w, h)`` (``n_parts = 1``), or 2–3 horizontal
   bands coupled by scale-free :class:`~pgm.factors.couplings.RelativeBoxCoupling`

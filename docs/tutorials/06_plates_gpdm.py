@@ -5,7 +5,7 @@ Tutorial 6 — plates: one sub-graph per target, and a learned GPDM as its dynam
 A *plate* is a sub-graph replicated once per tracked target, drawn as a box labelled
 ``K``. You declare the model of **one** person — here a box variable with a prior, a
 transition, a colour likelihood and a detection likelihood — mark it as a plate, and the
-plate engine (:class:`pgm.inference.plates.PlateEngine`) runs ``K`` replicas of it, all
+engine (:class:`pgm.inference.Engine`) runs ``K`` replicas of it, all
 stepped together in one batched pass, adding a replica when a detection starts a track
 and removing it when the track ends. A factor *between* replicas (mutual exclusion)
 stops two of them from settling on one person.
@@ -29,7 +29,7 @@ import numpy as np
 
 import pgm
 from pgm.evaluation.mot import evaluate_mot
-from pgm.inference import PlateEngine
+from pgm.inference import Engine
 from pgm.io.annotations import MotTable, load_mot
 from pgm.io.video import open_source
 from pgm.observation.appearance.likelihoods import ColourHistogramLikelihood
@@ -75,7 +75,7 @@ graph.save(out / "my_model.json")  # plain JSON; `pgm track SEQ --model my_model
 # Run it frame by frame: the engine reports, per frame, every replica's box, identity
 # and existence score; the "plate" readout keeps the confirmed ones.
 def run(graph, drop=()):
-    eng = PlateEngine(graph, np.random.default_rng(0))
+    eng = Engine(graph, np.random.default_rng(0))
     rows, counts = [], []
     for number, image in source.frames():
         if number in drop:  # a missing frame: no image, no detections; predicted through

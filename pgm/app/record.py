@@ -29,9 +29,9 @@ are those of the same run without recording. Nothing is kept in memory between f
 
 **When.** For the generic :class:`~pgm.inference.Engine`, particle beliefs are taken at the
 ``estimate`` stage (a hook: weighted and fused, before resampling — the weights that the
-estimate used); the PHD intensity likewise (corrected, before resampling). The
-:class:`~pgm.inference.plates.PlateEngine` has no hooks: its replicas' particles are taken
-after the step (after resampling, whose events are recorded).
+estimate used); the PHD intensity likewise (corrected, before resampling). The batched
+particles of a plate's replicas are taken after the step (after resampling, whose events
+are recorded, and after births and deaths, so that rows and identities agree).
 
 Fields of one ``record.jsonl`` line
 -----------------------------------
@@ -81,6 +81,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from pgm.core.batched import BatchedParticles, is_batched
 from pgm.core.errors import InputError
 from pgm.core.graph import FactorGraph
 from pgm.io.outputs import write_json
@@ -281,7 +282,6 @@ class Recorder:
         self.folder = Path(out_dir) / RECORD_DIR
         self.engine = engine
         self.graph: FactorGraph = engine.graph
-        self.plate = bool(self.graph.plates)
         self.id = uuid.uuid4().hex
         self.fps = float(fps) if fps and math.isfinite(fps) and fps > 0 else 25.0
         self.frames = 0
@@ -374,7 +374,7 @@ class Recorder:
 
         Parameters
         ----------
-        engine : Engine or PlateEngine
+        engine : Engine
             After its step.
         record : StepRecord
             The step's record.
@@ -402,7 +402,7 @@ class Recorder:
                                 "image": self._thumbnail(image, number)}
         if dropped:
             line["dropped"] = True
-        if self.plate:
+        if any(is_batched(b) for b in record.beliefs.values()):
             self._plate(line, engine, record)
         else:
             self._engine(line, engine, record, pending)
@@ -533,20 +533,26 @@ class Recorder:
 
     def _plate(self, line: dict, engine: Any, record: Any) -> None:
         g = self.graph
-        info = record.info.get(g.plates[0].name, {})
+        info = record.info.get(engine.plate.name, {})
         ids = np.asarray(info.get("ids", []), dtype=int).reshape(-1)
         reported = np.asarray(info.get("reported", np.zeros(len(ids))), dtype=bool).reshape(-1)
         existence = np.asarray(info.get("existence", np.ones(len(ids))),
                                dtype=float).reshape(-1)
         replicas = {}
         for name in g.variables:
-            x, lw = engine.beliefs(name)
+            b = record.beliefs.get(name)
+            if not isinstance(b, BatchedParticles):  # Gaussian or noise beliefs: no cloud
+                continue
+            x, lw = b.x, b.log_weights
             kk = x.shape[0]
             per = max(10, -(-self.settings.particles // max(kk, 1)))
             cols, _ = xy_columns(g, name)
-            ess = np.asarray(info.get("ess", {}).get(name, np.full(kk, np.nan)), dtype=float)
-            res = np.asarray(info.get("resampled", {}).get(name, np.zeros(kk, bool)),
-                             dtype=bool)
+            ess = np.asarray(record.ess.get(name, np.full(kk, np.nan)), dtype=float)
+            res = np.asarray(record.resampled.get(name, np.zeros(kk, bool)), dtype=bool)
+            if ess.shape != (kk,):  # a missing frame: no weight stage
+                ess = np.full(kk, np.nan)
+            if res.shape != (kk,):
+                res = np.zeros(kk, bool)
             est = np.asarray(record.estimates.get(name, np.zeros((kk, x.shape[-1]))),
                              dtype=float).reshape(kk, -1)
             rows = []

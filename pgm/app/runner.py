@@ -28,7 +28,6 @@ from pgm.core.readout import readout
 from pgm.evaluation.calibration import confidence_outcomes, reliability
 from pgm.evaluation.single_object import single_object_metrics
 from pgm.inference.engine import Engine, StepRecord
-from pgm.inference.plates import make_engine
 from pgm.io.annotated_video import AnnotatedVideoWriter
 from pgm.io.annotations import MotWriter, SingleTrack, load_single_gt
 from pgm.io.outputs import prepare_run_folder, write_json, write_run_status
@@ -121,7 +120,7 @@ def _frames_of(source) -> tuple[Iterable[tuple[int, np.ndarray]], float, int | N
 
 
 def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
-          graph: FactorGraph, *, rng: np.random.Generator, out_dir: str | Path | None = None,
+          graph: FactorGraph, *, rng: int | np.random.Generator, out_dir: str | Path | None = None,
           gt: SingleTrack | str | Path | None = None, num_particles: int | None = None,
           write_video: bool = True, show_particles: bool = False, progress: bool = True,
           max_frames: int | None = None, keep_records: bool = False,
@@ -136,7 +135,8 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     source : path, FrameSource or iterable of ``(frame_number, image)``
     graph : FactorGraph
         A single-object tracker (``graph.meta["output"]`` names its box variable(s)).
-    rng : numpy.random.Generator
+    rng : int or numpy.random.Generator
+        A seed or a generator: the only source of randomness.
     out_dir : path, optional
         Where ``tracks.txt``, ``annotated.mp4``, ``metrics.json``, ``run.json`` and
         the learned ``model.json`` go (nothing is written when omitted).
@@ -471,7 +471,7 @@ class MultiTrackResult:
 
 
 def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph, detector, *,
-                rng: np.random.Generator, out_dir: str | Path | None = None,
+                rng: int | np.random.Generator, out_dir: str | Path | None = None,
                 gt=None, write_video: bool = True, show_particles: bool = False,
                 progress: bool = True, max_frames: int | None = None,
                 engine_kwargs: dict[str, Any] | None = None,
@@ -480,8 +480,8 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
                 drop_frames: Iterable[int] | None = None,
                 record: bool | RecordSettings | dict | None = None) -> MultiTrackResult:
     """Track every target through ``source`` with a set-variable graph (PHD, VB-PHD) or a
-    plate graph (one sub-graph per target: ``multi-pf``, ``gpdm``; run by
-    :class:`~pgm.inference.plates.PlateEngine`).
+    plate graph (one sub-graph per target: ``multi-pf``, ``gpdm``), both run by the one
+    :class:`~pgm.inference.Engine`.
 
     ``detector(frame_number, image) -> Detections`` gives each frame's measurements
     (their foot points); boxes are reported at the track's foot point with the size of
@@ -512,15 +512,16 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
     var = graph.output[0]
     size = source.size
     dropped = set(int(f) for f in (drop_frames or ()))
-    if dropped and not graph.plates:
-        raise InputError(f"dropped frames need a plate model (one sub-graph per target), not "
-                         f"{graph.name!r}")
+
     table = getattr(detector, "table", None)
     targets = None
     if table is not None and len(table):
         targets = int(np.max(np.unique(table.frames, return_counts=True)[1]))
     check_memory(graph, size, targets=targets, limit=memory_limit_bytes)
-    engine = make_engine(graph, rng, **(engine_kwargs or {}))
+    engine = Engine(graph, rng, **(engine_kwargs or {}))
+    if dropped and not engine.predicts_missing_frames:
+        raise InputError(f"dropped frames need a plate model (one sub-graph per target), not "
+                         f"{graph.name!r}")
     motion = CameraMotionEstimator(camera_motion)
     motion_secs = 0.0
     noise = [v for v in engine.graph.variables.values() if v.role == "noise"]
@@ -583,14 +584,10 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
                 writer.write(number, ids, boxes, conf)
             if video is not None:
                 particles = None
-                if show_particles and graph.plates:
-                    x = engine.beliefs(var)[0]
-                    particles = ({var: x[..., _xy_columns(engine.graph, var)].reshape(-1, 2)}
-                                 if x.size else None)
-                elif show_particles:
-                    b = record.beliefs[var]
-                    particles = ({var: b.x[:, _xy_columns(engine.graph, var)]}
-                                 if b.num else None)
+                if show_particles:  # every replica's particles, for a plate
+                    x = np.asarray(record.beliefs[var].x)
+                    particles = ({var: x.reshape(-1, x.shape[-1])[
+                        :, _xy_columns(engine.graph, var)]} if x.size else None)
                 gt_boxes = None
                 if gt is not None:
                     gt_boxes = gt.at(number)[1]

@@ -52,8 +52,8 @@ class FactorGraph:
         JSON-ready extra information: which variable is the tracker's output
         (``meta["output"]``), suggested engine settings (``meta["engine"]``), ...
     plates : iterable of Plate, optional
-        Sub-graphs replicated once per target (:mod:`pgm.core.plate`); a graph with a
-        plate runs on :class:`pgm.inference.plates.PlateEngine`. At most one plate.
+        Sub-graphs replicated once per target (:mod:`pgm.core.plate`); the engine keeps a
+        plate's beliefs batched along a target axis. At most one plate.
     """
 
     def __init__(self, variables: Iterable[Variable], factors: Iterable[Factor],

@@ -3,9 +3,10 @@
 A :class:`Plate` marks some variables of a :class:`~pgm.FactorGraph` (and with them
 every factor whose scope lies inside it) as one *replica per target*, as the plate
 notation of the textbooks draws a box labelled ``K`` around them. The graph is declared
-once, for one target; the plate engine (:class:`pgm.inference.plates.PlateEngine`)
-keeps the replicas' beliefs batched along a leading target axis ``(K, N, d)``, adds a
-replica when a target is born and removes it when its track ends.
+once, for one target; the engine (:class:`pgm.inference.Engine`, with
+:mod:`pgm.inference.plates`) keeps the replicas' beliefs batched along a leading target
+axis (:mod:`pgm.core.batched`: ``(K, N, d)`` particles), adds a replica when a target is
+born and removes it when its track ends.
 
 What is shared and what is per replica:
 

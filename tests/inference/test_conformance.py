@@ -69,6 +69,24 @@ def _phd(module):
     return g.with_factors(Bump("targets", name="bump"))
 
 
+def _plate_frames(n=6):
+    from pgm.observation.detections import Detections
+    from pgm.synthetic.scenes import multi_target_scene
+
+    seq = multi_target_scene(seed=1, n_frames=n, n_objects=2, occluder=False)
+    return [FrameContext(f, seq.frames[f - 1],
+                         detections=Detections(seq.boxes_at(f)[1], np.ones(2)))
+            for f in range(1, n + 1)]
+
+
+def _plate(n_parts):
+    from pgm.core.plate import Lifecycle
+    from pgm.models import multi_pf
+
+    return multi_pf.build_graph(multi_pf.Params(n_parts=n_parts, num_particles=20,
+                                                lifecycle=Lifecycle(confirm_hits=1)))
+
+
 CASES = {
     "particles": (lambda: linear_gaussian.build_graph(linear_gaussian.Params()), _lg_frames, {}),
     "kalman": (lambda: linear_gaussian.build_graph(linear_gaussian.Params()), _lg_frames,
@@ -78,6 +96,9 @@ CASES = {
     "vb-akf": (_vb_akf, lambda: [FrameContext(t + 1, measurements=np.array([0.1 * t, 0.0]))
                                  for t in range(4)], {"belief_types": {"x": Gaussian}}),
     "phd": (lambda: _phd(phd), _set_frames, {}),
+    # a plate's batched rules (births from detections, then every stage on K replicas)
+    "plate": (lambda: _plate(1), _plate_frames, {}),
+    "plate-parts": (lambda: _plate(2), _plate_frames, {}),
     "vb-phd": (lambda: _phd(vb_phd), _set_frames, {}),
 }
 

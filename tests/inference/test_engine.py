@@ -169,11 +169,22 @@ def test_engine_argument_errors(lg_problem):
     graph, _, _ = lg_problem
     with pytest.raises(ValueError, match="positive integer"):
         Engine(graph, np.random.default_rng(0), num_particles=0)
-    with pytest.raises(ValueError, match="rng=numpy.random.Generator"):
-        Engine(graph, 0)
+    with pytest.raises(ValueError, match="seed must be an int"):
+        Engine(graph, "0")
+    with pytest.raises(ValueError, match="non-negative"):
+        Engine(graph, -1)
     with pytest.raises(ValueError, match="ess_threshold"):
         Engine(graph, np.random.default_rng(0), ess_threshold=float("nan"))
     with pytest.raises(ValueError, match="unknown resampling scheme"):
         Engine(graph, np.random.default_rng(0), resampling="magic")
     with pytest.raises(ValueError, match="unknown variables"):
         Engine(graph, np.random.default_rng(0), num_particles={"y": 3})
+
+
+def test_engine_takes_an_int_seed_as_numpy_does(lg_problem):
+    graph, _, _ = lg_problem
+    frame = FrameContext(1, measurements=np.array([0.3]))
+    a = Engine(graph, 5).step(frame).beliefs["x"]
+    b = Engine(graph, np.random.default_rng(5)).step(frame).beliefs["x"]
+    assert np.array_equal(a.x, b.x)
+

@@ -9,7 +9,7 @@ import pytest
 
 from pgm import FactorGraph, Lifecycle, MutualExclusion, Plate
 from pgm.core.frame import FrameContext
-from pgm.inference import Engine, PlateEngine
+from pgm.inference import Engine
 from pgm.inference.plates import ReplicaRNG
 from pgm.models import colour_pf, multi_pf, part_graph
 from pgm.observation.detections import Detections
@@ -46,13 +46,13 @@ def _run_single(graph, scene, seed, frames):
 
 
 def _run_plate(graph, scene, boxes, seeds, frames):
-    eng = PlateEngine(graph, np.random.default_rng(99), num_particles=N)
+    eng = Engine(graph, np.random.default_rng(99), num_particles=N)
     out = []
     for i, f in enumerate(frames):
         ctx = FrameContext(f, scene.frames[f - 1])
         if i == 0:
             eng.add(np.asarray(boxes), ctx, rngs=[np.random.default_rng(s) for s in seeds])
-            est = {v: eng.batch.est[v] for v in graph.variables}
+            est = {v: eng.replicas.est[v] for v in graph.variables}
         else:
             est = eng.step(ctx, lifecycle=False).estimates
         out.append(est)
@@ -72,9 +72,9 @@ def test_one_replica_is_the_single_target_engine_bit_for_bit(scene, n_parts):
         for v in graph.variables:
             assert np.array_equal(s[v], p[v][0]), v
     for v in graph.variables:
-        x, lw = eng2.beliefs(v)
-        assert np.array_equal(eng1.beliefs[v].x, x[0])
-        assert np.array_equal(eng1.beliefs[v].log_weights, lw[0])
+        b = eng2.beliefs[v]
+        assert np.array_equal(eng1.beliefs[v].x, b.x[0])
+        assert np.array_equal(eng1.beliefs[v].log_weights, b.log_weights[0])
 
 
 @pytest.mark.parametrize("cue", ["template", "colour+contrast"])
@@ -122,7 +122,7 @@ def test_mutual_exclusion_separates_two_replicas_on_one_target(strength):
     p = multi_pf.Params(num_particles=200, exclusion=strength, detection_strength=0.0, fps=1.0,
                         pos_noise=0.08, scale_noise=0.0, damping=0.0)
     g = multi_pf.build_graph(p)
-    eng = PlateEngine(g, np.random.default_rng(0))
+    eng = Engine(g, np.random.default_rng(0))
     a = seq.box(0, 1)
     start = np.array([a[0] + a[2] / 2, a[1] + a[3] / 2, a[2], a[3]])
     eng.add(np.stack([start, start + [1, 0, 0, 0]]), FrameContext(1, seq.frames[0]))
@@ -154,7 +154,7 @@ def test_births_and_deaths_from_detections(scene):
     removed when their target's detections stop."""
     g = multi_pf.build_graph(multi_pf.Params(num_particles=30, lifecycle=Lifecycle(
         confirm_hits=2, max_coast=1, max_lost=3)))
-    eng = PlateEngine(g, np.random.default_rng(0))
+    eng = Engine(g, np.random.default_rng(0))
     counts, reported = [], []
     for f in range(1, 13):
         ids, boxes = scene.boxes_at(f)
@@ -192,7 +192,7 @@ def test_bad_plate_declarations():
     with pytest.raises(ValueError, match="in no plate"):
         FactorGraph(v, list(g.factors.values()) + [MutualExclusion("object")])
     with pytest.raises(ValueError, match="declares no plate"):
-        PlateEngine(g, np.random.default_rng(0))
+        Engine(g, np.random.default_rng(0)).add(None, FrameContext(1, np.zeros((8, 8, 3))))
     with pytest.raises(ValueError, match="plate lifecycle: max_lost"):
         Lifecycle(max_coast=5, max_lost=2)
 

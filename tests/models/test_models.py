@@ -7,7 +7,7 @@ import pytest
 
 from pgm import FactorGraph, FrameContext
 from pgm.core.readout import Targets, readout
-from pgm.inference import Engine, make_engine
+from pgm.inference import Engine
 from pgm.inference.settings import EngineSettings
 from pgm.models import MODELS, get_model
 from pgm.observation.detections import Detections
@@ -63,7 +63,7 @@ def test_single_object_model_reads_out_one_box_near_the_walker(name, walker):
 def test_multi_target_model_reads_out_boxes_with_identities(name):
     seq = multi_target_scene(seed=0, n_frames=12)
     dets = seq.detections(np.random.default_rng(0), p_detect=1.0, sigma=1.0, clutter_rate=0.0)
-    eng = make_engine(_graph(name), np.random.default_rng(0))
+    eng = Engine(_graph(name), np.random.default_rng(0))
     for f in range(1, 13):
         rows = dets[dets[:, 0] == f]
         rec = eng.step(FrameContext(f, seq.frames[f - 1],
