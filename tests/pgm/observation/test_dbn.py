@@ -76,6 +76,7 @@ def test_dbn_separates_people_from_background_on_held_out_frames(synthetic_mot, 
         assert json.loads(str(f["header"]))["format"] == "pgm-dbn-v1"
 
 
+@pytest.mark.slow
 def test_training_set_takes_a_person_taller_than_the_frame(synthetic_mot, tmp_path):
     """MOT16's ground truth has people close to the camera whose boxes run past the frame:
     their negatives are still drawn (this raised "high - low < 0" inside numpy)."""

@@ -26,6 +26,7 @@ def two_colour_person(rng):
     return np.clip(img, 0, 255).astype(np.uint8), np.array([60.0, 40.0, 20.0, 30.0])
 
 
+@pytest.mark.slow
 def test_shared_components_rank_candidates_like_the_literal_per_box_fit():
     img, box = two_colour_person(np.random.default_rng(0))
     t = fit_template(img, box, n_components=3)
