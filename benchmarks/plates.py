@@ -185,7 +185,7 @@ def main() -> None:
     print_table(["K", "N", "plate ms/frame", "plate frames/s", "µs per target-particle",
                  "plate peak MiB (tracemalloc)", "separate ms/frame", "separate / plate",
                  "max |Δ box| px"], rows,
-                title=f"plate engine vs K separate engines, colour PF, {SIZE[0]}x{SIZE[1]} "
+                title=f"one engine with a plate vs K separate engines, colour PF, {SIZE[0]}x{SIZE[1]} "
                       f"synthetic grid, median of {args.repeats} over {args.frames} frames "
                       f"({args.warmup} warm-up frames excluded)")
     print("\ngoals (reported, not asserted):")

@@ -1,6 +1,6 @@
 """pgm.inference: the generic engine and its algorithms (SMC, particle BP, VB, PHD)."""
 
-from . import pbp, phd, plates, resampling, vb
+from . import batched, pbp, phd, plates, resampling, rules, schedule, vb
 from .engine import (
     DEFAULT_RULES,
     Engine,
@@ -12,7 +12,6 @@ from .engine import (
 )
 from .kalman import KalmanResult, kalman_filter, linear_gaussian_matrices
 
-
 __all__ = ["Engine", "RuleTable", "DEFAULT_RULES", "Schedule", "StepRecord", "derive_schedule",
            "kalman_filter", "KalmanResult", "linear_gaussian_matrices", "resampling", "pbp",
-           "message_order", "phd", "vb", "plates"]
+           "message_order", "phd", "vb", "plates", "batched", "rules", "schedule"]

@@ -433,7 +433,7 @@ class Engine:
                 if self.replicas is None:
                     batched = len(fs) > 1 and all(r is _weight_particles for r in rules)
                 else:  # a plate: replicas' copies scored together (pgm.inference.plates)
-                    from .plates import weight_batched
+                    from .batched import weight_batched
 
                     batched = all(r is weight_batched for r in rules)
                 resolved.append((fs, rules, batched))
@@ -476,9 +476,9 @@ class Engine:
     def _score_group(self, fs: list[Factor], frame: FrameContext) -> list[np.ndarray]:
         """Log-likelihoods of a group of factors scored in one batched pass."""
         if self.replicas is not None:
-            from . import plates
+            from .batched import score_group
 
-            return plates.score_group(self, fs, frame)
+            return score_group(self, fs, frame)
         return type(fs[0]).log_likelihood_batch(fs, [self.beliefs[f.variables[0]].x
                                                      for f in fs], frame)
 

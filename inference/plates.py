@@ -5,17 +5,10 @@ A graph with a :class:`~pgm.core.plate.Plate` declares the model of *one* target
 for any graph, ``K`` changing as tracks start and end. This module holds what a plate
 adds to that engine, and no step loop of its own:
 
-* **batched rules**, registered in :data:`~pgm.inference.DEFAULT_RULES` for
-  :class:`~pgm.core.batched.BatchedParticles` (``(K, N, d)`` particles): a transition
-  shared by the replicas samples the ``K·N`` particles in one call of
-  ``factor.sample``; a shared likelihood scores them in one call, and per-target
-  templates are scored together by ``log_likelihood_batch`` (one pass per cluster of
-  overlapping replicas); interaction factors (mutual exclusion) reweight every replica
-  against the others' estimates; mixture messages of particle BP, fusion, estimates
-  and ESS-triggered resampling act on all replicas at once;
-* :func:`per_replica`, which runs any single-graph rule once per replica where no
-  batched rule is registered — VB noise per target, product fusion, exact Gaussian
-  rules, a user's own rule — so everything a single graph can hold, a plate can hold;
+* the replicas' state besides their beliefs (:class:`Replicas`: generators, each
+  replica's view of the graph, track records); the rules for batched beliefs are
+  :mod:`pgm.inference.batched`'s (all replicas in one pass, or any single-graph rule per
+  replica), so everything a single graph can hold, a plate can hold;
 * **births and deaths** (:func:`add`, :func:`remove`, and the ``associate`` stage,
   :func:`associate`): the replicas' boxes are matched to the frame's detections
   (Hungarian on ``1 − IoU``, :mod:`pgm.inference.tracks`); a detection that matches no
@@ -23,13 +16,8 @@ adds to that engine, and no step loop of its own:
   templates learned from this frame and the first-frame stages run on it.
 
 **Randomness.** Each replica owns a ``numpy.random.Generator`` (given at its birth, else
-spawned from the engine's), and a batched draw of shape ``(K·N, ...)`` is made of ``K``
-draws of shape ``(N, ...)``, one from each replica's generator (:class:`ReplicaRNG`).
-A replica therefore consumes its stream exactly as a single-graph run of the same graph
-would: ``K = 1`` reproduces that run bit for bit, and ``K`` replicas without interaction
-reproduce ``K`` separate runs (tested). A factor whose ``sample``/``propagate`` draws
-numbers whose leading axis is not the particle count cannot be split this way and is
-refused with its name.
+spawned from the engine's); :mod:`pgm.inference.batched` splits every batched draw over
+them, so ``K = 1`` reproduces a single-graph run bit for bit.
 
 **What is per replica.** A factor that learns, or a likelihood that learns a template
 from the first frame, is copied per replica at its birth (``engine.factor(name, k)``);
@@ -52,126 +40,33 @@ Example
 from __future__ import annotations
 
 import copy
-import functools
-import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pgm.core.batched import BatchedParticles, batched_type
+from pgm.core.batched import BatchedParticles
 from pgm.core.boxes import cxcywh_to_xywh, iou_xywh
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
-from pgm.core.motion import warp_states
 from pgm.core.readout import Targets, register_readout
-from pgm.factors import CouplingFactor, LikelihoodFactor, TransitionFactor
-from pgm.factors.plates import InteractionFactor
+from pgm.factors import LikelihoodFactor
 
+from . import batched as _batched  # noqa: F401  (registers the batched rules)
+from .batched import BOX, box_columns
 from .engine import Engine, StepRecord
-from .pbp import MixtureMessage, coupling_message, fuse
-from .resampling import ess_triggered
-from .rules import DEFAULT_RULES
-from .tracks import Track, match_boxes
+from .tracks import Track, confirm_tracks, match, reported, update_tracks
 
 if TYPE_CHECKING:
     from pgm.core.plate import Plate
 
-__all__ = ["ReplicaRNG", "Replicas", "plate_boxes", "per_replica", "add", "remove",
-           "associate", "BatchedMixtureMessage"]
-
-_BOX = ("cx", "cy", "w", "h")
-
-
-# -------------------------------------------------------------------------------------
-# randomness split over replicas
-# -------------------------------------------------------------------------------------
-class ReplicaRNG:
-    """A ``Generator`` look-alike whose draws split over replicas.
-
-    A draw of ``size = (K·n, ...)`` is made of ``K`` draws of ``(n, ...)``, the ``k``-th
-    from ``generators[k]``; array arguments (``loc``, ``scale``, ``low``, ``high``)
-    whose leading axis is ``K·n`` are split the same way, others are passed to every
-    replica. Only the methods the toolkit's factors use are offered.
-    """
-
-    def __init__(self, generators: Sequence[np.random.Generator], n: int,
-                 owner: str = "a factor"):
-        self.generators = list(generators)
-        self.n = int(n)
-        self.owner = owner
-
-    @property
-    def total(self) -> int:
-        """``K·n``: the leading axis every draw must have."""
-        return len(self.generators) * self.n
-
-    def _sizes(self, size) -> tuple[int, ...]:
-        shape = (size,) if np.ndim(size) == 0 and size is not None else tuple(size or ())
-        if not shape or shape[0] != self.total:
-            raise ValueError(
-                f"{self.owner} drew random numbers of shape {shape}, whose leading axis is not "
-                f"the particle count {self.total}; the plate engine splits draws per replica "
-                f"along that axis (draw one value per particle, e.g. "
-                f"rng.standard_normal((n, d)))")
-        return (self.n,) + shape[1:]
-
-    def _part(self, value, k: int):
-        if np.ndim(value) > 0 and np.shape(value)[0] == self.total:
-            return value[k * self.n:(k + 1) * self.n]
-        return value
-
-    def _draw(self, method: str, size, *args, out=None):
-        if out is not None:
-            size = out.shape
-        per = self._sizes(size)
-        parts = [getattr(g, method)(*(self._part(a, k) for a in args), size=per)
-                 for k, g in enumerate(self.generators)]
-        res = np.concatenate(parts) if parts else np.zeros((0,) + per[1:])
-        if out is not None:
-            out[...] = res
-            return out
-        return res
-
-    def standard_normal(self, size=None, dtype=np.float64, out=None):
-        """Standard normal draws, split over replicas."""
-        return self._draw("standard_normal", size, out=out)
-
-    def random(self, size=None, dtype=np.float64, out=None):
-        """Uniform [0, 1) draws, split over replicas."""
-        return self._draw("random", size, out=out)
-
-    def normal(self, loc=0.0, scale=1.0, size=None):
-        """Normal draws, split over replicas."""
-        if size is None:
-            size = np.broadcast(np.asarray(loc), np.asarray(scale)).shape
-        return self._draw("normal", size, loc, scale)
-
-    def uniform(self, low=0.0, high=1.0, size=None):
-        """Uniform draws, split over replicas."""
-        if size is None:
-            size = np.broadcast(np.asarray(low), np.asarray(high)).shape
-        return self._draw("uniform", size, low, high)
-
-    def __getattr__(self, name: str):
-        raise ValueError(f"{self.owner} calls rng.{name}(), which the plate engine cannot "
-                         f"split per replica (use standard_normal, random, normal or uniform "
-                         f"with one draw per particle)")
+__all__ = ["Replicas", "plate_boxes", "add", "remove", "associate", "setup", "step", "learn"]
 
 
 # -------------------------------------------------------------------------------------
 # boxes of a plate model
 # -------------------------------------------------------------------------------------
-def _box_columns(graph: FactorGraph, variable: str) -> list[int]:
-    """Columns of cx, cy, w, h in ``variable`` (a ``ValueError`` if it is not a box)."""
-    v = graph.variables[variable]
-    if v.labels is None or not all(b in v.labels for b in _BOX):
-        raise ValueError(f"plate variable {variable!r} must have the labels cx, cy, w, h "
-                         f"(a box), got {v.labels}")
-    return [v.labels.index(b) for b in _BOX]
-
-
 def _bounding(boxes: list[np.ndarray]) -> np.ndarray:
     """Bounding box ``(..., 4)`` (cx, cy, w, h) of several boxes of the same shape."""
     if len(boxes) == 1:
@@ -187,7 +82,7 @@ def _bounding(boxes: list[np.ndarray]) -> np.ndarray:
 def plate_boxes(graph: FactorGraph, estimates: dict[str, np.ndarray]) -> np.ndarray:
     """The targets' boxes ``(K, 4)`` (cx, cy, w, h): the bounding box of the output
     variables' boxes in ``estimates`` (each ``(K, d)``)."""
-    return _bounding([np.asarray(estimates[v])[..., _box_columns(graph, v)]
+    return _bounding([np.asarray(estimates[v])[..., box_columns(graph, v)]
                       for v in graph.output])
 
 
@@ -265,14 +160,14 @@ def setup(engine: Engine) -> None:
                                type(f).initialize is not LikelihoodFactor.initialize))]
     engine.plate_spec = PlateSpec(plate, copy.deepcopy(g), local,
                                   [f.name for f in g.factors.values() if f.learns], boxed,
-                                  reference, {v: m[_box_columns(g, v)] for v, m in means.items()})
+                                  reference, {v: m[box_columns(g, v)] for v, m in means.items()})
     engine.replicas = Replicas()
     engine.beliefs = _empty_beliefs(engine)
 
 
 def _has_box(graph: FactorGraph, variable: str) -> bool:
     labels = graph.variables[variable].labels
-    return labels is not None and all(b in labels for b in _BOX)
+    return labels is not None and all(b in labels for b in BOX)
 
 
 def _empty_beliefs(engine: Engine) -> dict[str, Any]:
@@ -415,8 +310,7 @@ def step(engine: Engine, frame: FrameContext, record: StepRecord, lifecycle: boo
         ids=np.array([t.track_id or 0 for t in reps.tracks], dtype=np.int64),
         boxes=(plate_boxes(engine.graph, reps.est) if reps.K and engine.plate_spec.boxed
                else np.zeros((reps.K, 4))),
-        reported=np.array([t.track_id is not None and t.misses <= lc.max_coast
-                           and not t.recovering for t in reps.tracks], dtype=bool),
+        reported=reported(reps.tracks, lc.max_coast),
         existence=np.array([t.existence for t in reps.tracks], dtype=float))
 
 
@@ -446,7 +340,7 @@ def learn(engine: Engine, items: list[str], frame: FrameContext, record: StepRec
 
 def associate(engine: Engine, frame: FrameContext, record: StepRecord) -> None:
     """The ``associate`` stage: the replicas' boxes against the frame's detections
-    (:func:`pgm.inference.tracks.match_boxes`), the track life cycle of the plate's
+    (:func:`pgm.inference.tracks.match` on ``1 − IoU``), the track life cycle of the plate's
     :class:`~pgm.core.plate.Lifecycle`, births from the detections no replica explains."""
     spec = engine.plate_spec
     info = record.info.setdefault(engine.plate.name, {})
@@ -462,23 +356,17 @@ def associate(engine: Engine, frame: FrameContext, record: StepRecord) -> None:
     lc = engine.plate.lifecycle
     boxes = plate_boxes(engine.graph, reps.est) if reps.K and spec.boxed else np.zeros((0, 4))
     iou = _iou(boxes[:, None, :], det_boxes[None, :, :])
-    matched = match_boxes(iou, [t.misses > lc.max_coast for t in reps.tracks], lc.match_iou)
-    keep = np.ones(reps.K, dtype=bool)
-    for k, t in enumerate(reps.tracks):
+    rows, cols = match(-iou, iou >= lc.match_iou, [t.misses > lc.max_coast for t in reps.tracks])
+    for k, j in zip(rows, cols, strict=True):
+        reps.tracks[k].state = det_boxes[j].copy()
+    for t in reps.tracks:
         t.age += 1
-        if k in matched:
-            if t.misses > lc.max_coast and t.track_id is not None:
-                t.recovering, t.streak = True, 0
-            t.hit(lc.confirm_hits, lc.hit_log_odds)
-            t.state = det_boxes[matched[k]].copy()
-        else:
-            t.miss(lc.miss_log_odds)
-            if t.track_id is None or t.misses > lc.max_lost:
-                keep[k] = False
-        if t.track_id is None and t.hits >= lc.confirm_hits and keep[k]:
-            t.track_id = spec.next_id
-            spec.next_id += 1
-    used = set(matched.values())
+    keep = update_tracks(reps.tracks, rows, confirm_hits=lc.confirm_hits,
+                         max_coast=lc.max_coast, max_lost=lc.max_lost,
+                         hit_log_odds=lc.hit_log_odds, miss_log_odds=lc.miss_log_odds)
+    spec.next_id = confirm_tracks([t for t, k in zip(reps.tracks, keep, strict=True) if k],
+                                  lc.confirm_hits, spec.next_id)
+    used = set(cols.tolist())
     free = [j for j in range(len(det_boxes)) if j not in used
             and scores[j] >= lc.birth_min_score
             and (not reps.K or iou[:, j].max() < lc.birth_iou)]
@@ -501,326 +389,13 @@ def associate(engine: Engine, frame: FrameContext, record: StepRecord) -> None:
     if births:
         add(engine, det_boxes[sorted(births)], frame)
 
-
-# -------------------------------------------------------------------------------------
-# single-graph rules, once per replica
-# -------------------------------------------------------------------------------------
-class _ReplicaView:
-    """Replica ``k`` of a plate engine as a single-graph rule sees an engine: its own
-    beliefs (rows of the batched beliefs), generator, graph, evidence, messages and
-    ``aux``; everything else is the engine's."""
-
-    log_likelihood = Engine.log_likelihood
-    score_at = Engine.score_at
-    factor_belief_type = Engine.factor_belief_type
-    rule_for = Engine.rule_for
-
-    def __init__(self, engine: Engine, k: int):
-        self._engine = engine
-        reps = engine.replicas
-        self.replica = k
-        self.graph = reps.graphs[k]
-        self.rng = reps.rngs[k]
-        self.aux = reps.aux[k]
-        self.rows = {v: b.row(k) for v, b in engine.beliefs.items()}
-        self.beliefs = dict(self.rows)
-        self.evidence = {v: (a[k], ll[k]) for v, (a, ll) in engine.evidence.items()}
-        self.message_rows = {key: m.row(k) for key, m in engine.messages.items()}
-        self.messages = dict(self.message_rows)
-
-    def __getattr__(self, name: str):
-        return getattr(self._engine, name)
-
-    def belief_type(self, variable: str) -> type:
-        return self._engine.row_belief_type(variable)
-
-
-class RowMessages:
-    """Messages of one directed edge, one per replica (from a per-replica rule)."""
-
-    def __init__(self, items: Sequence[Any]):
-        self.items = list(items)
-
-    def row(self, k: int) -> Any:
-        return self.items[k]
-
-
-def _merge(outs: list[Any]) -> Any:
-    """The replicas' returns of one rule as one value: arrays stacked ``(K, ...)``, dicts
-    merged key by key, ``None`` where every replica returned ``None``."""
-    if all(o is None for o in outs):
-        return None
-    if all(isinstance(o, dict) for o in outs):
-        keys = list(dict.fromkeys(k for o in outs for k in o))
-        return {k: _merge([o.get(k) for o in outs]) for k in keys}
-    if all(isinstance(o, (np.ndarray, float, int, bool, np.number, np.bool_)) for o in outs):
-        try:
-            return np.stack([np.asarray(o) for o in outs])
-        except ValueError:  # shapes differ
-            return list(outs)
-    return list(outs)
-
-
-@functools.cache
-def per_replica(rule: Callable, key: type | str) -> Callable:
-    """``rule`` (a single-graph rule for the replica's belief type) run once per replica:
-    on each replica's view of the engine (its rows of the batched beliefs, its generator,
-    its factor copies), writing the rows it changes back into the batched beliefs. Its
-    returns are merged (likelihood increments stacked to ``(K, N)``)."""
-    operation = isinstance(key, str)
-
-    def run(engine: Engine, item, frame: FrameContext, *args: Any) -> Any:
-        reps = engine.replicas
-        outs, views = [], []
-        for k in range(reps.K):
-            view = _ReplicaView(engine, k)
-            target = item if operation else view.graph.factors[item.name]
-            outs.append(rule(view, target, frame, *args))
-            views.append(view)
-        if not views:
-            return None
-        for v in dict.fromkeys(v for view in views for v in view.beliefs):
-            if any(view.beliefs.get(v) is not view.rows.get(v) for view in views):
-                engine.beliefs[v] = engine.belief_type(v).stack([view.beliefs[v]
-                                                                 for view in views])
-        for m in dict.fromkeys(m for view in views for m in view.messages):
-            if any(view.messages.get(m) is not view.message_rows.get(m) for view in views):
-                engine.messages[m] = RowMessages([view.messages[m] for view in views])
-        return _merge(outs)
-
-    run.__qualname__ = f"per_replica({getattr(rule, '__qualname__', rule)})"
-    run.row_rule = rule
-    return run
-
-
-# -------------------------------------------------------------------------------------
-# batched rules (all replicas at once)
-# -------------------------------------------------------------------------------------
-def _local(engine: Engine, name: str) -> bool:
-    return name in engine.plate_spec.local
-
-
-@DEFAULT_RULES.register(TransitionFactor, BatchedParticles)
-def predict_batched(engine: Engine, factor, frame: FrameContext) -> None:
-    """Move every replica's particles: one ``factor.sample`` call on ``(K·N, d)`` for a
-    shared transition (draws split per replica), one call per replica for its own copy."""
-    var = factor.variables[0]
-    b: BatchedParticles = engine.beliefs[var]
-    reps = engine.replicas
-    K, n, d = b.x.shape  # noqa: N806
-    flat = b.x.reshape(K * n, d)
-    past = [h.reshape(K * n, d) for h in b.history]
-    if frame.camera_motion is not None:  # past states into this frame's image coordinates
-        labels = engine.graph.variables[var].labels
-        flat = warp_states(flat, labels, frame.camera_motion)
-        past = [warp_states(h, labels, frame.camera_motion) for h in past]
-    if _local(engine, factor.name):  # a transition that learns per target: one call each
-        new = np.concatenate([np.asarray(reps.graphs[k].factors[factor.name].sample(
-            reps.rngs[k], flat[k * n:(k + 1) * n], *(h[k * n:(k + 1) * n] for h in past)),
-            dtype=float) for k in range(K)])
-    else:
-        rng = ReplicaRNG(reps.rngs, n, owner=f"transition {factor.name!r}")
-        new = np.asarray(factor.sample(rng, flat, *past), dtype=float)
-    if new.shape != flat.shape:
-        raise ValueError(f"factor {factor.name!r}: sample() returned shape {new.shape}, "
-                         f"expected {flat.shape}")
-    n_hist = max(0, getattr(factor, "order", 1) - 1)
-    engine.beliefs[var] = BatchedParticles._trusted(
-        new.reshape(K, n, d), b.log_weights,
-        tuple(a.reshape(K, n, d) for a in ([flat] + past)[:n_hist]))
-
-
-@DEFAULT_RULES.register(LikelihoodFactor, BatchedParticles)
-def weight_batched(engine: Engine, factor, frame: FrameContext) -> np.ndarray:
-    """``(K, N)`` log-likelihood increments of every replica's particles."""
-    return score_group(engine, [factor], frame)[0]
-
-
-def score_group(engine: Engine, fs: list, frame: FrameContext) -> list[np.ndarray]:
-    """``(K, N)`` log-likelihoods of each factor of one weight group ``fs`` (equal
-    ``batch_key``)."""
-    reps = engine.replicas
-    K = reps.K  # noqa: N806
-    local = [_local(engine, f.name) for f in fs]
-    if K * len(fs) > 1 and fs[0].batch_key is not None and all(local):
-        # the copies of the group's factors scored together, one pass per cluster of
-        # replicas whose particles' boxes overlap (a joint pass costs the area of its
-        # boxes' union, so distant targets are not scored through the empty space
-        # between them); replica-major, so that one replica's order is the
-        # single-graph engine's
-        out = [np.empty(engine.beliefs[f.variables[0]].log_weights.shape) for f in fs]
-        for members in _clusters(_extents(engine, fs)):
-            copies = [reps.graphs[k].factors[f.name] for k in members for f in fs]
-            xs = [engine.beliefs[f.variables[0]].x[k] for k in members for f in fs]
-            lls = type(fs[0]).log_likelihood_batch(copies, xs, frame)
-            for i, ll in enumerate(lls):
-                out[i % len(fs)][members[i // len(fs)]] = ll
-        return out
-    out = []
-    for f, own in zip(fs, local, strict=True):
-        x = engine.beliefs[f.variables[0]].x
-        _, n, d = x.shape
-        if not own:  # shared: all replicas' particles in one call
-            out.append(np.asarray(f.log_likelihood(x.reshape(K * n, d), frame),
-                                  dtype=float).reshape(K, n))
-        else:
-            out.append(np.stack([np.asarray(reps.graphs[k].factors[f.name].log_likelihood(
-                x[k], frame), dtype=float) for k in range(K)]))
-    return out
-
-
-def _extents(engine: Engine, fs: list) -> np.ndarray:
-    """``(K, 4)`` rectangles ``x0, y0, x1, y1`` around every particle's box of the
-    group ``fs`` in each replica."""
-    lo, hi = [], []
-    for f in fs:
-        v = f.variables[0]
-        bx = engine.beliefs[v].x[..., _box_columns(engine.graph, v)]  # (K, N, 4)
-        lo.append((bx[..., :2] - np.abs(bx[..., 2:]) / 2).min(axis=1))
-        hi.append((bx[..., :2] + np.abs(bx[..., 2:]) / 2).max(axis=1))
-    return np.concatenate([np.min(lo, axis=0), np.max(hi, axis=0)], axis=1)
-
-
-@DEFAULT_RULES.register(InteractionFactor, BatchedParticles)
-def interact_batched(engine: Engine, factor, frame: FrameContext) -> None:
-    """Reweight every replica's particles against the other replicas' current estimates
-    (a replica the potential leaves with no finite weight keeps its weights)."""
-    v = factor.variables[0]
-    b: BatchedParticles = engine.beliefs[v]
-    if b.K < 2:
-        return
-    pot = np.asarray(factor.log_potential(b.x, b.mean(), frame), dtype=float)
-    engine.beliefs[v], _ = b.reweight(pot).normalized(fallback=b)
-    if v in engine.evidence:
-        lw0, ll = engine.evidence[v]
-        engine.evidence[v] = (lw0, ll + pot)
-
-
-def _batched_mixture(engine: Engine) -> bool:
-    s = engine.settings
-    return s.fusion == "mixture" and s.message_weight == "source" and not s.message_particles
-
-
-@dataclass(frozen=True)
-class BatchedMixtureMessage:
-    """Mixture messages of all replicas: ``x`` ``(K, M, d)``, log-weights ``(K, M)`` on
-    the common scale, histories ``(K, M, d)``."""
-
-    x: np.ndarray
-    log_weights: np.ndarray
-    history: tuple[np.ndarray, ...]
-
-    def row(self, k: int) -> MixtureMessage:
-        return MixtureMessage(self.x[k], self.log_weights[k], tuple(h[k] for h in self.history))
-
-
-def _evidence(engine: Engine, v: str) -> tuple[np.ndarray, np.ndarray]:
-    b = engine.beliefs[v]
-    return engine.evidence.get(v, (b.log_weights, np.zeros_like(b.log_weights)))
-
-
-@DEFAULT_RULES.register(CouplingFactor, BatchedParticles)
-def coupling_batched(engine: Engine, factor, frame: FrameContext, src: str, dst: str):
-    """The message ``src → dst`` of every replica (mixture with source weights batched;
-    any other setting per replica, :func:`pgm.inference.pbp.coupling_message`)."""
-    if not _batched_mixture(engine):
-        return per_replica(coupling_message, CouplingFactor)(engine, factor, frame, src, dst)
-    reps = engine.replicas
-    b = engine.beliefs[src]
-    K, n, d = b.x.shape  # noqa: N806
-    flat = b.x.reshape(K * n, d)
-    if _local(engine, factor.name):
-        x_msg = np.concatenate([np.asarray(reps.graphs[k].factors[factor.name].propagate(
-            reps.rngs[k], flat[k * n:(k + 1) * n], src)) for k in range(K)])
-    else:
-        x_msg = np.asarray(factor.propagate(ReplicaRNG(reps.rngs, n,
-                                                       owner=f"coupling {factor.name!r}"),
-                                            flat, src), dtype=float)
-    d_dst = engine.beliefs[dst].dim
-    x_msg = x_msg.reshape(K, n, d_dst)
-    n_hist = len(engine.beliefs[dst].history)
-    hist = [np.asarray(factor.map(h.reshape(K * n, d), src)).reshape(K, n, d_dst)
-            for h in b.history[:n_hist]]
-    hist += [x_msg.copy() for _ in range(n_hist - len(hist))]
-    lw0, ll = _evidence(engine, src)
-    engine.messages[(src, dst)] = BatchedMixtureMessage(x_msg, lw0 + ll, tuple(hist))
-    return None
-
-
-def _row_log_normalize(lw: np.ndarray) -> np.ndarray:
-    """Per-row :func:`pgm.core.numerics.log_normalize` (the same arithmetic per row)."""
-    lw = np.where(np.isnan(lw), -np.inf, lw)
-    shifted = lw - lw.max(axis=1, keepdims=True)
-    e = np.exp(shifted)
-    return shifted - np.array([math.log(float(row.sum())) for row in e])[:, None]
-
-
-@DEFAULT_RULES.register("fuse", BatchedParticles)
-def fuse_batched(engine: Engine, variable: str, frame: FrameContext) -> dict:
-    """Every replica's own weighted particles joined with its incoming mixture messages
-    (product fusion: per replica, :func:`pgm.inference.pbp.fuse`)."""
-    if not _batched_mixture(engine):
-        return per_replica(fuse, "fuse")(engine, variable, frame)
-    b: BatchedParticles = engine.beliefs[variable]
-    lw0, ll = _evidence(engine, variable)
-    incoming = [m for (_, dst), m in engine.messages.items() if dst == variable]
-    lw = _row_log_normalize(np.concatenate([lw0 + ll] + [m.log_weights for m in incoming],
-                                           axis=1))
-    x = np.concatenate([b.x] + [m.x for m in incoming], axis=1)
-    hist = tuple(np.concatenate([h] + [m.history[i] for m in incoming], axis=1)
-                 for i, h in enumerate(b.history))
-    engine.beliefs[variable] = BatchedParticles._trusted(x, lw, hist, log_mass=np.zeros(b.K))
-    return {"own_mass": np.array([float(np.exp(row[:b.num]).sum()) for row in lw])}
-
-
-@DEFAULT_RULES.register("estimate", BatchedParticles)
-def estimate_batched(engine: Engine, variable: str, frame: FrameContext) -> np.ndarray:
-    """``(K, d)`` weighted means."""
-    return engine.beliefs[variable].mean()
-
-
-@DEFAULT_RULES.register("resample", BatchedParticles)
-def resample_batched(engine: Engine, variable: str, frame: FrameContext) -> dict[str, Any]:
-    """ESS-triggered resampling per replica, each with its own generator (a fused
-    mixture: every replica back to the variable's particle count)."""
-    b: BatchedParticles = engine.beliefs[variable]
-    n = engine.num_particles[variable]
-    ess = b.ess
-    if b.num != n:
-        rows = np.arange(b.K)
-    else:
-        rows = np.array([k for k in range(b.K)
-                         if ess_triggered(float(ess[k]), b.num, engine.ess_threshold)], int)
-    engine.beliefs[variable] = b.resample_rows(engine.replicas.rngs, engine.resampler, n, rows)
-    return {"resampled": np.isin(np.arange(b.K), rows), "ess": ess}
-
-
 def _iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """IoU of centre boxes ``a`` and ``b``, broadcasting over the leading axes."""
     return iou_xywh(cxcywh_to_xywh(a), cxcywh_to_xywh(b))
 
-
-def _clusters(rects: np.ndarray) -> list[list[int]]:
-    """Groups of indices of rectangles ``(K, 4)`` (x0, y0, x1, y1) connected by overlap,
-    each group in increasing order, groups by their first member."""
-    k = len(rects)
-    if k == 0:
-        return []
-    ov = ((rects[:, None, 0] < rects[None, :, 2]) & (rects[None, :, 0] < rects[:, None, 2])
-          & (rects[:, None, 1] < rects[None, :, 3]) & (rects[None, :, 1] < rects[:, None, 3]))
-    from scipy.sparse.csgraph import connected_components
-
-    _, label = connected_components(ov, directed=False)
-    groups: dict[int, list[int]] = {}
-    for i, lab in enumerate(label.tolist()):
-        groups.setdefault(lab, []).append(i)
-    return sorted(groups.values(), key=lambda g: g[0])
-
-
-
 @register_readout("plate")
 def plate_targets(graph: FactorGraph, record: StepRecord) -> Targets:
-    """The replicas a plate engine's step reports (confirmed, not lost): identities,
+    """The replicas an engine step reports for a plate (confirmed, not lost): identities,
     boxes and existence scores (the ``"plate"`` readout)."""
     info = record.info[graph.plates[0].name]
     keep = info["reported"]

@@ -100,7 +100,7 @@ class RuleTable:
                 for b in row_type.__mro__:
                     rule = self._rules.get((k, b))
                     if rule is not None:
-                        from .plates import per_replica
+                        from .batched import per_replica
 
                         return per_replica(rule, key)
         return None

@@ -1,4 +1,10 @@
-"""The track layer on top of PHD state extraction (per-measurement estimates, [#ristic2010]).
+"""The one track layer: identities, confirmation, coasting, the lost stage, existence.
+
+Used in two places with one life cycle (:func:`match`, :func:`update_tracks`,
+:func:`confirm_tracks`, :func:`reported`) and a pluggable matching cost: the
+``associate`` stage of a plate (:mod:`pgm.inference.plates`; replicas' boxes against
+detections, cost ``1 − IoU``) and :class:`TrackManager` on top of PHD state extraction
+(per-measurement estimates, [#ristic2010]; a gated Mahalanobis-like distance).
 
 Raw per-frame extraction cannot report targets missed in a frame and has no
 identities, so a track layer is required: extracted estimates are assigned to tracks
@@ -28,7 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["Track", "TrackManager", "match_boxes"]
+__all__ = ["Track", "TrackManager", "match", "update_tracks", "confirm_tracks", "reported"]
 
 
 @dataclass
@@ -67,6 +73,69 @@ class Track:
         self.misses += 1
         self.streak = 0
         self.log_odds = max(self.log_odds - log_odds, -10.0)
+
+
+def match(cost: np.ndarray, valid: np.ndarray, lost: np.ndarray | list[bool]
+          ) -> tuple[np.ndarray, np.ndarray]:
+    """Tracks (rows) matched to measurements (columns): Hungarian assignment on ``cost``
+    ``(K, M)`` in two rounds, the tracks seen recently first, then the lost ones
+    (``lost``) against the measurements left over; an assigned pair that is not
+    ``valid`` is no match. The cost is pluggable: ``1 − IoU`` (plates), a gated
+    Mahalanobis-like distance (the PHD's extracted states). Returns the matched
+    (track, measurement) indices, the recent round's first."""
+    cost = np.asarray(cost, dtype=float)
+    valid = np.asarray(valid, dtype=bool)
+    lost = np.asarray(lost, dtype=bool).reshape(-1)
+    rows_t: list[int] = []
+    rows_m: list[int] = []
+    for round_lost in (False, True):
+        rows = [k for k in range(cost.shape[0]) if lost[k] == round_lost]
+        cols = [j for j in range(cost.shape[1]) if j not in rows_m]
+        if not rows or not cols:
+            continue
+        sub = cost[np.ix_(rows, cols)]
+        r, c = linear_sum_assignment(sub)
+        for i, j in zip(r, c, strict=True):
+            if valid[rows[i], cols[j]]:
+                rows_t.append(rows[i])
+                rows_m.append(cols[j])
+    return np.array(rows_t, dtype=int), np.array(rows_m, dtype=int)
+
+
+def update_tracks(tracks: list[Track], matched: np.ndarray, *, confirm_hits: int,
+                  max_coast: int, max_lost: int, hit_log_odds: float,
+                  miss_log_odds: float) -> np.ndarray:
+    """One frame of the life cycle for ``tracks`` given the ``matched`` track indices: a
+    hit (a lost track re-attached is *recovering*: reported again after
+    ``confirm_hits`` hits in a row) or a miss for each; returns the mask of tracks kept
+    (a tentative track ends at its first miss, a confirmed one after ``max_lost``)."""
+    hit = set(np.asarray(matched, dtype=int).tolist())
+    keep = np.ones(len(tracks), dtype=bool)
+    for k, t in enumerate(tracks):
+        if k in hit:
+            if t.misses > max_coast and t.track_id is not None:
+                t.recovering, t.streak = True, 0
+            t.hit(confirm_hits, hit_log_odds)
+        else:
+            t.miss(miss_log_odds)
+            keep[k] = t.track_id is not None and t.misses <= max_lost
+    return keep
+
+
+def confirm_tracks(tracks: list[Track], confirm_hits: int, next_id: int) -> int:
+    """Give an identity to every tentative track with ``confirm_hits`` hits (in list
+    order, so identities follow the order tracks started); returns the next free id."""
+    for t in tracks:
+        if t.track_id is None and t.hits >= confirm_hits:
+            t.track_id = next_id
+            next_id += 1
+    return next_id
+
+
+def reported(tracks: list[Track], max_coast: int) -> np.ndarray:
+    """Mask of the tracks a frame reports: confirmed, not lost, not recovering."""
+    return np.array([t.track_id is not None and t.misses <= max_coast and not t.recovering
+                     for t in tracks], dtype=bool)
 
 
 class TrackManager:
@@ -147,61 +216,41 @@ class TrackManager:
         # round 1: tracks seen recently (tentative, hit, coasting); round 2: lost tracks
         # against the estimates left over. (A gate widened with the time since the last
         # hit, capped at 2x or not, gave no consistent gain on the MOT sequences.)
-        recent = [i for i, t in enumerate(self.tracks) if t.misses <= self.max_coast]
-        lost = [i for i, t in enumerate(self.tracks) if t.misses > self.max_coast]
-        matched_t, matched_e = self._assign(recent, np.arange(len(states)), states, sig)
-        if lost:
-            rest = np.setdiff1d(np.arange(len(states)), matched_e)
-            t2, e2 = self._assign(lost, rest, states, sig)
-            for ti in t2:  # re-attached: reported again after confirm_hits hits in a row
-                self.tracks[ti].recovering = True
-                self.tracks[ti].streak = 0
-            matched_t = np.concatenate([matched_t, t2])
-            matched_e = np.concatenate([matched_e, e2])
-        hit = set(matched_t.tolist())
+        cost = self._cost(states, sig)
+        matched_t, matched_e = match(cost, cost < 1e6,
+                                     [t.misses > self.max_coast for t in self.tracks])
         for ti, ei in zip(matched_t, matched_e, strict=True):
             t = self.tracks[ti]
             t.state = states[ei].copy()
-            t.hit(self.confirm_hits, self.hit_log_odds)
             self._update_size(t, None if sizes is None else sizes[ei])
-        for ti, t in enumerate(self.tracks):
-            if ti not in hit:
-                t.miss(self.miss_log_odds)
+        keep = update_tracks(self.tracks, matched_t, confirm_hits=self.confirm_hits,
+                             max_coast=self.max_coast, max_lost=self.max_lost,
+                             hit_log_odds=self.hit_log_odds, miss_log_odds=self.miss_log_odds)
         used = set(matched_e.tolist())
+        born = []
         for ei in range(len(states)):
             if ei not in used:
                 t = Track(states[ei].copy())
                 self._update_size(t, None if sizes is None else sizes[ei])
-                self.tracks.append(t)
-        # drop tracks: tentative ones at the first miss, confirmed ones after max_lost
-        self.tracks = [t for t in self.tracks
-                       if (t.misses == 0 or (t.track_id is not None
-                                             and t.misses <= self.max_lost))]
-        for t in self.tracks:
-            if t.track_id is None and t.hits >= self.confirm_hits:
-                t.track_id = self._next_id
-                self._next_id += 1
-        return [t for t in self.tracks
-                if t.track_id is not None and t.misses <= self.max_coast
-                and not t.recovering]
+                born.append(t)
+        self.tracks = [t for t, k in zip(self.tracks, keep, strict=True) if k] + born
+        self._next_id = confirm_tracks(self.tracks, self.confirm_hits, self._next_id)
+        return [t for t, r in zip(self.tracks, reported(self.tracks, self.max_coast),
+                                  strict=True) if r]
 
-    def _assign(self, track_idx: list[int], est_idx: np.ndarray, states: np.ndarray,
-                sig: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Hungarian assignment of tracks ``track_idx`` to estimates ``est_idx`` within
-        the gate; returns the matched (track, estimate) indices."""
-        if not track_idx or len(est_idx) == 0:
-            return np.zeros(0, int), np.zeros(0, int)
-        pred = np.array([self.H @ self.tracks[i].state for i in track_idx])
-        meas = states[est_idx] @ self.H.T
+    def _cost(self, states: np.ndarray, sig: np.ndarray) -> np.ndarray:
+        """``(K, M)`` gated distances (in σ) of the tracks' predictions to the estimates;
+        1e6 outside the gate."""
+        if not self.tracks or not len(states):
+            return np.zeros((len(self.tracks), len(states)))
+        pred = np.array([self.H @ t.state for t in self.tracks])
+        meas = states @ self.H.T
         diff = (pred[:, None, :] - meas[None, :, :]) / sig
         if self.scale_index is not None:  # in units of the estimate's own height
-            h = np.exp(states[est_idx, self.scale_index])
+            h = np.exp(states[:, self.scale_index])
             diff[..., self.scaled] /= h[None, :, None]
         d = np.sqrt((diff ** 2).sum(-1))
-        cost = np.where(d <= self.gate, d, 1e6)
-        rows, cols = linear_sum_assignment(cost)
-        ok = cost[rows, cols] < 1e6
-        return np.asarray(track_idx)[rows[ok]], np.asarray(est_idx)[cols[ok]]
+        return np.where(d <= self.gate, d, 1e6)
 
     def _update_size(self, t: Track, size) -> None:
         if size is None:
@@ -211,27 +260,3 @@ class TrackManager:
             return
         t.size = size.copy() if t.size is None else (
             (1 - self.size_smoothing) * t.size + self.size_smoothing * size)
-
-
-def match_boxes(similarity: np.ndarray, lost: list[bool] | np.ndarray,
-                min_similarity: float) -> dict[int, int]:
-    """Tracks (rows) matched to measurements (columns) of a ``(K, M)`` similarity (IoU):
-    Hungarian assignment in two rounds, the tracks seen recently first, then the lost
-    ones against the measurements left over; a pair below ``min_similarity`` is no
-    match. Returns ``{track: measurement}``."""
-    similarity = np.asarray(similarity, dtype=float)
-    lost = np.asarray(lost, dtype=bool).reshape(-1)
-    matched: dict[int, int] = {}
-    for round_lost in (False, True):
-        rows_ok = [k for k in range(similarity.shape[0])
-                   if lost[k] == round_lost and k not in matched]
-        cols_ok = [j for j in range(similarity.shape[1]) if j not in matched.values()]
-        if not rows_ok or not cols_ok:
-            continue
-        sub = similarity[np.ix_(rows_ok, cols_ok)]
-        r, c = linear_sum_assignment(-sub)
-        for i, j in zip(r, c, strict=True):
-            if sub[i, j] >= min_similarity:
-                matched[rows_ok[i]] = cols_ok[j]
-    return matched
-

@@ -263,7 +263,7 @@ class Recorder:
     ----------
     out_dir : Path
         The run's output folder.
-    engine : Engine or PlateEngine
+    engine : Engine
         The engine that runs the graph (a hook is added to an :class:`Engine`).
     settings : RecordSettings
     fps : float

@@ -22,8 +22,8 @@ its resolved path, modification time and size) and shared by every factor naming
 a learned :class:`~pgm.dynamics.gpdm.GPDM` is immutable.
 
 Randomness: every draw has the particle count as its leading axis and uses only
-``standard_normal`` and ``random``, so the plate engine can split the draws of a
-batched call per replica (:class:`pgm.inference.plates.ReplicaRNG`). Both factors
+``standard_normal`` and ``random``, so a plate can split the draws of a
+batched call per replica (:class:`pgm.inference.batched.ReplicaRNG`). Both factors
 are vectorised over particles.
 """
 

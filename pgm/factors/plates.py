@@ -62,8 +62,8 @@ def _box_columns(factor: Factor, variables: dict[str, Variable], var: str) -> li
 class InteractionFactor(Factor):
     """A factor between the replicas of a plate (kind ``"interaction"``).
 
-    Subclasses implement :meth:`log_potential`; the plate engine applies it after the
-    likelihoods, to all replicas at once.
+    Subclasses implement :meth:`log_potential`; the engine applies it at its
+    ``interaction`` stage, after the likelihoods, to all replicas at once.
     """
 
     kind = "interaction"

@@ -10,7 +10,7 @@ import pytest
 from pgm import FactorGraph, Lifecycle, MutualExclusion, Plate
 from pgm.core.frame import FrameContext
 from pgm.inference import Engine
-from pgm.inference.plates import ReplicaRNG
+from pgm.inference.batched import ReplicaRNG
 from pgm.models import colour_pf, multi_pf, part_graph
 from pgm.observation.detections import Detections
 from pgm.synthetic.scene import ObjectSpec, Scene

@@ -56,3 +56,31 @@ def test_lost_tracks_do_not_steal_estimates_from_active_ones():
     # the first walker keeps its identity; the hidden one is never reported meanwhile
     assert all(len(i) == 1 for i in ids[6:])
     assert len({i[0] for i in ids[6:]}) == 1
+
+
+def test_one_matching_two_rounds_recent_first_then_lost():
+    from pgm.inference.tracks import match
+
+    # track 0 recent, track 1 lost; both prefer measurement 0: the recent one takes it,
+    # the lost one gets what is left if it is valid
+    cost = np.array([[0.2, 0.9], [0.1, 0.4]])
+    t, m = match(cost, cost < 0.5, lost=[False, True])
+    assert t.tolist() == [0, 1] and m.tolist() == [0, 1]
+    t, m = match(cost, cost < 0.3, lost=[False, True])  # the left-over pair is not valid
+    assert t.tolist() == [0] and m.tolist() == [0]
+    t, m = match(np.zeros((0, 2)), np.zeros((0, 2), bool), lost=[])
+    assert t.size == 0 and m.size == 0
+
+
+def test_one_life_cycle_for_plates_and_phd():
+    from pgm.inference.tracks import Track, confirm_tracks, reported, update_tracks
+
+    tracks = [Track(np.zeros(2)) for _ in range(3)]
+    tracks[2].track_id, tracks[2].misses = 7, 3  # a lost confirmed track
+    keep = update_tracks(tracks, np.array([0, 2]), confirm_hits=2, max_coast=1, max_lost=5,
+                         hit_log_odds=1.0, miss_log_odds=1.0)
+    assert keep.tolist() == [True, False, True]  # the tentative track 1 missed: ended
+    assert tracks[2].recovering  # re-attached: reported again after 2 hits in a row
+    nxt = confirm_tracks([t for t, k in zip(tracks, keep, strict=True) if k], 2, next_id=8)
+    assert tracks[0].track_id == 8 and nxt == 9
+    assert reported(tracks, max_coast=1).tolist() == [True, False, False]

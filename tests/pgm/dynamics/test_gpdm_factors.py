@@ -1,6 +1,6 @@
 """The GPDM as engine factors (pgm.dynamics.factors): the transition against an oracle
 built from the model's own predictive maps, shapes and positivity, the noise scale,
-JSON round trips, re-centring priors, and the random-draw contract of the plate engine."""
+JSON round trips, re-centring priors, and the random-draw contract of plates."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from pgm.dynamics.factors import GPDMPrior, GPDMTransition, state_labels
 from pgm.dynamics.gpdm import GPDMSettings, Trajectory, learn_gpdm
 from pgm.factors.gaussian import GaussianPrior
 from pgm.factors.kinds import PriorFactor
-from pgm.inference.plates import ReplicaRNG
+from pgm.inference.batched import ReplicaRNG
 
 FPS = 25.0
 
