@@ -65,7 +65,7 @@ class Params:
         ``"uniform"`` (default) or ``"epanechnikov"``.
     appearance : str
         ``"colour"`` (the likelihood of [#perez2002], default) or other cues joined by ``+``
-        (:data:`pgm.models.part_graph.CUES`; see :class:`pgm.models.part_graph.Params`).
+        (:data:`pgm.observation.appearance.cues.CUES`; see :class:`pgm.models.part_graph.Params`).
     """
 
     init_box: tuple[float, float, float, float]

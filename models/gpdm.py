@@ -1,4 +1,4 @@
-"""Seed 003's tracker: a particle filter per person whose proposals come from a GPDM.
+"""Wang, Yin & Man's tracker (2008): a particle filter per person whose proposals come from a GPDM.
 
 A plate (one sub-graph per person, :class:`pgm.inference.Engine`) over one
 ``part`` variable ``person = (cx, cy, w, h, z_0 … z_{q−1})``: the box and the person's
@@ -10,15 +10,15 @@ trajectories (``pgm learn gpdm``, :mod:`pgm.dynamics.gpdm`). The factors:
   weights select the latents whose predicted motion the frames confirm (the Bayesian
   reading of "the test-time latent from the last few differences");
 * :class:`~pgm.dynamics.factors.GPDMTransition` — ``z' ~ N(μ_X(z), σ²_X(z))`` mapped
-  through ``μ_Y`` to the box change in box heights per second (SPEC §4's fixes); the
-  learned dynamics live once, in the model file, shared by every person;
-* seed 003's appearance models as likelihood factors: the RGB histogram (default), and
+  through ``μ_Y`` to the box change in box heights per second (the fixes of
+  :mod:`pgm.dynamics.gpdm`); the learned dynamics live once, in the model file, shared by every person;
+* the paper's appearance models as likelihood factors: the RGB histogram (default), and
   by ``appearance`` the GMM-KL (``gmm``) and rotation-invariant (``rings``) models;
 * the frame's detections (:class:`~pgm.factors.plates.DetectionLikelihood`) and mutual
   exclusion between persons, births and deaths from detections (as :mod:`.multi_pf`).
 
 ``motion="cv"`` and ``motion="cv3"`` swap the GPDM for constant velocity and constant
-velocity averaged over three frames (SPEC §4's baselines), everything else equal.
+velocity averaged over three frames (the paper's baselines), everything else equal.
 Missing frames are predicted through (``pgm track --drop-frames``).
 
 Departure from the paper: it stacks all ``n`` targets into one ``6n``-dimensional
@@ -38,9 +38,10 @@ from pgm.core.plate import Lifecycle, Plate
 from pgm.core.variable import Variable
 from pgm.factors import AveragedVelocityTransition, GaussianPrior
 from pgm.inference.settings import EngineSettings
+from pgm.observation.appearance.cues import appearance_cues
 
 from .multi_pf import REFERENCE_BOX, evidence_factors
-from .part_graph import BOX_LABELS, appearance_cues
+from .part_graph import BOX_LABELS
 
 __all__ = ["Params", "build_graph", "MOTIONS"]
 
@@ -62,12 +63,12 @@ class Params:
         The video's frame rate (the GPDM works in box heights per second; the baselines'
         noise is per √s as in :mod:`.multi_pf`).
     num_particles : int
-        Particles per person (seed 003 uses about 20).
+        Particles per person (the paper uses about 20).
     appearance : str
         Appearance cues joined by ``+``: ``colour`` (an RGB histogram here), ``gmm``,
-        ``rings`` or any other cue of :data:`pgm.models.part_graph.CUES`.
+        ``rings`` or any other cue of :data:`pgm.observation.appearance.cues.CUES`.
     lam, layout, kernel :
-        Colour-likelihood settings (``layout="rgb"``: seed 003's RGB histogram).
+        Colour-likelihood settings (``layout="rgb"``: the paper's RGB histogram).
     pos_noise, scale_noise : float
         Baselines' noise per √s (box heights; log-scale).
     latent_noise_scale : float

@@ -39,8 +39,9 @@ from pgm.factors import AR2Transition, GaussianPrior
 from pgm.factors.couplings import RelativeBoxCoupling
 from pgm.factors.plates import DetectionLikelihood, MutualExclusion
 from pgm.inference.settings import EngineSettings
+from pgm.observation.appearance.cues import appearance_cues, cue_factor
 
-from .part_graph import BOX_LABELS, appearance_cues, cue_factor, split_box
+from .part_graph import BOX_LABELS, split_box
 
 __all__ = ["Params", "build_graph", "person_graph", "evidence_factors", "REFERENCE_BOX"]
 
@@ -60,7 +61,7 @@ class Params:
     n_parts : int
         1 (one box per person), 2 or 3 (horizontal bands).
     appearance : str
-        Appearance cues per node joined by ``+`` (:data:`pgm.models.part_graph.CUES`).
+        Appearance cues per node joined by ``+`` (:data:`pgm.observation.appearance.cues.CUES`).
     lam, layout, kernel :
         Colour-likelihood settings, as in :class:`pgm.models.part_graph.Params`.
     fps : float

@@ -43,16 +43,7 @@ from pgm.core.variable import Variable
 from pgm.factors import AR2Transition, GaussianPrior
 from pgm.factors.couplings import AffineCoupling, RelativeBoxCoupling
 from pgm.inference.settings import EngineSettings
-from pgm.observation.appearance.correlation import CorrelationFilterLikelihood
-from pgm.observation.appearance.likelihoods import (
-    ColourContrastLikelihood,
-    ColourHistogramLikelihood,
-    FragmentsLikelihood,
-    GMMKLLikelihood,
-    GradientLikelihood,
-    RotationInvariantLikelihood,
-    TemplateLikelihood,
-)
+from pgm.observation.appearance.cues import appearance_cues, cue_factor
 
 __all__ = ["Params", "build_graph", "split_box", "part_names", "BOX_LABELS",
            "PAPER_PARTICLES", "object_box"]
@@ -60,74 +51,6 @@ __all__ = ["Params", "build_graph", "split_box", "part_names", "BOX_LABELS",
 BOX_LABELS = ("cx", "cy", "w", "h")
 #: particles per node (and per message) in the experiments of Zhang & Kang [#zhang2015]
 PAPER_PARTICLES = {1: 30, 2: 15, 3: 10}
-#: the cues an ``appearance`` string may combine with "+" (each a likelihood factor)
-CUES = ("colour", "fragments", "gradient", "gmm", "rings", "contrast", "template", "cf")
-
-
-def appearance_cues(appearance: str) -> list[tuple[str, dict[str, float]]]:
-    """The cues of an ``appearance`` string such as ``"fragments+gradient"``, each with
-    its options: ``"cf(lam=20,padding=2)+template"`` sets the correlation filter's
-    ``lam`` and ``padding`` (any keyword of the cue's factor; numbers only)."""
-    out: list[tuple[str, dict[str, float]]] = []
-    for part in str(appearance).split("+"):
-        part = part.strip()
-        name, opts = part, {}
-        if "(" in part:
-            if not part.endswith(")"):
-                raise ValueError(f"appearance cue {part!r}: options go in one pair of "
-                                 f"parentheses, e.g. cf(lam=20,padding=2)")
-            name, body = part[:-1].split("(", 1)
-            name = name.strip()
-            for item in filter(None, (b.strip() for b in body.split(","))):
-                key, sep, value = item.partition("=")
-                try:
-                    num = float(value)
-                except ValueError:
-                    num = None
-                if not sep or not key.strip().isidentifier() or num is None:
-                    raise ValueError(f"appearance cue {part!r}: options must be key=number, "
-                                     f"got {item!r}")
-                opts[key.strip()] = int(num) if value.strip().lstrip("-").isdigit() else num
-        out.append((name, opts))
-    names = [n for n, _ in out]
-    bad = [n for n in names if n not in CUES]
-    if bad or len(set(names)) != len(names):
-        raise ValueError(f"appearance must be distinct cues from {CUES} joined by '+', got "
-                         f"{appearance!r}")
-    return out
-
-
-def cue_factor(cue: str, variable: str, params, name: str | None = None,
-               options: dict[str, float] | None = None):
-    """The likelihood factor of one appearance cue on a box variable (``options``: extra
-    keywords for the factor, from the appearance string)."""
-    kw = dict(options or {})
-    try:
-        return _cue_factor(cue, variable, params, name, kw)
-    except TypeError as e:
-        raise ValueError(f"appearance cue {cue!r}: bad option in {sorted(kw)} ({e})") from None
-
-
-def _cue_factor(cue, variable, params, name, kw):
-    if cue == "colour":
-        return ColourHistogramLikelihood(variable, **{"lam": params.lam, "layout": params.layout,
-                                                      "kernel": params.kernel, **kw}, name=name)
-    if cue == "fragments":
-        return FragmentsLikelihood(variable, **{"lam": params.lam, "layout": params.layout,
-                                                **kw}, name=name)
-    if cue == "gradient":
-        return GradientLikelihood(variable, **{"lam": params.lam / 2, **kw}, name=name)
-    if cue == "gmm":
-        return GMMKLLikelihood(variable, **kw, name=name)
-    if cue == "contrast":
-        return ColourContrastLikelihood(variable, **{"layout": params.layout, **kw}, name=name)
-    if cue == "template":
-        return TemplateLikelihood(variable, **{"lam": params.lam, **kw}, name=name)
-    if cue == "cf":
-        return CorrelationFilterLikelihood(variable, **kw, name=name)
-    return RotationInvariantLikelihood(variable, **kw, name=name)
-
-
 @dataclass(frozen=True)
 class Params:
     """Settings of a part graph.
@@ -169,8 +92,9 @@ class Params:
         As in :class:`pgm.models.colour_pf.Params`; the position noise default is
         ``0.03 sqrt(w0 h0)`` of the *object* box (parts move with the object).
     appearance : str
-        Each node's likelihood factors: cues from :data:`CUES` joined by ``+``, which
-        multiply. ``"colour"`` (default): one colour histogram of the box [#perez2002];
+        Each node's likelihood factors: cues from
+        :data:`pgm.observation.appearance.cues.CUES` joined by ``+``, which multiply.
+        ``"colour"`` (default): one colour histogram of the box [#perez2002];
         ``"fragments"``: a grid of colour fragments combined by their median
         (:class:`~pgm.observation.appearance.likelihoods.FragmentsLikelihood`); ``"gradient"``: an
         oriented-gradient factor (:class:`~pgm.observation.appearance.likelihoods.GradientLikelihood`,

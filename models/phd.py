@@ -157,12 +157,13 @@ class Params:
     score_shadow_iou: float = 0.0
 
 
-#: score settings of :func:`video_params`, chosen leave-one-sequence-out (see there)
+#: score settings of :func:`video_params`, chosen leave-one-sequence-out
+#: (docs/phd_video_defaults.md)
 VIDEO_SCORE_SETTINGS = {"score_model": "mixture", "score_temper": 0.5,
                         "score_birth_min_prob": 0.0, "score_persisting": "all",
                         "score_shadow_iou": 0.4}
 #: VB noise settings of :func:`video_params` (applied when ``cls`` has the fields, i.e.
-#: :class:`pgm.models.vb_phd.Params`), chosen leave-one-sequence-out (see there)
+#: :class:`pgm.models.vb_phd.Params`), chosen leave-one-sequence-out (docs/phd_video_defaults.md)
 VIDEO_VB_SETTINGS = {"rho": 0.9, "isotropic_noise": True}
 REFERENCE_HEIGHT = 75.0  # px: a pedestrian's box height in PETS09-S2L1 (median detection)
 
@@ -176,76 +177,16 @@ def video_params(cls, width: int, height: int, fps: float,
     e.g. the median height of the sequence's detections; 75 px when unknown) and
     speeds per *second*, converted to pixels per frame: measurement σ = 0.08 h,
     newborn velocity σ = 0.4 h/s, process noise q = 0.053 h²/s³ (``q_frame = q/fps³``)
-    — 6 px, 30 px/s and 300 px²/s³ at h = 75 px. Measured with public detections
-    (`benchmarks/mot_sequences.py`): on TUD-Campus (h ≈ 169 px) this took VB-PHD from
-    MOTA −0.02 to 0.36, since pixel units made its motion model 5× too stiff there.
-    Confirmed tracks are kept for re-identification for ``lost_seconds`` (``max_lost``
-    frames; 0: off): over seeds 0–2, with a 2 σ merge gate, this raised VB-PHD's IDF1
-    from 0.506 to 0.577 on PETS09-S2L1 and from 0.446 to 0.487 on TUD-Campus, MOTA
-    unchanged within 0.01 (``benchmarks/mot_sequences.py --seeds 3 --merge-gate 2
-    --lost-seconds 0`` against ``--merge-gate 2``).
-    Estimates closer than ``merge_gate = 3`` σ are merged: two people's foot points are
-    rarely closer than a shoulder width, about a quarter of their height, which is 3 σ
-    at σ = 0.08 h. Over seeds 0–2 (VB-PHD, public detections) merge gates of 1 / 2 / 3 /
-    4 / 5 σ gave IDF1 0.43 / 0.58 / 0.73 / 0.71 / 0.70 on PETS09-S2L1 and
-    0.49 / 0.51 / 0.71 / 0.62 / 0.59 on TUD-Stadtmitte
-    (``benchmarks/mot_sequences.py --seeds 3 --merge-gate G``): duplicate detections of one
-    person had been starting second tracks. The value was picked from that sweep on the
-    evaluation sequences themselves (not held out); the shoulder-width argument agrees
-    with it but came after the sweep.
-    With ``scale_aware=True`` the same lengths are expressed in units of *each target's
-    own* height instead of one typical height (``typical_height`` is then unused):
-    σ = 0.08, newborn velocity σ = 0.4 /s, q = 300 / 75² = 0.053 /s³; a detection's
-    log-height has σ 0.1 (10 %), its rate a process-noise density of 0.04 /s³ (a person
-    walking towards the camera grows by about 20 % a second), and log-heights span from
-    20 px to the frame height.
-    Detection scores (``score_model``, :mod:`pgm.factors.scores`) are **on** by default:
-    the two-class score mixture fitted online to the video's own scores, temper
-    ``γ = 0.5``, no birth gate on the score, a persisting target's detection scored by the
-    marginal of all detections (``score_persisting="all"``: κ(s) = κ (f_C/f)^γ and
-    ν_b(s) = ν_b (f_T/f)^γ, so a tracked person's low-score detection still updates it),
-    and the shadow rule at IoU 0.4 (``score_shadow_iou``: a detection overlapping a
-    higher-scored one starts no target — on MOT16-11 most false tracks were DPM's second,
-    √2-larger, low-scored box on a person near the camera, which the detector's
-    non-maximum suppression at 0.5 IoU let through).
-    Chosen leave-one-sequence-out over PETS09-S2L1, TUD-Campus, TUD-Stadtmitte and
-    MOT16-11, seeds 0-2, PHD and VB-PHD (``python benchmarks/choose_scores.py``; 27
-    candidates: off, and γ ∈ {0.25, 0.5, 1} × birth gate P(target | s) ≥ {0, 0.5} ×
-    persisting "target" (the literal marked model) or "all", the ungated ones also with
-    shadow IoU 0.3 or 0.4). Criterion: the mean of (MOTA + IDF1) / 2 over both filters
-    and the three training sequences. Every fold picks a shadow setting (IoU 0.3 with
-    PETS09-S2L1 or TUD-Stadtmitte held out, 0.4 with TUD-Campus or MOT16-11 held out);
-    held out, VB-PHD MOTA / IDF1 against score-blind: PETS09-S2L1 0.756 / 0.640 (0.750 /
-    0.635), TUD-Campus 0.463 / 0.532 (0.442 / 0.508), TUD-Stadtmitte 0.641 / 0.656
-    (0.639 / 0.701), MOT16-11 0.436 / 0.572 (0.370 / 0.522). On all four the criterion
-    picks γ 0.5, "all", shadow 0.3 (0.5818) just ahead of shadow 0.4 (0.5757); shadow 0.3
-    puts VB-PHD's IDF1 below the PHD's on PETS09-S2L1 (0.659 against 0.674), which the
-    issue rules out, so 0.4 ships: on all four sequences it keeps VB-PHD at or above the
-    PHD and the best of SORT / ByteTrack / OC-SORT in MOTA and IDF1 (worst margin
-    +0.003; the script's second criterion, that margin, picks it on all four). The score
-    birth gate (ByteTrack's "low scores only extend") also removes MOT16-11's false
-    tracks (VB-PHD 0.42 / 0.58) but delays people who enter partly hidden and costs both
-    TUD sequences more than it gains. ``score_model="off"`` turns the shadow rule off too
-    (the score-blind filter) unless ``score_shadow_iou`` is given.
-    For VB-PHD (``cls`` with the noise fields) the noise belief is **isotropic** — one
-    variance for the foot point's x and y (``isotropic_noise``) — with forgetting
-    ``ρ = 0.9`` (``VIDEO_VB_SETTINGS``). Diagnosis (public detections, seeds 0–2): the
-    detector's foot-point error measured against the ground truth is about 0.04 h on
-    every sequence and about equal in x and y (robust σ 0.044/0.041 h PETS09-S2L1,
-    0.046/0.042 TUD-Campus, 0.032/0.038 TUD-Stadtmitte, 0.028/0.044 MOT16-11), half the
-    PHD's σ = 0.08 h; VB-PHD's gain is learning that smaller σ for the likelihood while the
-    gates stay at the nominal σ. With one variance per axis it learned σ_x up to 0.10 h on
-    TUD-Campus (people walking across and crossing: the PHD's association weights have no
-    one-measurement-per-target constraint, so a crossing adds the other person's residual
-    along x) and scored below the PHD there (MOTA 0.388 against 0.430). Chosen
-    leave-one-sequence-out over the four sequences (criterion: the worst difference to the
-    PHD in MOTA or IDF1 over the three training sequences; 14 candidates: ρ ∈ {0.8, 0.9,
-    0.95, 0.98}, per-axis or isotropic, per-track, strict counts, Student-t-weighted
-    statistics, forgetting towards a prior of α_0 ∈ {5, 10, 20} centred at 1 or 0.5 × the
-    nominal σ): isotropic with ρ = 0.9 won with PETS09-S2L1, TUD-Stadtmitte or MOT16-11
-    held out, isotropic with ρ = 0.8 with TUD-Campus held out; held out, neither fell
-    below the PHD in MOTA, and in IDF1 by at most 0.011 (TUD-Campus). It costs IDF1 on
-    PETS09-S2L1 against the per-axis belief (0.73 → 0.64; the PHD has 0.59).
+    — 6 px, 30 px/s and 300 px²/s³ at h = 75 px. Confirmed tracks are kept for
+    re-identification for ``lost_seconds`` (``max_lost`` frames; 0: off); estimates
+    closer than ``merge_gate = 3`` σ are merged. With ``scale_aware=True`` the same
+    lengths are in units of *each target's own* height (``typical_height`` unused), and a
+    detection's log-height has σ 0.1 with a rate process noise of 0.04 /s³. Detection
+    scores (``score_model``, :mod:`pgm.factors.scores`) are on by default with the
+    settings of ``VIDEO_SCORE_SETTINGS`` (the shadow rule at IoU 0.4); for VB-PHD (``cls``
+    with the noise fields) the noise belief is isotropic with forgetting ρ = 0.9
+    (``VIDEO_VB_SETTINGS``). How each of these defaults was chosen, with the measured
+    figures and the commands that measure them: ``docs/phd_video_defaults.md``.
     Everything else keeps the class defaults unless overridden.
     """
     fps = float(fps) if fps and fps > 0 else 25.0

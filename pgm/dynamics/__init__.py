@@ -1,7 +1,7 @@
 """Learned motion models (dynamics) for the per-target chains of the trackers.
 
-:mod:`pgm.dynamics.gpdm` is the Gaussian-process dynamical model of seed 003 (SPEC §4),
-with the fixes the SPEC requires; its :func:`~pgm.dynamics.gpdm.predict` samples future
+:mod:`pgm.dynamics.gpdm` is the Gaussian-process dynamical model of Wang, Yin & Man (2008),
+with the fixes it needs to have a finite optimum; its :func:`~pgm.dynamics.gpdm.predict` samples future
 boxes and falls back to constant velocity when a track is too young.
 
 :mod:`pgm.dynamics.factors` makes it a factor of the generic engine

@@ -1,7 +1,7 @@
 """The GPDM as factors of the generic engine: a prior and a transition over box + latent.
 
 A tracker whose motion is a learned Gaussian-process dynamical model
-(:mod:`pgm.dynamics.gpdm`, SPEC §4) declares one variable per target,
+(:mod:`pgm.dynamics.gpdm`, Wang, Yin & Man 2008) declares one variable per target,
 
     ``(cx, cy, w, h, z0, …, z{q−1})``
 

@@ -364,11 +364,11 @@ def evaluate_mot(gt: MotTable, pred: MotTable, *, iou: float = 0.5,
 
 def error_rate(gt_boxes: Sequence[np.ndarray], pred_boxes: Sequence[np.ndarray],
                iou: float = 0.5) -> float | None:
-    """Seed 003's error rate over per-frame top-left ``(x, y, w, h)`` boxes: the fraction of
-    frames holding ground truth in which at least
-    one ground-truth target is miss-tracked — left without a predicted box of IoU ≥
-    ``iou`` in the frame's optimal one-to-one assignment (SPEC §4). ``None`` when no
-    frame holds ground truth. Identities are not used (the seed's definition)."""
+    """The error rate of Wang, Yin & Man (2008) over per-frame top-left ``(x, y, w, h)``
+    boxes: the fraction of frames holding ground truth in which at least one ground-truth
+    target is miss-tracked — left without a predicted box of IoU ≥ ``iou`` in the frame's
+    optimal one-to-one assignment. ``None`` when no frame holds ground truth. Identities
+    are not used (the paper's definition)."""
     from scipy.optimize import linear_sum_assignment
 
     from pgm.core.boxes import iou_xywh

@@ -334,7 +334,7 @@ class AveragedVelocityTransition(TransitionFactor):
         X_t = X_{t-1} + \frac{1}{k}(X_{t-1} - X_{t-1-k}) + U_t,\quad
         U_t \sim \mathcal N(0, \mathrm{diag}(s^2))
 
-    ``k = window`` (3: SPEC §4's "constant velocity averaged over the last three
+    ``k = window`` (3: Wang, Yin & Man's "constant velocity averaged over the last three
     differences" baseline; 1: plain constant velocity). With ``relative=True`` the
     noise is in units of each particle's box height (component ``size_indices[1]``) and
     a log-scale step ``scale_noise`` is shared by ``w`` and ``h``. The transition's order

@@ -1,4 +1,4 @@
-"""The latent space of a learned GPDM, drawn in the style of seed 003's Fig. 1.
+"""The latent space of a learned GPDM, drawn in the style of Fig. 1 of Wang, Yin & Man (2008).
 
 The training sequences' latent trajectories (first two latent coordinates, one line per
 sequence — the model keeps the sequence boundaries in ``lengths``; a mirrored training
