@@ -765,6 +765,10 @@ def _worker_init() -> None:
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    import importlib
+
+    for name in WORKER_PRELOAD:  # done already in a fork of the fork server
+        importlib.import_module(name)
 
 
 Outcome = tuple[RunSpec, dict[str, Any]]
@@ -776,15 +780,34 @@ def _run_inline(runs: Sequence[RunSpec], out: str) -> Iterator[Outcome]:
         yield run, run_task(run, out)
 
 
-def _run_processes(runs: Sequence[RunSpec], out: str, jobs: int) -> Iterator[Outcome]:
-    """The local backend: ``jobs`` worker processes (forkserver, else spawn), outcomes
-    as they finish; interrupted or closed early, it stops the runs in progress."""
+#: what every run imports, imported once by the fork server that starts the local
+#: backend's workers (each worker is a fork of it, its imports done), or by each worker
+#: as it starts where there is no fork server (spawn)
+WORKER_PRELOAD = ("pgm.app.experiment", "pgm.app.cli", "pgm.app.runner", "pgm.models",
+                  "pgm.app.view", "pgm.app.report", "pgm.io.video", "PIL.Image",
+                  "pgm.evaluation.single_object", "pgm.evaluation.mot", "threadpoolctl")
+
+
+def _worker_context():
+    """The local backend's start method: a fork server that has imported
+    :data:`WORKER_PRELOAD` (once for every worker of every pool), else spawn."""
     import multiprocessing
+
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(list(WORKER_PRELOAD))
+    return ctx
+
+
+def _run_processes(runs: Sequence[RunSpec], out: str, jobs: int) -> Iterator[Outcome]:
+    """The local backend: one pool of ``jobs`` worker processes for all the runs, each
+    worker started once with the toolkit imported (:func:`_worker_context`); outcomes
+    as they finish; interrupted or closed early, it stops the runs in progress."""
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
-    methods = multiprocessing.get_all_start_methods()
-    ctx = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
-    pool = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx, initializer=_worker_init)
+    pool = ProcessPoolExecutor(max_workers=min(jobs, len(runs)) or 1,
+                               mp_context=_worker_context(), initializer=_worker_init)
     futures = {pool.submit(run_task, run, out): run for run in runs}
     try:
         for fut in as_completed(futures):
