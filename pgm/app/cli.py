@@ -977,7 +977,12 @@ def cmd_learn_gpdm(args) -> int:
              "max_iter": args.max_iter}
     settings = GPDMSettings(balanced=args.balanced,
                             **{k: v for k, v in given.items() if v is not None})
-    model = learn_gpdm(usable, settings, as_generator(args.seed))
+    try:
+        model = learn_gpdm(usable, settings, as_generator(args.seed))
+    except InputError:
+        raise
+    except ValueError as exc:
+        raise InputError(f"--train {' '.join(args.train)}: {one_line(exc)}") from None
     model.save(out)
     if plot is not None:
         plot_latent_space(model, plot)

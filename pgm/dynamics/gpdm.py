@@ -743,6 +743,8 @@ def load_gpdm(path: str | Path) -> GPDM:
             raise ValueError("not a JSON object")
     except (ValueError, TypeError, IndexError) as e:
         raise InputError(f"{p}: field 'header' is not valid JSON ({one_line(e)})") from None
+    except RecursionError:
+        raise InputError(f"{p}: field 'header' is nested too deeply") from None
     for key in ("format", "version", "settings"):
         if key not in header:
             raise InputError(f"{p}: missing header field {key!r}")
@@ -884,6 +886,10 @@ def fit_gpdm(sequences: Sequence[np.ndarray], settings: GPDMSettings | None = No
     raw = np.concatenate(seqs)
     y_mean = raw.mean(0)
     y_std = raw.std(0)
+    if not np.any(y_std > 1e-12):  # the latent start (PCA of nothing) would be 0/0
+        raise ValueError("the training sequences do not vary: every observation is the "
+                         "same (boxes that all move alike, frame after frame); there is "
+                         "no motion to learn")
     y_std = np.where(y_std > 1e-12, y_std, 1.0)
     Y = (raw - y_mean) / y_std
     lengths = np.array([len(q) for q in seqs], dtype=np.int64)
@@ -951,7 +957,11 @@ def _optimise(Y: np.ndarray, lengths: np.ndarray, X0: np.ndarray, s: GPDMSetting
         prev = float(objective())
     trace, best, best_val = [prev], snapshot(), prev
     n_iter, converged = 0, False
+    group = opt.param_groups[0]
     while n_iter < s.max_iter:
+        # the last round stops at the cap: --max-iter 1 is one iteration, not a round
+        group["max_iter"] = min(s.check_every, s.max_iter - n_iter)
+        group["max_eval"] = group["max_iter"] * 5 // 4
         opt.step(closure)
         done = int(opt.state[params[0]].get("n_iter", 0))
         with torch.no_grad():

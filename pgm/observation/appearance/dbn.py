@@ -232,6 +232,8 @@ class DBN:
             if "pickle" in why.lower():
                 why = "it holds pickled Python objects, which are never loaded"
             raise bad(why) from None
+        except RecursionError:
+            raise bad("the header is nested too deeply") from None
         return cls._from_parts(header, weights, bad)
 
     @classmethod
