@@ -491,7 +491,23 @@ def _load_model_graph(model: str, init_box_cxcywh: np.ndarray | None,
         if field not in fields:
             raise InputError(f"{_flag(opt)} does not apply to model {model!r}")
         kwargs[field] = getattr(args, opt)
-    return module.build_graph(module.Params(**kwargs))
+    return _build(module, kwargs, args)
+
+
+def _build(module, kwargs: dict, args: argparse.Namespace | None):
+    """``module.build_graph(module.Params(**kwargs))``; a value the model refuses is an
+    :class:`InputError` that names the options given (``--appearance 'cf(padding=1e6)':
+    ...``), not only the factor or field that refused it."""
+    try:
+        return module.build_graph(module.Params(**kwargs))
+    except InputError:
+        raise
+    except ValueError as exc:
+        given = [f"{_flag(opt)} {getattr(args, opt)!r}" for opt in MODEL_OPTIONS
+                 if _given(args, opt)]
+        if not given:
+            raise
+        raise InputError(f"{', '.join(given)}: {one_line(exc)}") from None
 
 
 def _with_init_box(graph, box_cxcywh: np.ndarray, path: str):
@@ -653,7 +669,7 @@ def cmd_track_multi(args, source, saved=None) -> int:
                 kwargs["model"] = args.gpdm
             elif args.gpdm is not None:
                 raise InputError(f"--gpdm applies to --motion gpdm, not {kwargs['motion']}")
-        graph = module.build_graph(module.Params(**kwargs))
+        graph = _build(module, kwargs, args)
     else:
         module = get_model(args.model)
         width, height = source.size

@@ -54,9 +54,13 @@ import scipy.fft as sfft
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
 
-from .likelihoods import BoxAppearanceLikelihood, grey_frame
+from .likelihoods import BoxAppearanceLikelihood, bounded_int, grey_frame
 
 __all__ = ["CorrelationFilterLikelihood", "window_features", "peak_to_sidelobe"]
+
+#: widest search window, in template pixels per side (``target_px · (1 + padding)``):
+#: the window's features and spectra are ``(1 + n_orient) ·`` its area, per scale level
+MAX_WINDOW_PX = 512
 
 
 def peak_to_sidelobe(response: np.ndarray, radius: int) -> float:
@@ -147,12 +151,15 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         self.scale_step = float(check_finite_param(f"{n}.scale_step", scale_step,
                                                    positive=True))
         self.floor = float(check_finite_param(f"{n}.floor", floor))
-        self.n_orient = int(n_orient)
-        self.scales = int(scales)
-        if self.n_orient < 2:
-            raise ValueError(f"factor {n!r}: n_orient must be at least 2")
-        if self.scales < 1 or self.scales % 2 == 0:
+        self.n_orient = bounded_int(n, "n_orient", n_orient)
+        self.scales = bounded_int(n, "scales", scales)
+        if self.scales % 2 == 0:
             raise ValueError(f"factor {n!r}: scales must be a positive odd number")
+        side = self.target_px * (1 + self.padding)
+        if side > MAX_WINDOW_PX:
+            raise ValueError(f"factor {n!r}: target_px {self.target_px:g} with padding "
+                             f"{self.padding:g} makes a search window {side:.6g} px wide; "
+                             f"at most {MAX_WINDOW_PX} (target_px · (1 + padding))")
         if self.scale_step <= 1.0 and self.scales > 1:
             raise ValueError(f"factor {n!r}: scale_step must exceed 1")
         self.num = None  # (C, th, tw) complex numerator  conj(G) · X_c

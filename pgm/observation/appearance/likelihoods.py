@@ -53,6 +53,47 @@ __all__ = ["BoxAppearanceLikelihood", "ColourHistogramLikelihood", "FragmentsLik
 
 
 
+#: bounds of the sizes an appearance cue takes (bins, cells, rings, samples, ...): a
+#: size is work and memory per particle and frame, so ``gradient(n_orient=1e6)`` is
+#: refused when the factor is built, naming the option, not met as an out-of-memory
+SIZE_BOUNDS = {"n_orient": (2, 36), "cells": (1, 16), "grid": (1, 64), "rings": (1, 64),
+               "angles": (1, 360), "radial_samples": (1, 16), "n_components": (1, 64),
+               "n_samples": (1, 65536), "n_h": (1, 180), "n_s": (1, 256), "n_v": (1, 256),
+               "scales": (1, 15)}
+
+
+def bounded_int(factor: str, name: str, value: Any) -> int:
+    """``value`` as an integer within :data:`SIZE_BOUNDS` ``[name]``; anything else (a
+    fraction, NaN, infinity, out of bounds) is a ``ValueError`` naming the factor and
+    the parameter."""
+    low, high = SIZE_BOUNDS[name]
+    try:
+        v = float(value)
+        ok = np.isfinite(v) and v == int(v) and low <= v <= high
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok:
+        raise ValueError(f"factor {factor!r}: {name} must be an integer from {low} to "
+                         f"{high}, got {value!r}")
+    return int(v)
+
+
+def _bins(factor: str, n_h: Any, n_s: Any, n_v: Any) -> tuple[int, int, int | None]:
+    """Colour bin counts ``n_h, n_s, n_v`` (``n_v`` may be None: the layout's own)."""
+    return (bounded_int(factor, "n_h", n_h), bounded_int(factor, "n_s", n_s),
+            None if n_v is None else bounded_int(factor, "n_v", n_v))
+
+
+def _bounded_pair(factor: str, name: str, value: Any) -> tuple[int, int]:
+    """A pair of :func:`bounded_int` (``cells``, ``grid``)."""
+    try:
+        a, b = value
+    except (TypeError, ValueError):
+        raise ValueError(f"factor {factor!r}: {name} must be two integers, got "
+                         f"{value!r}") from None
+    return bounded_int(factor, name, a), bounded_int(factor, name, b)
+
+
 class BoxAppearanceLikelihood(LikelihoodFactor):
     """Base of the appearance factors: a box ``(cx, cy, w, h)`` inside a variable's state
     scored against an appearance model learned in the first frame.
@@ -161,8 +202,7 @@ class ColourHistogramLikelihood(BoxAppearanceLikelihood):
         self.adapt_threshold = float(check_finite_param(f"{self.name}.adapt_threshold",
                                                         adapt_threshold))
         self.layout, self.kernel = layout, kernel
-        self.n_h, self.n_s = int(n_h), int(n_s)
-        self.n_v = None if n_v is None else int(n_v)
+        self.n_h, self.n_s, self.n_v = _bins(self.name, n_h, n_s, n_v)
         self.scorer = ColourHistogramScorer(layout=layout, n_h=self.n_h, n_s=self.n_s,
                                             n_v=self.n_v, kernel=kernel)
         self.template = None if template is None else np.asarray(template, dtype=float)
@@ -247,14 +287,12 @@ class FragmentsLikelihood(BoxAppearanceLikelihood):
                  layout: str = "perez", n_h: int = 16, n_s: int = 4, n_v: int | None = None,
                  templates=None, box_indices=(0, 1, 2, 3), name: str | None = None):
         super().__init__(variable, lam=lam, box_indices=box_indices, name=name)
-        self.grid = (int(grid[0]), int(grid[1]))
-        if min(self.grid) < 1:
-            raise ValueError(f"factor {self.name!r}: grid must be positive, got {grid!r}")
+        self.grid = _bounded_pair(self.name, "grid", grid)
         self.quantile = float(check_finite_param(f"{self.name}.quantile", quantile))
         if not 0.0 <= self.quantile <= 1.0:
             raise ValueError(f"factor {self.name!r}: quantile must be in [0, 1]")
-        self.layout, self.n_h, self.n_s = layout, int(n_h), int(n_s)
-        self.n_v = None if n_v is None else int(n_v)
+        self.layout = layout
+        self.n_h, self.n_s, self.n_v = _bins(self.name, n_h, n_s, n_v)
         self.scorer = ColourHistogramScorer(layout=layout, n_h=self.n_h, n_s=self.n_s,
                                             n_v=self.n_v)
         self.templates = None if templates is None else np.asarray(templates, dtype=float)
@@ -322,10 +360,8 @@ class GradientLikelihood(BoxAppearanceLikelihood):
         super().__init__(variable, lam=lam, box_indices=box_indices, name=name)
         from pgm.observation.appearance.features import PatchFeatures
 
-        self.n_orient = int(n_orient)
-        self.cells = (int(cells[0]), int(cells[1]))
-        if self.n_orient < 2 or min(self.cells) < 1:
-            raise ValueError(f"factor {self.name!r}: need n_orient >= 2 and positive cells")
+        self.n_orient = bounded_int(self.name, "n_orient", n_orient)
+        self.cells = _bounded_pair(self.name, "cells", cells)
         self._features = PatchFeatures(n_orient=self.n_orient, cells=self.cells)
         self.template = None if template is None else np.asarray(template, dtype=float)
 
@@ -373,11 +409,9 @@ class RotationInvariantLikelihood(BoxAppearanceLikelihood):
                  radial_samples: int = 2, radius_scale: float = 1.0, template=None,
                  min_var: float = 4.0, box_indices=(0, 1, 2, 3), name: str | None = None):
         super().__init__(variable, lam=lam, box_indices=box_indices, name=name)
-        self.rings, self.angles = int(rings), int(angles)
-        self.radial_samples = int(radial_samples)
-        if min(self.rings, self.angles, self.radial_samples) < 1:
-            raise ValueError(f"factor {self.name!r}: rings, angles and radial_samples must "
-                             f"be positive")
+        self.rings = bounded_int(self.name, "rings", rings)
+        self.angles = bounded_int(self.name, "angles", angles)
+        self.radial_samples = bounded_int(self.name, "radial_samples", radial_samples)
         self.radius_scale = float(check_finite_param(f"{self.name}.radius_scale",
                                                      radius_scale, positive=True))
         self.min_var = float(check_finite_param(f"{self.name}.min_var", min_var,
@@ -481,11 +515,8 @@ class GMMKLLikelihood(BoxAppearanceLikelihood):
                  covariances=None, samples=None, box_indices=(0, 1, 2, 3),
                  name: str | None = None):
         super().__init__(variable, lam=lam, box_indices=box_indices, name=name)
-        self.n_components = int(n_components)
-        self.n_samples = int(n_samples)
-        if self.n_components < 1 or self.n_samples < 1:
-            raise ValueError(f"factor {self.name!r}: n_components and n_samples must be "
-                             f"positive")
+        self.n_components = bounded_int(self.name, "n_components", n_components)
+        self.n_samples = bounded_int(self.name, "n_samples", n_samples)
         if method not in ("shared", "literal"):
             raise ValueError(f"factor {self.name!r}: method must be 'shared' or 'literal', "
                              f"got {method!r}")
@@ -576,8 +607,8 @@ class ColourContrastLikelihood(BoxAppearanceLikelihood):
                                                 positive=True))
         self.clip = float(check_finite_param(f"{self.name}.clip", clip, positive=True))
         self.delta = float(check_finite_param(f"{self.name}.delta", delta, positive=True))
-        self.layout, self.n_h, self.n_s = layout, int(n_h), int(n_s)
-        self.n_v = None if n_v is None else int(n_v)
+        self.layout = layout
+        self.n_h, self.n_s, self.n_v = _bins(self.name, n_h, n_s, n_v)
         self.scorer = ColourHistogramScorer(layout=layout, n_h=self.n_h, n_s=self.n_s,
                                             n_v=self.n_v)
         given = [a is not None for a in (object_hist, background_hist, ref_area)]
@@ -702,8 +733,8 @@ class TemplateLikelihood(BoxAppearanceLikelihood):
                  name: str | None = None):
         super().__init__(variable, lam=lam, box_indices=box_indices, adapt_rate=adapt_rate,
                          name=name)
-        self.grid = (int(grid[0]), int(grid[1]))
-        if min(self.grid) < 1 or self.grid[0] * self.grid[1] < 2:
+        self.grid = _bounded_pair(self.name, "grid", grid)
+        if self.grid[0] * self.grid[1] < 2:
             raise ValueError(f"factor {self.name!r}: grid must be positive with at least 2 "
                              f"points, got {grid!r}")
         self.template = None
