@@ -35,7 +35,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from pgm.core.beliefs import Particles
+from pgm.core.beliefs import ParticleArrays, Particles
 
 __all__ = ["BatchedParticles", "Replicated", "batched_type", "is_batched"]
 
@@ -46,7 +46,7 @@ def is_batched(belief: Any) -> bool:
 
 
 @dataclass(frozen=True)
-class BatchedParticles:
+class BatchedParticles(ParticleArrays):
     """``K`` particle beliefs of ``N`` particles each (the replicas of a plate variable).
 
     Parameters
@@ -131,16 +131,6 @@ class BatchedParticles:
         """Number of replicas."""
         return self.x.shape[0]
 
-    @property
-    def num(self) -> int:
-        """Particles per replica ``N``."""
-        return self.x.shape[1]
-
-    @property
-    def dim(self) -> int:
-        """Dimension ``d`` of one particle."""
-        return self.x.shape[2]
-
     @cached_property
     def log_mass(self) -> np.ndarray:
         """``(K,)`` per-replica ``logsumexp`` of the log-weights, computed as
@@ -180,16 +170,6 @@ class BatchedParticles:
         return np.stack([w[k] @ self.x[k] for k in range(self.K)])
 
     # -- transformations ----------------------------------------------------------------
-    def reweight(self, delta_log_weights: np.ndarray) -> BatchedParticles:
-        """Add ``(K, N)`` increments to the log-weights (NaN counts as ``-inf``)."""
-        delta = np.asarray(delta_log_weights, dtype=float)
-        if delta.shape != self.log_weights.shape:
-            raise ValueError(f"reweight: shape {delta.shape} != {self.log_weights.shape}")
-        lw = self.log_weights + delta
-        if np.isnan(lw).any():
-            lw = np.where(np.isnan(lw), -np.inf, lw)
-        return self._trusted(self.x, lw, self.history)
-
     def normalized(self, fallback: BatchedParticles | None = None
                    ) -> tuple[BatchedParticles, np.ndarray]:
         """Each replica with mass 1, and the ``(K,)`` mask of degenerate replicas (no
@@ -209,14 +189,6 @@ class BatchedParticles:
                 if key in self.__dict__:
                     out.__dict__[key] = self.__dict__[key]
         return out, bad
-
-    def moved(self, x_new: np.ndarray, history_len: int | None = None) -> BatchedParticles:
-        """Particles moved to ``x_new``; the current ``x`` is pushed onto the history."""
-        n_hist = len(self.history) if history_len is None else history_len
-        x_new = np.asarray(x_new, dtype=float)
-        if x_new.shape != self.x.shape:
-            raise ValueError(f"moved: shape {x_new.shape} != {self.x.shape}")
-        return self._trusted(x_new, self.log_weights, ((self.x,) + self.history)[:n_hist])
 
     def resample_rows(self, rngs: Sequence[np.random.Generator], scheme, num: int,
                       rows: np.ndarray) -> BatchedParticles:

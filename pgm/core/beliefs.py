@@ -28,11 +28,52 @@ import numpy as np
 
 from pgm.core.numerics import log_normalize, logsumexp
 
-__all__ = ["Particles", "Intensity"]
+__all__ = ["Particles", "Intensity", "ParticleArrays"]
+
+
+class ParticleArrays:
+    """Operations shared by :class:`Particles` ``(N, d)`` and the batched particles of a
+    plate's replicas ``(K, N, d)`` (:class:`pgm.core.batched.BatchedParticles`): the
+    particle axis is the second last, the state axis the last; log-weights have the
+    shape of ``x`` without its last axis."""
+
+    x: np.ndarray
+    log_weights: np.ndarray
+    history: tuple[np.ndarray, ...]
+
+    @property
+    def num(self) -> int:
+        """Number of particles ``N`` (per replica, for a batch)."""
+        return self.x.shape[-2]
+
+    @property
+    def dim(self) -> int:
+        """Dimension ``d`` of one particle."""
+        return self.x.shape[-1]
+
+    def reweight(self, delta_log_weights: np.ndarray):
+        """Add ``delta_log_weights`` (the shape of the log-weights) to the log-weights
+        (NaN counts as ``-inf``)."""
+        delta = np.asarray(delta_log_weights, dtype=float)
+        if delta.shape != self.log_weights.shape:
+            raise ValueError(f"reweight: shape {delta.shape} != {self.log_weights.shape}")
+        lw = self.log_weights + delta
+        if np.isnan(lw).any():
+            lw = np.where(np.isnan(lw), -np.inf, lw)
+        return self._trusted(self.x, lw, self.history)
+
+    def moved(self, x_new: np.ndarray, history_len: int | None = None):
+        """Particles moved to ``x_new``; the current ``x`` is pushed onto the history."""
+        n_hist = len(self.history) if history_len is None else history_len
+        hist = ((self.x,) + self.history)[:n_hist]
+        x_new = np.asarray(x_new, dtype=float)
+        if x_new.shape != self.x.shape:
+            raise ValueError(f"moved: shape {x_new.shape} != {self.x.shape}")
+        return self._trusted(x_new, self.log_weights, hist)
 
 
 @dataclass(frozen=True)
-class Particles:
+class Particles(ParticleArrays):
     r"""Weighted particle approximation :math:`\sum_i e^{\ell_i} \delta_{x_i}`.
 
     Parameters
@@ -93,16 +134,6 @@ class Particles:
         return cls(x, lw, tuple(x.copy() for _ in range(history_len)))
 
     # -- properties ---------------------------------------------------------------------
-    @property
-    def num(self) -> int:
-        """Number of particles ``N``."""
-        return self.x.shape[0]
-
-    @property
-    def dim(self) -> int:
-        """Dimension ``d`` of one particle."""
-        return self.x.shape[1]
-
     @cached_property
     def log_mass(self) -> float:
         """``logsumexp(log_weights)`` (``-inf`` with no particles)."""
@@ -143,16 +174,6 @@ class Particles:
         return (c * w[:, None]).T @ c
 
     # -- transformations ----------------------------------------------------------------
-    def reweight(self, delta_log_weights: np.ndarray) -> Particles:
-        """Add ``delta_log_weights`` (shape ``(N,)``) to the log-weights."""
-        delta = np.asarray(delta_log_weights, dtype=float)
-        if delta.shape != self.log_weights.shape:
-            raise ValueError(f"reweight: shape {delta.shape} != {self.log_weights.shape}")
-        lw = self.log_weights + delta
-        if np.isnan(lw).any():
-            lw = np.where(np.isnan(lw), -np.inf, lw)
-        return self._trusted(self.x, lw, self.history)
-
     def normalized(self) -> Particles:
         """The same particles with total mass 1."""
         lm = self.log_mass
@@ -163,15 +184,6 @@ class Particles:
             if key in self.__dict__:
                 out.__dict__[key] = self.__dict__[key]
         return out
-
-    def moved(self, x_new: np.ndarray, history_len: int | None = None) -> Particles:
-        """Particles moved to ``x_new``; the current ``x`` is pushed onto the history."""
-        n_hist = len(self.history) if history_len is None else history_len
-        hist = ((self.x,) + self.history)[:n_hist]
-        x_new = np.asarray(x_new, dtype=float)
-        if x_new.shape != self.x.shape:
-            raise ValueError(f"moved: shape {x_new.shape} != {self.x.shape}")
-        return self._trusted(x_new, self.log_weights, hist)
 
     def take(self, indices: np.ndarray, log_weights: np.ndarray) -> Particles:
         """Select particles (and their histories) by index with new log-weights."""

@@ -32,6 +32,7 @@ def lg_problem():
     return graph, ys, kf
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scheme", ["systematic", "multinomial", "stratified", "residual"])
 def test_particle_filter_matches_kalman(lg_problem, scheme):
     """Replicated PF runs: the mean over R runs is within 6 standard errors of the KF mean.

@@ -52,6 +52,7 @@ def gaussian_tree(n_nodes, sigma_c=0.7):
     return graph, dict(zip(names, y, strict=True)), cov @ h, np.diag(cov)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n_nodes", [2, 3])
 def test_product_fusion_matches_exact_gaussian_marginals(n_nodes):
     """Replicated PBP runs: mean over R runs within 6 standard errors of the exact mean;

@@ -125,6 +125,7 @@ def scored_clutter_scene():
     return seq, dets
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("module", [phd, vb_phd])
 def test_score_aware_model_reports_fewer_false_tracks(module, scored_clutter_scene):
     seq, dets = scored_clutter_scene

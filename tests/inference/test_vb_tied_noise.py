@@ -47,6 +47,7 @@ def one_target(m0, P0, sigma, tie, n_iter):
          VBNoise("noise", "targets", tol=0.0, max_iter=n_iter, tie=tie)])
 
 
+@pytest.mark.slow
 def test_tied_vb_phd_reduces_to_the_pooled_vb_akf():
     """One target, p_D = 1, no clutter, no birth: the tied fixed point matches the VB-AKF
     with one shared variance (α gains k/2 per measurement, not ½) within Monte-Carlo error;
