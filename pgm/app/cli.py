@@ -118,6 +118,17 @@ def _finite_float(name: str, low: float = 0.0):
 _nonneg_int = _int_at_least("seed", 0)
 
 
+def _path(name: str):
+    """An argparse type: a path, which may not be empty (``--out ''`` would write into
+    the current folder) or all white space."""
+    def conv(text: str) -> str:
+        if not text.strip():
+            raise argparse.ArgumentTypeError(f"{name} is empty: give a path")
+        return text
+
+    return conv
+
+
 #: options whose value is a comma-separated list of numbers that may start with "-"
 NUMBER_LIST_OPTIONS = ("--init",)
 _NUMBER_LIST = re.compile(r"-[0-9.][0-9.eE+-]*(,[^,]*)*")
@@ -168,10 +179,15 @@ class _Parser(argparse.ArgumentParser):
                                   f"(see {self.prog} --help)\n")
 
 
+#: the names of :data:`pgm.models.MODELS`, for the help: building the parser imports no
+#: model (nor the inference engine), so ``pgm eval``, ``report``, ``view`` and ``--help``
+#: start fast (a test keeps the two equal)
+MODEL_NAMES = ("colour-pf", "gpdm", "multi-pf", "part-graph", "phd", "single-object",
+               "vb-phd")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``pgm``."""
-    from pgm.models import MODELS
-
     p = _Parser(
         prog="pgm", description="Visual trackers declared as factor graphs, run by one engine.")
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
@@ -181,12 +197,12 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     t = sub.add_parser("track", help="track an object through a video or image sequence")
-    t.add_argument("source", help="a video file, an image folder, a MOTChallenge, OTB or "
-                                  "MILTrack sequence folder, a camera index (0, 1, ...) or "
-                                  "a stream URL (rtsp://, rtmp://, http(s)://, udp://, "
-                                  "tcp://)")
+    t.add_argument("source", type=_path("SOURCE"),
+                   help="a video file, an image folder, a MOTChallenge, OTB or MILTrack "
+                        "sequence folder, a camera index (0, 1, ...) or a stream URL "
+                        "(rtsp://, rtmp://, http(s)://, udp://, tcp://)")
     t.add_argument("--model", default=None,
-                   help=f"model name ({', '.join(sorted(MODELS))}) or a saved model .json; "
+                   help=f"model name ({', '.join(MODEL_NAMES)}) or a saved model .json; "
                         f"default: single-object (the correlation-filter tracker), or "
                         f"vb-phd when --detections/--detector is given")
     init = t.add_mutually_exclusive_group()
@@ -195,10 +211,10 @@ def build_parser() -> argparse.ArgumentParser:
                            "may start left of or above the image, e.g. --init -3,10,20,20 "
                            "(default: frame 1 of --gt, else of the sequence's own ground "
                            "truth)")
-    t.add_argument("--gt", metavar="FILE",
+    t.add_argument("--gt", type=_path("--gt"), metavar="FILE",
                    help="ground-truth file: initialises from frame 1 when --init is absent "
                         "and writes metrics.json (default: the sequence's own, if any)")
-    t.add_argument("--out", required=True, help="output folder")
+    t.add_argument("--out", type=_path("--out"), required=True, help="output folder")
     t.add_argument("--particles", type=_positive_int("--particles"), default=None,
                    help="particles per variable (default: the model's)")
     _model_options(t)
@@ -215,10 +231,10 @@ def build_parser() -> argparse.ArgumentParser:
                         "frames where the camera moves; the default for multi-target "
                         "models), on, off (the default for one object, whose camera "
                         "usually follows it)")
-    t.add_argument("--detections", metavar="FILE",
+    t.add_argument("--detections", type=_path("--detections"), metavar="FILE",
                    help="multi-target models: a MOTChallenge det.txt to use as measurements "
                         "(default: none; see --detector)")
-    t.add_argument("--gpdm", default=None, metavar="FILE.npz",
+    t.add_argument("--gpdm", type=_path("--gpdm"), default=None, metavar="FILE.npz",
                    help="gpdm: the learned dynamics ('pgm learn gpdm'); needed by --motion "
                         "gpdm (default: none)")
     t.add_argument("--motion", choices=("gpdm", "cv", "cv3"), default=None,
@@ -229,7 +245,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "through, still scored): ranges 'A-B,C-D' (1-based, inclusive) or "
                         "'P/L' (the last L of every P frames), e.g. '50-59' or '30/10' "
                         "(default: none)")
-    t.add_argument("--dbn", metavar="FILE.npz",
+    t.add_argument("--dbn", type=_path("--dbn"), metavar="FILE.npz",
                    help="phd/vb-phd: a DBN person likelihood trained by 'pgm learn dbn' "
                         "(multiplies the detection terms; default: none)")
     t.add_argument("--scale-aware", action="store_true",
@@ -264,31 +280,31 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="examples:\n  pgm eval --gt ../shared/data/TUD-Campus/gt/gt.txt --pred "
                "out/tracks.txt\n  pgm eval --gt-dir ../shared/data --pred-dir results/ "
                "--json")
-    e.add_argument("--gt", metavar="FILE",
+    e.add_argument("--gt", type=_path("--gt"), metavar="FILE",
                    help="ground truth (OTB, MILTrack or MOT gt.txt); with --pred (default: "
                         "none: give --gt/--pred or --gt-dir/--pred-dir)")
-    e.add_argument("--pred", metavar="FILE",
+    e.add_argument("--pred", type=_path("--pred"), metavar="FILE",
                    help="tracks.txt written by pgm track; with --gt (default: none)")
-    e.add_argument("--gt-dir", default=None, metavar="DIR",
+    e.add_argument("--gt-dir", type=_path("--gt-dir"), default=None, metavar="DIR",
                    help="folder of ground truth: <SEQ>/gt/gt.txt folders or <SEQ>.txt files "
                         "(MOT); with --pred-dir (default: none)")
-    e.add_argument("--pred-dir", default=None, metavar="DIR",
+    e.add_argument("--pred-dir", type=_path("--pred-dir"), default=None, metavar="DIR",
                    help="folder of results <SEQ>.txt (MOTChallenge rows); with --gt-dir "
                         "(default: none)")
     e.add_argument("--json", action="store_true", help="print JSON instead of a table")
 
     g = sub.add_parser("graph", help="draw a model's factor graph")
-    g.add_argument("model", help=f"model name ({', '.join(sorted(MODELS))}) or a model .json")
-    g.add_argument("--out", required=True, help="FILE.png, .svg, .pdf or .dot")
+    g.add_argument("model", help=f"model name ({', '.join(MODEL_NAMES)}) or a model .json")
+    g.add_argument("--out", type=_path("--out"), required=True, help="FILE.png, .svg, .pdf or .dot")
     _model_options(g)
 
     lp = sub.add_parser("learn", help="learn model parameters from annotated sequences")
     lsub = lp.add_subparsers(dest="what", required=True, parser_class=_Parser)
     ld = lsub.add_parser("dbn", help="train the deep-belief-network person likelihood")
-    ld.add_argument("--train", nargs="+", required=True,
+    ld.add_argument("--train", type=_path("--train"), nargs="+", required=True,
                     help="MOTChallenge sequence folders with gt/gt.txt (never the one you "
                          "will evaluate on)")
-    ld.add_argument("--out", required=True, help="output .npz file")
+    ld.add_argument("--out", type=_path("--out"), required=True, help="output .npz file")
     ld.add_argument("--every", type=_positive_int("--every"), default=3,
                     help="use every K-th annotated frame")
     ld.add_argument("--seed", type=_nonneg_int, default=0, metavar="S",
@@ -298,7 +314,7 @@ def build_parser() -> argparse.ArgumentParser:
     _learn_gpdm_options(lsub)
 
     d = sub.add_parser("demo", help="render a synthetic scene, track it, write every output")
-    d.add_argument("--out", required=True, help="output folder")
+    d.add_argument("--out", type=_path("--out"), required=True, help="output folder")
     d.add_argument("--seed", type=_nonneg_int, default=0, metavar="S",
                    help="seed of the synthetic scene and of the trackers")
     d.add_argument("--frames", type=_positive_int("--frames"), default=90, metavar="K",
@@ -341,11 +357,12 @@ def _learn_gpdm_options(lsub) -> None:
         epilog="example:\n  pgm learn gpdm --train ../shared/data/TUD-Stadtmitte "
                "../shared/data/TUD-Campus \\\n      --out gpdm_tud.npz --plot gpdm_tud.png "
                "--mirror")
-    lg.add_argument("--train", nargs="+", required=True, metavar="SEQ",
+    lg.add_argument("--train", type=_path("--train"), nargs="+", required=True, metavar="SEQ",
                     help="MOTChallenge sequence folders with gt/gt.txt and seqinfo.ini "
                          "(frameRate); never the one you will evaluate on")
-    lg.add_argument("--out", required=True, metavar="FILE.npz", help="output model file")
-    lg.add_argument("--plot", default=None, metavar="FILE.png",
+    lg.add_argument("--out", type=_path("--out"), required=True, metavar="FILE.npz",
+                    help="output model file")
+    lg.add_argument("--plot", type=_path("--plot"), default=None, metavar="FILE.png",
                     help="also draw the latent space (.png, .svg or .pdf; default: none)")
     lg.add_argument("--latent-dim", type=_positive_int("--latent-dim"), default=None,
                     metavar="D",

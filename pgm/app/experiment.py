@@ -1204,7 +1204,7 @@ def run_experiment(experiment: Experiment, out: str | Path, *, jobs: int = 1,
 # -- the command -----------------------------------------------------------------------------
 def add_parser(subparsers) -> argparse.ArgumentParser:
     """Add ``pgm bench`` to the ``pgm`` sub-commands."""
-    from pgm.app.cli import _positive_int
+    from pgm.app.cli import _path, _positive_int
 
     b = subparsers.add_parser(
         "bench", help="run an experiment: sequences × models × seeds from a TOML file",
@@ -1216,8 +1216,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         epilog="examples:\n  pgm bench docs/experiments/example.toml --out bench_out "
                "--jobs 2\n  pgm bench exp.toml --out /shared/exp --backend dask "
                "--address tcp://10.0.0.5:8786")
-    b.add_argument("experiment", metavar="EXPERIMENT.toml", help="the experiment file")
-    b.add_argument("--out", required=True, metavar="DIR", help="the experiment's folder")
+    b.add_argument("experiment", type=_path("EXPERIMENT.toml"), metavar="EXPERIMENT.toml",
+                   help="the experiment file")
+    b.add_argument("--out", type=_path("--out"), required=True, metavar="DIR",
+                   help="the experiment's folder")
     b.add_argument("--jobs", type=_positive_int("--jobs"), default=1, metavar="N",
                    help="worker processes on this machine: the local pool (1: in this "
                         "process) or the Dask LocalCluster (default: %(default)s)")

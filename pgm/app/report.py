@@ -1225,7 +1225,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         epilog="examples:\n  pgm track ../shared/data/TUD-Campus --model phd --out runs/tud "
                "--no-video\n  pgm report runs/tud\n  pgm report bench_out/   # every run "
                "under it")
-    p.add_argument("dir", metavar="DIR", help="a run folder or a folder of runs")
+    from pgm.app.cli import _path
+
+    p.add_argument("dir", type=_path("DIR"), metavar="DIR",
+                   help="a run folder or a folder of runs")
     p.add_argument("--title", default=None,
                    help="heading of the page (default: 'Tracking report — <DIR name>')")
     return p

@@ -375,6 +375,8 @@ def _non_negative_mb(text: str) -> float:
 
 def add_parser(subparsers) -> None:
     """Add ``pgm view`` to the ``pgm`` sub-command parsers."""
+    from pgm.app.cli import _path
+
     v = subparsers.add_parser(
         "view", help="write RUN_DIR/view.html: step through a recorded run in a browser",
         description="Write a self-contained page (RUN_DIR/view.html) to step through a run "
@@ -382,8 +384,9 @@ def add_parser(subparsers) -> None:
                     "intensity, the VB fixed point, ESS and resampling, beside the factor "
                     "graph. Example: pgm track seq --gt gt.txt --out run --record && "
                     "pgm view run")
-    v.add_argument("run_dir", metavar="RUN_DIR", help="output folder of 'pgm track --record'")
-    v.add_argument("--out", default=None, metavar="FILE.html",
+    v.add_argument("run_dir", type=_path("RUN_DIR"), metavar="RUN_DIR",
+                   help="output folder of 'pgm track --record'")
+    v.add_argument("--out", type=_path("--out"), default=None, metavar="FILE.html",
                    help="where to write the page (default: RUN_DIR/view.html)")
     v.add_argument("--max-video-mb", type=_non_negative_mb, default=MAX_VIDEO_MB,
                    help=f"embed annotated.mp4 up to this size, else link it "

@@ -84,3 +84,24 @@ def test_examples_keep_their_line_breaks(capsys):
     with pytest.raises(SystemExit):
         main(["view", "--help"])
     assert max(len(line) for line in capsys.readouterr().out.splitlines()) <= 100
+
+
+def test_model_names_in_the_help_are_the_models():
+    """The parser lists the models without importing them (``pgm eval``, ``report``,
+    ``view`` and ``--help`` start without the inference engine)."""
+    from pgm.app.cli import MODEL_NAMES
+    from pgm.models import MODELS
+
+    assert MODEL_NAMES == tuple(sorted(MODELS))
+
+
+def test_building_the_parser_imports_no_model():
+    import subprocess
+    import sys
+
+    code = ("import sys; from pgm.app.cli import build_parser; build_parser(); "
+            "print(sorted(m for m in sys.modules if m.startswith(('pgm.models', "
+            "'pgm.inference', 'torch', 'sklearn', 'matplotlib', 'av'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "[]"
