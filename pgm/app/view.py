@@ -191,7 +191,7 @@ def _load_graph(run: Path, meta: dict[str, Any]) -> Any:
         if p.is_file():
             try:
                 return FactorGraph.load(p)
-            except (ValueError, KeyError, TypeError, AttributeError):
+            except (ValueError, KeyError, TypeError, AttributeError, RecursionError):
                 continue
     return _Skeleton(meta)
 
@@ -275,6 +275,86 @@ def _script_json(value: Any) -> str:
     return text.replace("</", "<\\/").replace("<!--", "<\\!--")
 
 
+#: the fields of a ``record.jsonl`` line the page reads, and the JSON type of each
+_FRAME_FIELDS: dict[str, type | tuple] = {
+    "i": int, "t": int, "frame": int, "image": (str, type(None)), "variables": dict,
+    "messages": list, "sets": dict, "vb": dict, "replicas": dict, "plate": dict,
+    "measurements": list, "targets": dict, "dropped": bool}
+_JSON_NAMES = {int: "an integer", str: "a string", dict: "an object", list: "a list",
+               bool: "true or false", type(None): "null"}
+
+
+def _image_path(folder: Path, name: str, where: str) -> Path:
+    """The thumbnail a record line names, inside the record folder *by name*: relative,
+    without ``..`` (a crafted record must not make the page embed the user's other
+    files; a ``record/frames`` that is a symbolic link to a data folder still works, as
+    the name is checked, not where it resolves)."""
+    parts = Path(name).parts
+    if not name or Path(name).is_absolute() or ".." in parts or "\\" in name:
+        raise InputError(f"{where}: image {name!r} is not a path inside {folder} (the "
+                         f"record names its thumbnails relative to it, e.g. "
+                         f"frames/000001.jpg)")
+    return folder / name
+
+
+def _check_frames(folder: Path, frames: list[Any]) -> list[Path | None]:
+    """Check every line of ``record.jsonl`` (an object; its fields of the JSON types the
+    page reads; every number finite; a frame number >= 1; an image path inside the
+    record) and return each line's thumbnail path (None: none recorded)."""
+    images: list[Path | None] = []
+    for k, rec in enumerate(frames):
+        where = f"{folder / 'record.jsonl'} line {k + 1}"
+        if not isinstance(rec, dict):
+            raise InputError(f"{where} is not a JSON object but {type(rec).__name__}")
+        for key, kind in _FRAME_FIELDS.items():
+            if key not in rec:
+                continue
+            kinds = kind if isinstance(kind, tuple) else (kind,)
+            value = rec[key]
+            if not isinstance(value, kinds) or (isinstance(value, bool) and bool not in kinds):
+                want = " or ".join(_JSON_NAMES[t] for t in kinds)
+                raise InputError(f"{where}: {key!r} must be {want}, got {value!r:.40}")
+        frame = rec.get("frame")
+        if frame is None or frame < 1:
+            raise InputError(f"{where}: 'frame' must be a frame number >= 1, got "
+                             f"{frame!r:.40}")
+        for m in rec.get("messages", []):
+            if not (isinstance(m, dict) and isinstance(m.get("src"), str)
+                    and isinstance(m.get("dst"), str)):
+                raise InputError(f"{where}: every message must be an object with 'src' and "
+                                 f"'dst' names, got {m!r:.60}")
+        for key in ("variables", "sets", "replicas", "vb"):
+            if not all(isinstance(v, (dict, list)) for v in rec.get(key, {}).values()):
+                raise InputError(f"{where}: every entry of {key!r} must be an object")
+        try:
+            json.dumps(rec, allow_nan=False)
+        except ValueError:
+            raise InputError(f"{where} holds a NaN or infinite number") from None
+        name = rec.get("image")
+        images.append(None if not name else _image_path(folder, name, where))
+    return images
+
+
+def _check_meta(folder: Path, meta: dict[str, Any]) -> None:
+    """The fields of ``meta.json`` the page reads, of their JSON types."""
+    where = folder / "meta.json"
+    for key, kind in (("variables", dict), ("factors", dict), ("output", list)):
+        if key in meta and not isinstance(meta[key], kind):
+            raise InputError(f"{where}: {key!r} must be {_JSON_NAMES[kind]}")
+    for key in ("variables", "factors"):
+        if not all(isinstance(v, dict) for v in meta.get(key, {}).values()):
+            raise InputError(f"{where}: every entry of {key!r} must be an object")
+    size = meta.get("image_size")
+    if size is not None and not (isinstance(size, list) and len(size) == 2 and all(
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            and v > 0 for v in size)):
+        raise InputError(f"{where}: 'image_size' must be two positive numbers")
+    try:
+        json.dumps(meta, allow_nan=False)
+    except ValueError:
+        raise InputError(f"{where} holds a NaN or infinite number") from None
+
+
 def write_view(run_dir: str | Path, out: str | Path | None = None, *,
                max_video_mb: float = MAX_VIDEO_MB) -> Path:
     """Write the viewer page of a recorded run.
@@ -298,7 +378,9 @@ def write_view(run_dir: str | Path, out: str | Path | None = None, *,
     ------
     InputError
         ``run_dir`` holds no record, or a record that ``run.json`` says belongs to another
-        run (a later run without ``--record`` in the same folder).
+        run (a later run without ``--record`` in the same folder); a ``record.jsonl`` line
+        that is not an object, has a field of the wrong type or a non-finite number, or
+        names an image outside ``record/`` (absolute, or with ``..``): named by its line.
     """
     from pgm.app.record import RECORD_DIR, read_record
     from pgm.io.outputs import prepare_output_file
@@ -306,13 +388,17 @@ def write_view(run_dir: str | Path, out: str | Path | None = None, *,
     run = Path(run_dir)
     if not run.is_dir():
         raise InputError(f"{run} is not a folder (give the --out folder of a recorded run)")
-    meta, frames = read_record(run / RECORD_DIR)
+    try:
+        meta, frames = read_record(run / RECORD_DIR)
+    except RecursionError:
+        raise InputError(f"{run / RECORD_DIR}: meta.json or record.jsonl holds JSON nested "
+                         f"too deeply") from None
     run_info: dict[str, Any] = {}
     run_json = run / "run.json"
     if run_json.is_file():
         try:
             run_info = json.loads(run_json.read_text())
-        except (json.JSONDecodeError, UnicodeDecodeError):
+        except (json.JSONDecodeError, UnicodeDecodeError, RecursionError):
             run_info = {}
         rec = run_info.get("record") if isinstance(run_info, dict) else None
         if not isinstance(rec, dict) or rec.get("id") != meta.get("id"):
@@ -320,11 +406,11 @@ def write_view(run_dir: str | Path, out: str | Path | None = None, *,
                              f"run in {run_json}; re-run 'pgm track ... --record'")
     if not frames:
         raise InputError(f"{run / RECORD_DIR} holds no recorded frame")
+    _check_meta(run / RECORD_DIR, meta)
+    thumbs = _check_frames(run / RECORD_DIR, frames)
     graph = _load_graph(run, meta)
-    images = []
-    for rec in frames:
-        p = run / RECORD_DIR / str(rec.get("image") or "")
-        images.append(_data_uri(p, "image/jpeg") if rec.get("image") and p.is_file() else None)
+    images = [_data_uri(p, "image/jpeg") if p is not None and p.is_file() else None
+              for p in thumbs]
     video: dict[str, Any] | None = None
     mp4 = run / "annotated.mp4"
     if mp4.is_file() and mp4.stat().st_size > 0:
