@@ -1,11 +1,11 @@
 """Gaussian-process dynamical model (GPDM) of box motion: learning, storage, prediction.
 
-Seed 003 (Wang, Yin & Man 2008) learns a GPDM (Wang, Fleet & Hertzmann, TPAMI 2008) of
-people's frame-to-frame coordinate changes and draws a particle filter's proposals from
-it. SPEC §4 restates the model and records that a prototype of the paper's recipe has
-*no finite MAP minimum* (observation noise → 0, the latent shrinking, dynamics noise →
-0) and never beat constant velocity. This module implements the model with every fix
-that SPEC §4 requires, and says where it departs from the paper:
+Wang, Yin & Man [#wang2008] learn a GPDM (Wang, Fleet & Hertzmann, TPAMI 2008) of
+people's frame-to-frame coordinate changes and draw a particle filter's proposals from
+it. A prototype of the paper's recipe has *no finite MAP minimum* (observation noise → 0,
+the latent shrinking, dynamics noise → 0) and never beat constant velocity. This module
+implements the model with the fixes that this requires, and says where it departs from
+the paper:
 
 * **Observation** ``y_t = (Δcx, Δtop, Δh) / h_{t-1} · fps`` — the box's centre-x, top
   and height changes in *box heights per second* (:func:`box_differences`), not the
@@ -60,7 +60,7 @@ that SPEC §4 requires, and says where it departs from the paper:
 * **Constant-velocity fallback**: with fewer than :attr:`GPDMSettings.min_history`
   boxes (track birth) :func:`predict` returns :func:`predict_constant_velocity`.
 
-Model (SPEC §4, ``W = 1``, latent dimension ``d``, observation dimension ``D = 3``)::
+Model (``W = 1``, latent dimension ``d``, observation dimension ``D = 3``)::
 
     k_Y(x, x') = exp(−β₁/2 ‖x − x'‖²) + β₂⁻¹ δ
     k_X(x, x') = α₁ exp(−α₂/2 ‖x − x'‖²) + α₃ xᵀx' + α₄⁻¹ δ
@@ -84,6 +84,12 @@ A learned model is stored as ``.npz`` (arrays and a JSON header; no pickle) by
 maps onto :func:`gt_trajectories` + :func:`learn_gpdm` + :meth:`GPDM.save`; a model
 config loads the file with :func:`load_gpdm` and calls :func:`predict` or the
 vectorised :meth:`GPDM.dynamics` / :meth:`GPDM.mean_y` directly.
+
+References
+----------
+.. [#wang2008] J. Wang, Y. Yin and H. Man, "Multiple human tracking using particle filter with
+   Gaussian process dynamical model", EURASIP J. Image and Video Processing 2008, Article
+   ID 969456. doi:10.1155/2008/969456
 """
 
 from __future__ import annotations
@@ -104,6 +110,7 @@ import torch
 
 from pgm.core.boxes import xywh_to_cxcywh
 from pgm.core.errors import InputError, one_line
+from pgm.core.rng import as_generator
 
 __all__ = ["GPDM", "GPDMSettings", "Trajectory", "HYPER_BOUNDS", "FIXED_DYNAMICS",
            "apply_differences", "box_differences", "dynamics_kernel", "fit_gpdm",
@@ -165,7 +172,7 @@ class GPDMSettings:
     Attributes
     ----------
     latent_dim : int
-        Latent dimension ``d`` (SPEC: 2).
+        Latent dimension ``d`` (the paper's: 2).
     obs_noise_floor : float
         Floor of the observation noise variance ``β₂⁻¹``, relative to the variance of
         the standardised observations (1), in (0, 1].
@@ -234,7 +241,7 @@ class GPDMSettings:
         if self.latent_scale not in LATENT_SCALES:
             raise ValueError(f"parameter 'latent_scale' must be one of {LATENT_SCALES}, got "
                              f"{self.latent_scale!r} (a free latent scale leaves the MAP "
-                             "objective without a finite minimum, SPEC §4)")
+                             "objective without a finite minimum)")
         set_("max_iter", _int_at_least("max_iter", self.max_iter, 0))
         set_("rel_tol", _float_in("rel_tol", self.rel_tol, 0.0, 1.0, open_low=False))
         set_("check_every", _int_at_least("check_every", self.check_every, 1))
@@ -865,8 +872,7 @@ def fit_gpdm(sequences: Sequence[np.ndarray], settings: GPDMSettings | None = No
     s = GPDMSettings() if settings is None else settings
     if not isinstance(s, GPDMSettings):
         raise ValueError("settings must be a GPDMSettings")
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError("rng must be a numpy.random.Generator")
+    rng = as_generator(rng)
     seqs = []
     for i, q in enumerate(sequences):
         a = np.asarray(q, dtype=float)
@@ -1026,8 +1032,6 @@ def _check_history(history_boxes: Any, steps: Any, n_particles: Any, fps: Any, r
         raise ValueError(f"history_boxes must have shape (T >= 1, 4), got {b.shape}")
     if not np.all(np.isfinite(b)) or np.any(b[:, 2:] <= 0):
         raise ValueError("history_boxes must be finite with positive width and height")
-    if not isinstance(rng, np.random.Generator):
-        raise ValueError("rng must be a numpy.random.Generator")
     return (b, _int_at_least("steps", steps, 1), _int_at_least("n_particles", n_particles, 1),
             _float_in("fps", fps, 0.0, 1e4))
 
@@ -1044,6 +1048,7 @@ def predict_constant_velocity(history_boxes: np.ndarray, steps: int, rng: np.ran
     second), drawn from ``rng``; with ``noise = 0`` all particles are the same.
     """
     b, steps, n, fps = _check_history(history_boxes, steps, n_particles, fps, rng)
+    rng = as_generator(rng)
     average = _int_at_least("average", average, 1)
     noise = _float_in("noise", noise, 0.0, 1e3, open_low=False)
     m = min(average, b.shape[0] - 1)
@@ -1093,6 +1098,7 @@ def predict(model: GPDM, history_boxes: np.ndarray, steps: int, rng: np.random.G
     if not isinstance(model, GPDM):
         raise ValueError(f"model must be a GPDM, got {type(model).__name__}")
     b, steps, n, fps = _check_history(history_boxes, steps, n_particles, fps, rng)
+    rng = as_generator(rng)
     s = model.settings
     if b.shape[0] < s.min_history:
         return predict_constant_velocity(b, steps, rng, n, fps=fps, average=s.cv_average,
