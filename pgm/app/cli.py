@@ -549,12 +549,23 @@ def _with_init_box(graph, box_cxcywh: np.ndarray, path: str):
                        meta=graph.meta)
 
 
-def _check_box_in_image(box_xywh: np.ndarray, size: tuple[int, int]) -> None:
+#: how many times the image's width (height) an initial box may be wide (high)
+MAX_BOX_SCALE = 4.0
+
+
+def _check_box_in_image(box_xywh: np.ndarray, size: tuple[int, int],
+                        what: str = "initial box") -> None:
+    """The initial box must overlap the image and be at most :data:`MAX_BOX_SCALE` times
+    its size (``--init 1,1,1e308,1e308`` is refused here, naming ``what``, not deep in a
+    model as a non-finite noise parameter)."""
     w_img, h_img = size
     x, y, w, h = box_xywh
+    text = f"{what} ({x + 1:g},{y + 1:g},{w:g},{h:g})"
     if x >= w_img or y >= h_img or x + w <= 0 or y + h <= 0:
-        raise InputError(f"initial box ({x + 1:g},{y + 1:g},{w:g},{h:g}) lies outside the "
-                         f"{w_img}x{h_img} image")
+        raise InputError(f"{text} lies outside the {w_img}x{h_img} image")
+    if w > MAX_BOX_SCALE * w_img or h > MAX_BOX_SCALE * h_img:
+        raise InputError(f"{text} is more than {MAX_BOX_SCALE:g} times the {w_img}x{h_img} "
+                         f"image")
 
 
 def _fmt(value, spec: str) -> str:
@@ -590,10 +601,16 @@ def _memory_limit(args) -> float | None:
     return None if text is None else _parse_bytes(text, "--memory-limit")
 
 
+#: the last frame ``--drop-frames`` may name when the source's length is unknown
+MAX_DROPPED_FRAME = 1_000_000
+
+
 def parse_drop_frames(spec: str | None, n_frames: int | None) -> set[int]:
     """Frame numbers of ``--drop-frames``: ``"A-B,C"`` (1-based, inclusive ranges and
     single frames) or ``"P/L"`` (the last ``L`` frames of every ``P``, which needs the
-    sequence length ``n_frames``)."""
+    sequence length ``n_frames``). A range is cut at the source's last frame (at
+    :data:`MAX_DROPPED_FRAME` when its length is unknown); one that starts after it is
+    an :class:`InputError`."""
     if spec is None:
         return set()
     text = spec.strip()
@@ -607,13 +624,22 @@ def parse_drop_frames(spec: str | None, n_frames: int | None) -> set[int]:
                                  "ranges A-B instead")
             return {f for f in range(1, n_frames + 1) if (f - 1) % period >= period - length}
         out: set[int] = set()
+        last = MAX_DROPPED_FRAME if n_frames is None else n_frames
         for part in text.split(","):
             a, _, b = part.strip().partition("-")
             lo, hi = int(a), int(b or a)
             if lo < 1 or hi < lo:
                 raise ValueError
-            out.update(range(lo, hi + 1))
+            if lo > last:
+                where = (f"the source has {n_frames} frames" if n_frames is not None else
+                         f"frames after {MAX_DROPPED_FRAME} of a source of unknown length "
+                         f"cannot be dropped")
+                raise InputError(f"--drop-frames {spec!r}: frame {lo} is past the end "
+                                 f"({where})")
+            out.update(range(lo, min(hi, last) + 1))  # frames past the end: nothing to drop
         return out
+    except InputError:
+        raise
     except ValueError:
         raise InputError(f"--drop-frames must be ranges like '50-59,80' or 'P/L' with "
                          f"0 < L < P, got {spec!r}") from None
@@ -780,17 +806,18 @@ def cmd_track(args) -> int:
             print(f"pgm: using the sequence's ground truth {gt_path}", file=sys.stderr)
     if gt_path is not None:
         gt = load_single_gt(gt_path)
-    box_xywh = None
+    box_xywh, what = None, "--init box"
     if args.init is not None:
         box_xywh = parse_box(args.init)
     elif gt is not None:
         c = init_box_from_gt(gt, 1)
         box_xywh = np.array([c[0] - c[2] / 2, c[1] - c[3] / 2, c[2], c[3]])
+        what = f"the first box of {gt_path}"
     elif saved is None:
         raise InputError("give the initial box with --init X,Y,W,H or a ground truth with --gt")
     init_c = None
     if box_xywh is not None:
-        _check_box_in_image(box_xywh, source.size)
+        _check_box_in_image(box_xywh, source.size, what)
         init_c = np.array([box_xywh[0] + box_xywh[2] / 2, box_xywh[1] + box_xywh[3] / 2,
                            box_xywh[2], box_xywh[3]])
     graph = _load_model_graph(args.model, init_c, args.particles, args)
@@ -1089,6 +1116,24 @@ def _quiet_native_logs() -> None:
         pass
 
 
+def _ensure_std_streams() -> None:
+    """Standard input, output or error closed (``pgm track ... 2>&-``): opened on the
+    null device, so that no file a run opens takes descriptor 0, 1 or 2 (FFmpeg's log
+    lines would land in it) and the progress bar and messages go nowhere, not to an
+    ``AttributeError``."""
+    for fd, name, flags in ((0, "stdin", os.O_RDONLY), (1, "stdout", os.O_WRONLY),
+                            (2, "stderr", os.O_WRONLY)):
+        try:
+            os.fstat(fd)
+        except OSError:
+            null = os.open(os.devnull, flags)
+            if null != fd:
+                os.dup2(null, fd)
+                os.close(null)
+        if getattr(sys, name) is None:
+            setattr(sys, name, open(fd, "r" if fd == 0 else "w", closefd=False))
+
+
 def _raise_interrupted(signum, frame):  # noqa: ARG001 - signal handler signature
     raise Interrupted(signum)
 
@@ -1102,6 +1147,7 @@ def main(argv: list[str] | None = None) -> int:
     ``pgm: internal error: ...`` and returned as 1 (``--debug`` or ``PGM_DEBUG=1`` shows
     the traceback).
     """
+    _ensure_std_streams()
     _quiet_native_logs()
     parser = build_parser()
     args = parser.parse_args(argv)

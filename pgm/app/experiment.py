@@ -222,13 +222,22 @@ def _is_int(value: Any) -> bool:
     return isinstance(value, int) and not isinstance(value, bool)
 
 
+#: most runs an experiment may hold (sequences × models × seeds), checked before any
+#: is listed: a typo such as ``seeds = 1000000000`` is refused at once, not after
+#: filling the memory
+MAX_RUNS = 100_000
+
+
 def _seeds(value: Any, where: str) -> tuple[int, ...]:
-    """``seeds``: a count ``n >= 1`` (seeds ``0..n-1``) or a list of distinct integers
-    ``>= 0``."""
+    """``seeds``: a count ``1 <= n <=`` :data:`MAX_RUNS` (seeds ``0..n-1``) or a list of
+    distinct integers ``>= 0``."""
     if _is_int(value):
         if value < 1:
             raise InputError(f"{where}: seeds must be a count >= 1 or a list of seeds, "
                              f"got {value}")
+        if value > MAX_RUNS:
+            raise InputError(f"{where}: seeds = {value} is more than an experiment may "
+                             f"run ({MAX_RUNS} runs at most)")
         return tuple(range(value))
     if isinstance(value, list):
         if not value:
@@ -525,6 +534,11 @@ def load_experiment(path: str | Path) -> Experiment:
         raise InputError(f"{where}: write_video must be true or false, got {write_video!r}")
     sequences = _sequences(data.get("sequences"), base, where)
     models = _models(data.get("models"), base, where)
+    n_runs = len(sequences) * len(models) * len(seeds)
+    if n_runs > MAX_RUNS:
+        raise InputError(f"{where}: {len(sequences)} sequences × {len(models)} models × "
+                         f"{len(seeds)} seeds is {n_runs} runs, more than an experiment may "
+                         f"run ({MAX_RUNS} at most)")
     _check_pairs(sequences, models, where)
     return Experiment(p, name, root, seeds, max_frames, write_video, sequences, models)
 
@@ -639,19 +653,25 @@ def _read_json(path: Path) -> dict[str, Any] | None:
     """The JSON object in ``path``, or None where it is missing or unreadable."""
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    except (OSError, ValueError, RecursionError):
         return None
     return data if isinstance(data, dict) else None
 
 
 def run_state(run: RunSpec, out: str | Path) -> str:
     """``"complete"`` (finished, same settings), ``"changed"`` (finished with other
-    settings), ``"incomplete"`` (started, not finished) or ``"missing"``."""
+    settings), ``"incomplete"`` (started, not finished, or a result of a finished run
+    has gone since: ``tracks.txt``, ``model.json``, or ``annotated.mp4`` when
+    ``run.json`` says it wrote one) or ``"missing"``."""
     folder = run.folder(out)
     status = _read_json(folder / "run.json")
     if status is None:
         return "missing"
     if status.get("complete") is not True:
+        return "incomplete"
+    results = ["tracks.txt", "model.json"] + (["annotated.mp4"] if status.get("video") is True
+                                              else [])
+    if not all((folder / name).is_file() for name in results):
         return "incomplete"
     task = _read_json(folder / "task.json") or {}
     return "complete" if task.get("run") == run.record() else "changed"

@@ -125,6 +125,8 @@ def _read_json(path: Path) -> dict[str, Any]:
     except json.JSONDecodeError as exc:
         raise InputError(f"{path} is corrupt: not valid JSON ({exc.msg} at line "
                          f"{exc.lineno})") from None
+    except RecursionError:
+        raise InputError(f"{path} is corrupt: JSON nested too deeply") from None
     if not isinstance(data, dict):
         raise InputError(f"{path} is corrupt: expected a JSON object, found "
                          f"{type(data).__name__}")
@@ -255,7 +257,7 @@ def load_run(folder: str | Path, root: str | Path | None = None) -> Run:
             try:
                 name = json.loads((path / "model.json").read_text(encoding="utf-8")).get("name")
                 model = name if isinstance(name, str) and name else None
-            except (OSError, ValueError, AttributeError):
+            except (OSError, ValueError, AttributeError, RecursionError):
                 model = None
         model = model or path.name or "model"
     rel = "." if root is None else (os.path.relpath(path, root) or ".")

@@ -40,6 +40,13 @@ __all__ = [
 _SPLIT = re.compile(r"[,\s]+")
 _FORMATS = ("otb", "miltrack", "mot")
 
+#: largest box coordinate or size (px) read from an annotation or detection file: no
+#: image is a million pixels wide, and a row beyond it (``1e300``) is refused naming
+#: the file and the line, not met later as a non-finite model parameter
+MAX_COORDINATE = 1e6
+#: largest frame number (and identity) read from a MOTChallenge file
+MAX_FRAME = 10**9
+
 
 # --------------------------------------------------------------------------- parsing
 
@@ -206,6 +213,11 @@ def load_single_gt(path: str | Path, fmt: str = "auto", *, obj_id: int | None = 
     boxes = table[:, :4]
     frames = np.arange(1, len(lines) + 1, dtype=np.int64)
     valid = np.all(np.isfinite(boxes), axis=1) & (boxes[:, 2] > 0) & (boxes[:, 3] > 0)
+    huge = valid & np.any(np.abs(boxes) > MAX_COORDINATE, axis=1)
+    if np.any(huge):
+        i = int(np.flatnonzero(huge)[0])
+        raise InputError(f"{p}:{i + 1}: box coordinates beyond ±{MAX_COORDINATE:g} px "
+                         f"({lines[i].strip()[:60]!r})")
     if fmt == "otb":
         boxes = boxes.copy()
         boxes[:, :2] -= 1.0
@@ -458,10 +470,13 @@ def load_mot(path: str | Path, *, kind: str = "gt", min_score: float | None = No
                                                np.nan)], axis=1)
     frames_f, ids_f, boxes, conf = table[:, 0], table[:, 1], table[:, 2:6], table[:, 6]
     checks = (
-        (~np.isfinite(frames_f) | (frames_f != np.round(frames_f)) | (frames_f < 1),
-         "frame must be an integer >= 1"),
-        (~np.isfinite(ids_f) | (ids_f != np.round(ids_f)), "id must be an integer"),
+        (~np.isfinite(frames_f) | (frames_f != np.round(frames_f)) | (frames_f < 1)
+         | (frames_f > MAX_FRAME), f"frame must be an integer from 1 to {MAX_FRAME}"),
+        (~np.isfinite(ids_f) | (ids_f != np.round(ids_f)) | (np.abs(ids_f) > MAX_FRAME),
+         f"id must be an integer from -{MAX_FRAME} to {MAX_FRAME}"),
         (~np.all(np.isfinite(boxes), axis=1), "box is not finite"),
+        (np.any(np.abs(boxes) > MAX_COORDINATE, axis=1),
+         f"box coordinates beyond ±{MAX_COORDINATE:g} px"),
         (~((boxes[:, 2] > 0) & (boxes[:, 3] > 0)), "box width and height must be > 0"),
         ((lengths >= 7) & ~np.isfinite(conf),
          "score/flag (column 7) is not finite" if kind == "det" else

@@ -4,9 +4,11 @@ A run writes ``tracks.txt`` and ``annotated.mp4`` as it goes, and ``metrics.json
 ``model.json`` and the final ``run.json`` only when it has finished. The rules:
 
 * :func:`prepare_run_folder` creates the folder (or checks it is one) and **removes
-  the previous run's results** from it — the five names of :data:`RUN_OUTPUTS`, and
+  the previous run's results** from it — the names of :data:`RUN_OUTPUTS` (the five a
+  run writes, and ``view.html``, the page ``pgm view`` made of the previous run), and
   nothing else — so a new ``tracks.txt`` never sits next to an older run's
-  ``metrics.json``. A symbolic link with one of those names is removed, never followed.
+  ``metrics.json`` or page. A symbolic link with one of those names is removed, never
+  followed.
 * :func:`write_run_status` writes ``run.json`` atomically (a temporary file renamed over
   it): ``"complete": false`` from the start of a run, with ``"stopped"`` saying why when
   it was interrupted or failed, and ``"complete": true`` once every result is written.
@@ -38,8 +40,11 @@ def _umask() -> int:
 
 _FILE_MODE = 0o666 & ~_umask()  # what open() would give a new file
 
-#: the files one run writes into its output folder (removed before the next run there)
-RUN_OUTPUTS = ("tracks.txt", "annotated.mp4", "metrics.json", "run.json", "model.json")
+#: the files one run writes into its output folder, and the viewer page made of it
+#: (removed before the next run there: a page left from a --record run would show an
+#: earlier run next to the new results)
+RUN_OUTPUTS = ("tracks.txt", "annotated.mp4", "metrics.json", "run.json", "model.json",
+               "view.html")
 
 
 def _why(exc: OSError) -> str:

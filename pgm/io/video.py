@@ -606,7 +606,8 @@ def open_source(path: str | Path) -> FrameSource:
     ------
     InputError
         The path does not exist; a folder holds no images; a video cannot be opened or
-        its first frame cannot be decoded; ``seqinfo.ini`` is malformed.
+        its first frame cannot be decoded; ``seqinfo.ini`` is malformed; the path is a
+        named pipe or a socket (FFmpeg would wait on it for ever).
         A corrupt image file is reported when iteration reaches it.
     """
     if isinstance(path, str) and is_live(path) and not Path(path).exists():
@@ -616,6 +617,12 @@ def open_source(path: str | Path) -> FrameSource:
         raise InputError(f"no such file or folder: {p}")
     if p.is_dir():
         return _open_folder(p)
+    if p.is_fifo() or p.is_socket():
+        # FFmpeg would block in open() on a pipe with no writer, in native code where
+        # neither SIGINT nor SIGTERM reaches the run: refused before it is opened
+        kind = "a named pipe (FIFO)" if p.is_fifo() else "a socket"
+        raise InputError(f"{p} is {kind}, not a video file: give a file, an image folder, "
+                         f"a camera index or a stream URL (e.g. udp://, tcp://)")
     if p.suffix.lower() in IMAGE_EXTENSIONS:
         raise InputError(f"{p} is a single image; pass the folder that holds the sequence")
     gt = p.parent / "gt" / "gt.txt"
