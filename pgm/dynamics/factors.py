@@ -41,7 +41,8 @@ from pgm.core.numerics import check_finite_param
 from pgm.core.variable import Variable
 from pgm.factors.kinds import PriorFactor, TransitionFactor
 
-from .gpdm import GPDM, _torch_threads, apply_differences, load_gpdm
+from .gpdm import GPDM, apply_differences, load_gpdm
+from .gpdm_model import _torch_threads
 
 __all__ = ["GPDMPrior", "GPDMTransition", "BOX_LABELS", "state_labels"]
 
