@@ -268,13 +268,73 @@ class ImageSequenceSource(FrameSource):
 
     def frames(self, start: int = 1, stop: int | None = None
                ) -> Iterator[tuple[int, np.ndarray]]:
+        """As :meth:`FrameSource.frames`; the next :data:`PREFETCH` images are decoded in
+        a thread while the caller works on this one (decoding releases the GIL), and a
+        file's error is raised when its frame is reached, as without it."""
         start, stop = _check_range(start, stop, self.path)
         end = len(self.files) if stop is None else min(stop - 1, len(self.files))
-        first: tuple[int, int] | None = None
-        for k in range(start, end + 1):
-            image = _read_image(self.files[k - 1])
-            first = _check_same_size(first, image, f"image {self.files[k - 1]} (frame {k})")
-            yield k, image
+
+        def decoded():
+            first: tuple[int, int] | None = None
+            for k in range(start, end + 1):
+                image = _read_image(self.files[k - 1])
+                first = _check_same_size(first, image,
+                                         f"image {self.files[k - 1]} (frame {k})")
+                yield k, image
+
+        return _prefetched(decoded()) if end - start >= 1 else decoded()
+
+
+#: frames an :class:`ImageSequenceSource` decodes ahead of the one being used
+PREFETCH = 2
+
+
+def _prefetched(items: Iterator, depth: int = PREFETCH) -> Iterator:
+    """``items``, produced up to ``depth`` ahead by a thread. An exception of the
+    producer is raised where its item would have been; closing the iterator early (a
+    ``max_frames``, an interruption) stops the thread after the item it is on."""
+    import queue
+    import threading
+
+    q: queue.Queue = queue.Queue(maxsize=depth)
+    stop = threading.Event()
+    end = object()
+
+    def put(entry) -> bool:
+        while not stop.is_set():
+            try:
+                q.put(entry, timeout=0.05)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def produce() -> None:
+        try:
+            for item in items:
+                if not put((True, item)):
+                    return
+            put((True, end))
+        except BaseException as exc:  # noqa: BLE001 - handed to the consumer
+            put((False, exc))
+
+    thread = threading.Thread(target=produce, name="pgm-decode", daemon=True)
+
+    def consume():
+        thread.start()
+        try:
+            while True:
+                ok, item = q.get()
+                if not ok:
+                    raise item
+                if item is end:
+                    return
+                yield item
+        finally:
+            stop.set()
+            thread.join()
+
+    return consume()
 
 
 def _check_same_size(first: tuple[int, int] | None, image: np.ndarray,
