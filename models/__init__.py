@@ -1,25 +1,107 @@
 """pgm.models: model configs — functions that build a :class:`~pgm.FactorGraph`.
 
-Each model module has a frozen ``Params`` dataclass and ``build_graph(params)``.
-:data:`MODELS` maps the CLI's model names to them.
+Each model module has a frozen ``Params`` dataclass, ``build_graph(params)`` and a
+``CONFIG`` (:class:`pgm.models.config.ModelConfig`) that tells the application its
+name, its kind and its command-line options. Models are found through the ``pgm.models``
+entry points: the toolkit's own (:data:`BUILTIN`) and those of any installed package
+(``[project.entry-points."pgm.models"] my-tracker = "my_package.my_tracker:CONFIG"``),
+so a model of your own appears in ``pgm track --model``, ``pgm graph`` and ``pgm bench``
+without touching the toolkit (``docs/tutorials/08_model_plugin.py``).
+
+Listing the names imports no model (:func:`model_names`); :func:`get_config` imports one.
 """
 
-from . import colour_pf, gpdm, linear_gaussian, multi_pf, part_graph, phd, single_object, vb_phd
+from __future__ import annotations
 
-__all__ = ["colour_pf", "gpdm", "linear_gaussian", "multi_pf", "part_graph", "phd", "single_object",
-           "vb_phd", "MODELS", "get_model", "DEFAULT_SINGLE_OBJECT"]
+import importlib
+from typing import Any
 
-#: CLI model name → module with ``Params`` and ``build_graph``
-MODELS = {"colour-pf": colour_pf, "part-graph": part_graph, "phd": phd, "vb-phd": vb_phd,
-          "single-object": single_object, "multi-pf": multi_pf, "gpdm": gpdm}
+from . import config
+from .config import ModelConfig
+
+__all__ = ["BUILTIN", "model_names", "get_config", "get_model", "registry",
+           "DEFAULT_SINGLE_OBJECT", "DEFAULT_MULTI_TARGET", "ENTRY_POINT_GROUP", "config",
+           "ModelConfig", "colour_pf", "gpdm", "linear_gaussian", "multi_pf", "part_graph", "phd",
+           "single_object", "vb_phd"]
+
+#: the entry-point group where packages declare models
+ENTRY_POINT_GROUP = "pgm.models"
+#: the toolkit's own models: name → ``module:attribute`` of their :class:`ModelConfig`
+#: (also declared as entry points in the toolkit's ``pyproject.toml``)
+BUILTIN = {
+    "colour-pf": "pgm.models.colour_pf:CONFIG",
+    "gpdm": "pgm.models.gpdm:CONFIG",
+    "linear-gaussian": "pgm.models.linear_gaussian:CONFIG",
+    "multi-pf": "pgm.models.multi_pf:CONFIG",
+    "part-graph": "pgm.models.part_graph:CONFIG",
+    "phd": "pgm.models.phd:CONFIG",
+    "single-object": "pgm.models.single_object:CONFIG",
+    "vb-phd": "pgm.models.vb_phd:CONFIG",
+}
 #: what ``pgm track`` runs on a single object when no ``--model`` is given
 DEFAULT_SINGLE_OBJECT = "single-object"
+#: what ``pgm track`` runs on a video with detections when no ``--model`` is given
+DEFAULT_MULTI_TARGET = "vb-phd"
+
+_SUBMODULES = ("colour_pf", "gpdm", "linear_gaussian", "multi_pf", "part_graph", "phd",
+               "single_object", "vb_phd")
+
+
+def __getattr__(name: str) -> Any:
+    """The model modules, imported on first use (listing names stays cheap)."""
+    if name in _SUBMODULES:
+        return importlib.import_module(f"{__name__}.{name}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _entry_points() -> dict[str, Any]:
+    from importlib.metadata import entry_points
+
+    return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
+
+
+def model_names() -> list[str]:
+    """Every model name: the toolkit's and the installed packages' (imports none)."""
+    return sorted(set(BUILTIN) | set(_entry_points()))
+
+
+def _load(name: str, target: str | Any) -> ModelConfig:
+    try:
+        if isinstance(target, str):
+            module, _, attr = target.partition(":")
+            obj = getattr(importlib.import_module(module), attr)
+        else:
+            obj = target.load()
+    except Exception as exc:  # a broken plug-in: say which, do not crash the listing
+        where = target if isinstance(target, str) else target.value
+        raise ValueError(f"model {name!r} ({where}) cannot be loaded: "
+                         f"{type(exc).__name__}: {exc}") from None
+    if not isinstance(obj, ModelConfig):
+        obj = getattr(obj, "CONFIG", obj)  # an entry point may name the module
+    if not isinstance(obj, ModelConfig):
+        raise ValueError(f"model {name!r}: its entry point names {type(obj).__name__}, not a "
+                         f"pgm.models.config.ModelConfig")
+    if obj.name != name:
+        raise ValueError(f"model {name!r}: its entry point names the config of {obj.name!r}")
+    return obj
+
+
+def get_config(name: str) -> ModelConfig:
+    """The :class:`ModelConfig` called ``name`` (a ``ValueError`` listing the names if
+    there is none)."""
+    eps = _entry_points()
+    if name in BUILTIN:  # the toolkit's own, even where the distribution is not installed
+        return _load(name, BUILTIN[name])
+    if name in eps:
+        return _load(name, eps[name])
+    raise ValueError(f"unknown model {name!r} (choose from {', '.join(model_names())})")
 
 
 def get_model(name: str):
-    """The model module called ``name`` (e.g. ``"colour-pf"``)."""
-    try:
-        return MODELS[name]
-    except KeyError:
-        raise ValueError(f"unknown model {name!r} (choose from {', '.join(sorted(MODELS))})") \
-            from None
+    """The module of the model called ``name`` (its ``Params`` and ``build_graph``)."""
+    return get_config(name).module
+
+
+def registry() -> dict[str, ModelConfig]:
+    """Every model's config, by name (imports every model)."""
+    return {name: get_config(name) for name in model_names()}

@@ -27,13 +27,15 @@ References
 from __future__ import annotations
 
 import dataclasses
+import sys
 from dataclasses import dataclass
 
 from pgm.core.graph import FactorGraph
 
+from . import config as _config
 from .part_graph import BOX_LABELS
 
-__all__ = ["Params", "build_graph", "one_node_graph", "BOX_LABELS"]
+__all__ = ["CONFIG", "Params", "build_graph", "one_node_graph", "BOX_LABELS"]
 
 
 @dataclass(frozen=True)
@@ -98,3 +100,10 @@ def one_node_graph(params: Params, graph_name: str) -> FactorGraph:
 
     fields = {f.name: getattr(params, f.name) for f in dataclasses.fields(params)}
     return part_graph.build_graph(part_graph.Params(n_parts=1, **fields), name=graph_name)
+
+
+#: what the application sees of this model (:mod:`pgm.models.config`)
+CONFIG = _config.ModelConfig(
+    "colour-pf", "single-object", sys.modules[__name__],
+    "the colour particle filter of Pérez et al. (2002): one box, a colour histogram",
+    options=(_config.APPEARANCE, _config.SCALE_NOISE))

@@ -27,6 +27,7 @@ vector; here each person has its own chain with the dynamics shared.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -40,10 +41,11 @@ from pgm.factors import AveragedVelocityTransition, GaussianPrior
 from pgm.inference.settings import EngineSettings
 from pgm.observation.appearance.cues import appearance_cues
 
+from . import config as _config
 from .multi_pf import REFERENCE_BOX, evidence_factors
 from .part_graph import BOX_LABELS
 
-__all__ = ["Params", "build_graph", "MOTIONS"]
+__all__ = ["CONFIG", "Params", "build_graph", "MOTIONS"]
 
 MOTIONS = ("gpdm", "cv", "cv3")
 
@@ -138,3 +140,43 @@ def build_graph(params: Params | None = None, name: str = "gpdm") -> FactorGraph
     return FactorGraph([variable], factors, name=name if p.motion == "gpdm" else
                        f"{name}-{p.motion}", meta=meta,
                        plates=[Plate(nm, (nm,), lifecycle=p.lifecycle)])
+
+
+def _build(config, values, video):
+    motion = values.get("motion") or "gpdm"
+    path = values.get("gpdm")
+    if motion == "gpdm":
+        if path is None:
+            raise ValueError("--model gpdm needs --gpdm FILE.npz (learn one with 'pgm learn "
+                             "gpdm'), or --motion cv|cv3 for the baselines")
+        if not Path(path).is_file():
+            raise ValueError(f"--gpdm: no such file: {path}")
+    elif path is not None:
+        raise ValueError(f"--gpdm applies to --motion gpdm, not {motion}")
+    values = {**values, "motion": motion}
+    return _config.default_build(config, values, video)
+
+
+def _example(config, values):
+    if values.get("gpdm") is None and values.get("motion") in (None, "gpdm"):
+        values = {**values, "motion": "cv3"}
+        note = ("drawn with --motion cv3 (the learned dynamics need --gpdm FILE.npz: "
+                "'pgm learn gpdm')")
+    else:
+        note = ""
+    return _build(config, values, _config.VideoInfo()), note
+
+
+#: what the application sees of this model (:mod:`pgm.models.config`)
+CONFIG = _config.ModelConfig(
+    "gpdm", "multi-target", sys.modules[__name__],
+    "a particle filter per person with proposals from a learned GPDM (Wang, Yin & Man "
+    "2008), as a plate",
+    options=(_config.APPEARANCE, _config.SCALE_NOISE,
+             _config.Option("--gpdm", "model", metavar="FILE.npz",
+                            help="the learned dynamics ('pgm learn gpdm'); needed by --motion "
+                                 "gpdm (default: none)"),
+             _config.Option("--motion", "motion", choices=MOTIONS,
+                            help="the motion model: the learned GPDM (default), constant "
+                                 "velocity, or constant velocity averaged over three frames")),
+    build=_build, example=_example)

@@ -14,6 +14,7 @@ observed.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -23,7 +24,9 @@ from pgm.core.variable import Variable
 from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianTransition
 from pgm.inference.settings import EngineSettings
 
-__all__ = ["Params", "build_graph", "simulate"]
+from . import config as _config
+
+__all__ = ["CONFIG", "Params", "build_graph", "simulate"]
 
 
 def _cv_F() -> np.ndarray:
@@ -73,3 +76,16 @@ def simulate(rng: np.random.Generator, params: Params, num_timesteps: int):
         xs[t] = x
         ys[t] = H @ x + rng.multivariate_normal(np.zeros(k), R)
     return xs, ys
+
+
+def _example(config, values):
+    return build_graph(Params()), ""
+
+
+#: what the application sees of this model (:mod:`pgm.models.config`)
+CONFIG = _config.ModelConfig(
+    "linear-gaussian", "state-space", sys.modules[__name__],
+    "a linear-Gaussian state-space model (the Kalman filter's oracle); no video",
+    build=lambda config, values, video: build_graph(
+        Params(), **({"num_particles": video.particles} if video.particles else {})),
+    example=_example)

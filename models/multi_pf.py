@@ -27,6 +27,7 @@ The model of one person, declared once and replicated per target by the engine
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -41,9 +42,10 @@ from pgm.factors.plates import DetectionLikelihood, MutualExclusion
 from pgm.inference.settings import EngineSettings
 from pgm.observation.appearance.cues import appearance_cues, cue_factor
 
+from . import config as _config
 from .part_graph import BOX_LABELS, split_box
 
-__all__ = ["Params", "build_graph", "person_graph", "evidence_factors", "REFERENCE_BOX"]
+__all__ = ["CONFIG", "Params", "build_graph", "person_graph", "evidence_factors", "REFERENCE_BOX"]
 
 #: the box the declaration is written for (a person 100 px tall); replicas are placed
 #: relative to it
@@ -171,3 +173,10 @@ def build_graph(params: Params | None = None, name: str = "multi-pf") -> FactorG
             "readout": "plate", "reference_box": list(REFERENCE_BOX)}
     plate = Plate("person", tuple(names), lifecycle=p.lifecycle)
     return FactorGraph(variables, factors, name=name, meta=meta, plates=[plate])
+
+
+#: what the application sees of this model (:mod:`pgm.models.config`)
+CONFIG = _config.ModelConfig(
+    "multi-pf", "multi-target", sys.modules[__name__],
+    "one particle filter (or part graph) per person, as a plate",
+    options=(_config.PARTS, _config.APPEARANCE, _config.SCALE_NOISE))

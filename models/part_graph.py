@@ -32,6 +32,7 @@ References
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,7 +46,9 @@ from pgm.factors.couplings import AffineCoupling, RelativeBoxCoupling
 from pgm.inference.settings import EngineSettings
 from pgm.observation.appearance.cues import appearance_cues, cue_factor
 
-__all__ = ["Params", "build_graph", "split_box", "part_names", "BOX_LABELS",
+from . import config as _config
+
+__all__ = ["CONFIG", "Params", "build_graph", "split_box", "part_names", "BOX_LABELS",
            "PAPER_PARTICLES", "object_box"]
 
 BOX_LABELS = ("cx", "cy", "w", "h")
@@ -258,3 +261,19 @@ def object_box(graph: FactorGraph, record) -> Targets:
     implied = [np.asarray(record.estimates[n], dtype=float)[:4]
                + np.asarray(offsets.get(n, np.zeros(4)), dtype=float) for n in graph.output]
     return cxcywh_target(np.mean(implied, axis=0))
+
+
+#: what the application sees of this model (:mod:`pgm.models.config`)
+CONFIG = _config.ModelConfig(
+    "part-graph", "single-object", sys.modules[__name__],
+    "two or three parts of one object passing message particles (Zhang & Kang 2015)",
+    options=(_config.PARTS,
+             _config.Option("--split", "split", choices=("rows", "cols"),
+                            help="horizontal (rows) or vertical bands (default: the model's, "
+                                 "rows)"),
+             _config.Option("--topology", "topology", choices=("chain", "full"),
+                            help="couplings between neighbours (chain) or all pairs "
+                                 "(default: the model's, chain)"),
+             _config.Option("--fusion", "fusion", choices=("mixture", "product"),
+                            help="particle-BP fusion rule (default: the model's, mixture)"),
+             _config.APPEARANCE, _config.SCALE_NOISE))

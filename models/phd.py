@@ -29,6 +29,7 @@ References
 from __future__ import annotations
 
 import dataclasses
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,7 +48,9 @@ from pgm.factors.multitarget import (
 )
 from pgm.inference.settings import EngineSettings
 
-__all__ = ["Params", "build_graph", "video_params", "foot_point_boxes", "STATE_LABELS",
+from . import config as _config
+
+__all__ = ["CONFIG", "Params", "build_graph", "video_params", "foot_point_boxes", "STATE_LABELS",
            "H_POSITION", "SCALE_STATE_LABELS", "H_SCALE", "REFERENCE_HEIGHT"]
 
 STATE_LABELS = ("px", "vx", "py", "vy")
@@ -278,3 +281,49 @@ def foot_point_boxes(graph: FactorGraph, record) -> Targets:
     boxes = (np.column_stack([states[:, 0] - sizes[:, 0] / 2, states[:, 2] - sizes[:, 1], sizes])
              if len(ids) else np.zeros((0, 4)))
     return Targets(ids, boxes, est["existence"][ok], text=f"E[N]={est['expected_count']:.1f}")
+
+
+def video_build(config, values, video):
+    """The graph of a (VB-)PHD config for ``video`` (:func:`video_params`), with the
+    options ``--scale-aware``, ``--scores``, ``--per-track-noise`` and ``--dbn``."""
+    kwargs: dict = {}
+    if video.particles is not None:
+        kwargs["particles_per_target"] = int(video.particles)
+    if values.get("per_track_noise"):
+        kwargs["per_track_noise"] = True
+    if video.typical_height is not None:
+        kwargs["typical_height"] = float(video.typical_height)
+    if values.get("scale_aware"):
+        kwargs["scale_aware"] = True
+    if values.get("scores") is not None:
+        kwargs["score_model"] = values["scores"]
+    graph = config.module.build_graph(video_params(config.module.Params, video.width,
+                                                   video.height, video.fps, **kwargs))
+    if values.get("dbn") is not None:
+        from pgm.observation.appearance.dbn import DBNLikelihood
+
+        graph = graph.with_factors(DBNLikelihood(graph.output[0], model=values["dbn"],
+                                                 name="appearance:dbn"),
+                                   name=graph.name + "+dbn")
+    return graph
+
+
+#: the (VB-)PHD options (:mod:`pgm.models.config`)
+PHD_OPTIONS = (
+    _config.Option("--dbn", None, metavar="FILE.npz",
+                   help="a DBN person likelihood trained by 'pgm learn dbn' (multiplies the "
+                        "detection terms; default: none)"),
+    _config.Option("--scale-aware", "scale_aware", flag_only=True,
+                   help="track each box's scale; noise in units of each target's own height "
+                        "(experimental: see docs/results.md)"),
+    _config.Option("--scores", "score_model", choices=("off", "mixture"),
+                   help="detection scores in the measurement model: 'mixture' (default: a "
+                        "two-class score mixture fitted on the video's own scores; confident "
+                        "detections start targets, a tracked target's low-score detections "
+                        "still update it) or 'off' (score-blind)"))
+
+#: what the application sees of this model (:mod:`pgm.models.config`)
+CONFIG = _config.ModelConfig(
+    "phd", "multi-target", sys.modules[__name__],
+    "the particle PHD filter (Vo, Singh & Doucet 2005) on detections' foot points",
+    options=PHD_OPTIONS, build=video_build)

@@ -45,6 +45,7 @@ leave-one-group-out reliability.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
 from pgm.core.graph import FactorGraph
@@ -52,8 +53,9 @@ from pgm.core.readout import check_confidence_spec
 from pgm.observation.appearance.correlation import CorrelationFilterLikelihood
 
 from . import colour_pf
+from . import config as _config
 
-__all__ = ["Params", "build_graph", "APPEARANCE", "SCALE_NOISE", "JUMP_PROB", "CONFIDENCE"]
+__all__ = ["CONFIG", "Params", "build_graph", "APPEARANCE", "SCALE_NOISE", "JUMP_PROB", "CONFIDENCE"]
 
 APPEARANCE = "cf"
 SCALE_NOISE = 0.005
@@ -88,3 +90,11 @@ def build_graph(params: Params, name: str = "object") -> FactorGraph:
         graph.meta["confidence"] = check_confidence_spec(
             {"factor": cf[0].name, **CONFIDENCE}, graph.factors)
     return graph
+
+
+#: what the application sees of this model (:mod:`pgm.models.config`)
+CONFIG = _config.ModelConfig(
+    "single-object", "single-object", sys.modules[__name__],
+    "the default single-object tracker: an online correlation filter, scale, jumps and "
+    "a calibrated confidence",
+    options=(_config.APPEARANCE, _config.SCALE_NOISE))

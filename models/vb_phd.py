@@ -30,6 +30,7 @@ References
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,9 +40,10 @@ from pgm.core.numerics import check_finite_param
 from pgm.core.variable import Variable
 from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, VBNoise
 
+from . import config as _config
 from . import phd
 
-__all__ = ["Params", "build_graph"]
+__all__ = ["CONFIG", "Params", "build_graph"]
 
 
 @dataclass(frozen=True)
@@ -104,3 +106,14 @@ def build_graph(params: Params, name: str = "vb-phd") -> FactorGraph:
     ]
     return FactorGraph(list(base.variables.values()) + [noise], factors, name=name,
                        meta=base.meta)
+
+
+#: what the application sees of this model (:mod:`pgm.models.config`)
+CONFIG = _config.ModelConfig(
+    "vb-phd", "multi-target", sys.modules[__name__],
+    "the variational-Bayes particle PHD filter with adaptive measurement noise (Feng et "
+    "al. 2015)",
+    options=phd.PHD_OPTIONS + (_config.Option(
+        "--per-track-noise", "per_track_noise", flag_only=True,
+        help="one noise belief per track instead of one shared"),),
+    build=phd.video_build)

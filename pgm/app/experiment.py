@@ -16,7 +16,7 @@ track``'s options, spelt ``particles = 50`` or ``scale-noise = 0.01``) and seeds
     sequences = ["../data/Crossing", "../data/OTB/*", {path = "clip.mp4", name = "clip"}]
 
     [[models]]
-    name = "colour-pf"        # a name of pgm.models.MODELS, or a saved model.json
+    name = "colour-pf"        # a model name (pgm.models.model_names()), or a saved model.json
     particles = 50
 
     [[models]]
@@ -140,7 +140,7 @@ class ModelSpec:
     label : str
         The folder name of its runs and its name in the tables.
     name : str
-        A model name of :data:`pgm.models.MODELS`, or the absolute path of a saved
+        A model name (:func:`pgm.models.model_names`), or the absolute path of a saved
         ``model.json``.
     options : tuple of str
         ``pgm track`` arguments (``--particles=50``, ``--show-particles``).
@@ -329,27 +329,39 @@ def _sequences(value: Any, base: Path, where: str) -> tuple[SequenceSpec, ...]:
     return tuple(out)
 
 
-@functools.lru_cache(maxsize=1)
-def _track_actions() -> dict[str, argparse.Action]:
-    """``pgm track``'s options by destination (read from the parser, so that an option
-    added to ``pgm track`` is an option of an experiment too)."""
+@functools.lru_cache(maxsize=16)
+def _track_actions(model: str | None = None) -> dict[str, argparse.Action]:
+    """``pgm track``'s options for ``model`` by destination (read from the parser with
+    the model's own options, so that an option added to ``pgm track`` or declared by a
+    model is an option of an experiment too)."""
     from pgm.app.cli import build_parser
+    from pgm.models import get_config
 
-    parser = build_parser()
+    config = None
+    if model is not None and not model.endswith(".json"):
+        config = get_config(model)
+    parser = build_parser(config)
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     return {a.dest: a for a in sub.choices["track"]._actions}
 
 
-def _option_tokens(key: str, value: Any, base: Path, where: str) -> list[str]:
+def _option_tokens(key: str, value: Any, base: Path, where: str,
+                   model: str | None = None) -> list[str]:
     """``pgm track`` arguments for one option of a model entry."""
     import difflib
 
-    actions = _track_actions()
+    actions = _track_actions(model)
     dest = key.replace("-", "_")
     if dest in RESERVED_OPTIONS:
         raise InputError(f"{where}: {key!r} is not a per-model option (set by "
                          f"{RESERVED_OPTIONS[dest]})")
     action = actions.get(dest)
+    if (action is None or not action.option_strings) and model is not None:
+        from pgm.app.cli_track import explain_unknown_options
+
+        other = explain_unknown_options(["--" + key.replace("_", "-")], model)
+        if other is not None:
+            raise InputError(f"{where}: {other}")
     if action is None or not action.option_strings:
         known = sorted(d.replace("_", "-") for d in actions if d not in RESERVED_OPTIONS)
         near = difflib.get_close_matches(key.replace("_", "-"), known, n=1)
@@ -391,12 +403,12 @@ def _option_tokens(key: str, value: Any, base: Path, where: str) -> list[str]:
 def _parse_track(argv: Sequence[str]) -> argparse.Namespace:
     """``pgm track``'s namespace of ``argv`` (``["track", ...]``); a parse error is an
     :class:`InputError` with the parser's one line."""
-    from pgm.app.cli import build_parser
+    from pgm.app.cli import parse_args
 
     err = io.StringIO()
     try:
         with contextlib.redirect_stderr(err):
-            return build_parser().parse_args(list(argv))
+            return parse_args(list(argv))
     except SystemExit:
         msg = one_line(err.getvalue()).removeprefix("pgm: error: ")
         raise InputError(msg or f"bad arguments: {shlex.join(argv)}") from None
@@ -405,26 +417,30 @@ def _parse_track(argv: Sequence[str]) -> argparse.Namespace:
 def _check_single_object(model: ModelSpec, where: str) -> None:
     """Build a single-object model's graph once, as ``pgm track`` will: an option that
     does not apply to it is an error now, not in every run."""
-    from pgm.app import cli
+    from pgm.app.cli_track import GENERIC_MULTI_TARGET, graph_from_config
+    from pgm.models.config import VideoInfo
 
     args = _parse_track(["track", "-", "--model", model.name, "--out", "-", *model.options])
-    for opt in cli.MULTI_TARGET_OPTIONS + ("detector",):
-        if cli._given(args, opt):
-            raise InputError(f"{where}: {opt.replace('_', '-')} applies to "
-                             f"{', '.join(cli.MULTI_TARGET_MODELS)}, not to {model.name!r}")
+    for opt in GENERIC_MULTI_TARGET:
+        if getattr(args, opt, None) is not None:
+            raise InputError(f"{where}: {opt.replace('_', '-')} applies to multi-target "
+                             f"models, not to {model.name!r}")
+    if args.model_config is None:  # a saved model: its factors are fixed
+        return
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            cli._load_model_graph(model.name, np.array([50.0, 50.0, 20.0, 30.0]),
-                                  args.particles, args)
+            graph_from_config(args.model_config, args, VideoInfo(
+                init_box=(50.0, 50.0, 20.0, 30.0), particles=args.particles))
     except InputError as exc:
         raise InputError(f"{where}: {one_line(exc)}") from None
 
 
 def _models(value: Any, base: Path, where: str) -> tuple[ModelSpec, ...]:
     from pgm.app import cli
-    from pgm.models import MODELS
+    from pgm.models import get_config, model_names
 
+    names = ", ".join(model_names())
     if value is None:
         raise InputError(f"{where}: no models (add a [[models]] table with name = \"...\")")
     if not isinstance(value, list) or not value or not all(isinstance(v, dict) for v in value):
@@ -435,7 +451,7 @@ def _models(value: Any, base: Path, where: str) -> tuple[ModelSpec, ...]:
         name = entry.get("name")
         if not isinstance(name, str) or not name:
             raise InputError(f"{here}: name is missing (a model of "
-                             f"{', '.join(sorted(MODELS))}, or a saved model.json)")
+                             f"{names}, or a saved model.json)")
         saved = name.endswith(".json")
         if saved:
             p = Path(name).expanduser()
@@ -443,15 +459,22 @@ def _models(value: Any, base: Path, where: str) -> tuple[ModelSpec, ...]:
             if not p.is_file():
                 raise InputError(f"{here}: no such model file: {name!r} (relative to {base})")
             graph = cli.load_model_file(p)
-            multi = cli._is_multi_target(graph)
+            multi = graph.multi_target
             name = str(p.resolve())
             default_label = _safe_name(p.parent.name if p.stem == "model" else p.stem)
-        elif name in MODELS:
-            multi = name in cli.MULTI_TARGET_MODELS
+        elif name in model_names():
+            try:
+                config = get_config(name)
+            except ValueError as exc:
+                raise InputError(f"{here}: {one_line(exc)}") from None
+            if config.kind == "state-space":
+                raise InputError(f"{here}: model {name!r} runs on measurements, not on "
+                                 f"video sequences")
+            multi = config.kind == "multi-target"
             default_label = name
         else:
             raise InputError(f"{here}: unknown model {name!r} (choose from "
-                             f"{', '.join(sorted(MODELS))}, or a saved model.json)")
+                             f"{names}, or a saved model.json)")
         label = entry.get("label", default_label)
         if not isinstance(label, str) or not _SAFE_NAME.fullmatch(label):
             raise InputError(f"{here}: label must be letters, digits and . _ + = -, got "
@@ -463,7 +486,7 @@ def _models(value: Any, base: Path, where: str) -> tuple[ModelSpec, ...]:
         tokens: list[str] = []
         for key, opt in entry.items():
             if key not in ("name", "label"):
-                tokens += _option_tokens(key, opt, base, here)
+                tokens += _option_tokens(key, opt, base, here, name)
         detector = entry.get("detector")
         spec = ModelSpec(label, name, tuple(tokens), multi,
                          detector if isinstance(detector, str) else None)
@@ -735,7 +758,7 @@ def run_task(run: RunSpec, out: str) -> dict[str, Any]:
         SIGINT/SIGTERM during the run (its ``run.json`` then says
         ``"complete": false``).
     """
-    from pgm.app import cli
+    from pgm.app.cli_track import cmd_track
     from pgm.io.outputs import write_json
 
     t0 = time.perf_counter()
@@ -758,7 +781,7 @@ def run_task(run: RunSpec, out: str) -> dict[str, Any]:
             warnings.simplefilter("always")
             _IN_RUN[0] = True
             try:
-                cli.cmd_track(_parse_track(run.argv(out)))
+                cmd_track(_parse_track(run.argv(out)))
             finally:
                 _IN_RUN[0] = False
         info["warnings"] = handler.messages + [one_line(w.message) for w in caught]

@@ -361,10 +361,10 @@ def split_configurations(runs: list[Run]) -> list[str]:
             engines = [json.loads(c.get("engine", "{}")) for c in configs]
             sub = sorted({k for e in engines for k in e
                           if len({json.dumps(e.get(k), sort_keys=True) for e in engines}) > 1})
-            for c, e in zip(configs, engines):
+            for c, e in zip(configs, engines, strict=True):
                 c.update({f"engine.{k}": json.dumps(e.get(k), sort_keys=True) for k in sub})
             differing = [k for k in differing if k != "engine"] + [f"engine.{k}" for k in sub]
-        for r, c in zip(members, configs):
+        for r, c in zip(members, configs, strict=True):
             words = [_describe(k, c[k]) for k in differing if k in c]
             r.label = f"{label} ({', '.join(words)})" if words else label
         notes.append(f"{sequence}, {label}: {len(members)} runs differ in "

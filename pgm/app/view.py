@@ -100,10 +100,11 @@ def graph_svg(graph: Any) -> str:
     """An inline SVG of ``graph`` in the notation of :mod:`pgm.plotting.graph_drawing`
     (the same layout and colours): ``<g class="variable|factor" data-node=NAME>`` per
     node, so that a page can highlight nodes by name."""
-    from pgm.plotting.graph_drawing import KIND_COLOURS, ROLE_COLOURS, layout, plate_boxes
+    from pgm.plotting.graph_drawing import KIND_COLOURS, ROLE_COLOURS, layout, plate_outlines
 
     pos = layout(graph)
-    plates = plate_boxes(graph, pos)
+    outlines = plate_outlines(graph, pos)
+    plates = [box for box, _ in outlines]
     xs = [p[0] for p in pos.values()] + [b[0] for b in plates] + [b[2] for b in plates]
     ys = [p[1] for p in pos.values()] + [b[1] for b in plates] + [b[3] for b in plates]
     x0, x1 = min(xs) - 2.2, max(xs) + 1.8
@@ -117,7 +118,7 @@ def graph_svg(graph: Any) -> str:
     out = [f'<svg xmlns="http://www.w3.org/2000/svg" id="graph-svg" '
            f'viewBox="0 0 {(x1 - x0) * u:.0f} {(y1 - y0) * u:.0f}" role="img" '
            f'aria-label="factor graph of {esc(graph.name)}">']
-    for (a, b, c, d), p in zip(plates, graph.plates, strict=True):
+    for (a, b, c, d), p in outlines:
         (sx, sy), (ex, ey) = px((a, d)), px((c, b))
         out.append(f'<rect class="plate" x="{sx:.1f}" y="{sy:.1f}" width="{ex - sx:.1f}" '
                    f'height="{ey - sy:.1f}" rx="6"/>'

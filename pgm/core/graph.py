@@ -176,6 +176,12 @@ class FactorGraph:
         return out
 
     @property
+    def multi_target(self) -> bool:
+        """Whether the graph tracks many targets: a plate (one sub-graph per target) or a
+        ``set`` variable (one intensity for all)."""
+        return bool(self.plates) or any(v.role == "set" for v in self.variables.values())
+
+    @property
     def output(self) -> list[str]:
         """Names of the variables a tracker reports (``meta["output"]``, else all parts)."""
         out = self.meta.get("output")

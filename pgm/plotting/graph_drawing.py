@@ -124,6 +124,11 @@ def layout(graph: FactorGraph) -> dict[str, np.ndarray]:
     return out
 
 
+def plate_outlines(graph: FactorGraph, pos: dict[str, np.ndarray]) -> list[tuple]:
+    """``((x0, y0, x1, y1), plate)`` for each plate of ``graph`` (:func:`plate_boxes`)."""
+    return list(zip(plate_boxes(graph, pos), graph.plates, strict=True))
+
+
 def plate_boxes(graph: FactorGraph, pos: dict[str, np.ndarray]
                 ) -> list[tuple[float, float, float, float]]:
     """``(x0, y0, x1, y1)`` of each plate: around its variables and their factors (not the

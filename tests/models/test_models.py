@@ -9,13 +9,13 @@ from pgm import FactorGraph, FrameContext
 from pgm.core.readout import Targets, readout
 from pgm.inference import Engine
 from pgm.inference.settings import EngineSettings
-from pgm.models import MODELS, get_model
+from pgm.models import get_config, get_model, model_names
 from pgm.observation.detections import Detections
 from pgm.synthetic import demo_scene, multi_target_scene
 
-SINGLE = sorted(n for n, m in MODELS.items()
-                if "init_box" in {f.name for f in dataclasses.fields(m.Params)})
-MULTI = sorted(set(MODELS) - set(SINGLE))
+CONFIGS = {n: get_config(n) for n in model_names()}
+SINGLE = sorted(n for n, c in CONFIGS.items() if c.kind == "single-object")
+MULTI = sorted(n for n, c in CONFIGS.items() if c.kind == "multi-target")
 
 
 @pytest.fixture(scope="module")
@@ -36,7 +36,7 @@ def _graph(name, box=None):
     return module.build_graph(module.Params())  # a plate: one sub-graph per target
 
 
-@pytest.mark.parametrize("name", sorted(MODELS))
+@pytest.mark.parametrize("name", sorted(CONFIGS))
 def test_model_saves_as_data_and_names_typed_settings(name, tmp_path, walker):
     graph = _graph(name, walker[1])
     graph.save(tmp_path / "model.json")

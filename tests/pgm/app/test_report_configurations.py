@@ -8,7 +8,7 @@ import json
 import pytest
 
 from pgm.app.cli import main
-from pgm.app.report import group_runs, load_run, write_report
+from pgm.app.report import group_runs, load_run
 from pgm.synthetic import demo_scene
 
 

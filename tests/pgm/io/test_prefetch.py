@@ -29,7 +29,7 @@ def test_same_frames_in_order(seq):
     assert [k for k, _ in got] == [1, 2, 3, 4, 5, 6]
     import cv2
 
-    for (k, img), f in zip(got, src.files):
+    for (_, img), f in zip(got, src.files, strict=True):
         np.testing.assert_array_equal(img, cv2.imread(str(f)))
     assert list(src.frames(3, 5))[0][0] == 3 and len(list(src.frames(3, 5))) == 2
     assert not _decoders()

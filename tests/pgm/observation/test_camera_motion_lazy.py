@@ -9,8 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from pgm.observation.camera_motion import (CameraMotionEstimator, _grey,
-                                           estimate_camera_motion)
+from pgm.observation.camera_motion import CameraMotionEstimator, _grey, estimate_camera_motion
 
 
 def _reference(frames, *, min_shift=1.0, window=20, min_fraction=0.8, max_side=640):
@@ -67,7 +66,7 @@ def test_auto_reports_what_estimating_every_frame_reports(camera):
     got = [est(f) for f in frames]
     want = _reference(frames)
     assert [a is None for a in got] == [a is None for a in want]
-    for a, b in zip(got, want):
+    for a, b in zip(got, want, strict=True):
         if a is not None:
             np.testing.assert_array_equal(a, b)
     assert est.frames_moved == sum(a is not None for a in want)

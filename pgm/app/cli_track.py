@@ -1,0 +1,261 @@
+"""``pgm track`` and the models' own options: the application asks a model's config.
+
+The command line knows no model by name. ``pgm track --model NAME`` (or ``pgm graph
+NAME``) finds the model's :class:`~pgm.models.config.ModelConfig` through the
+``pgm.models`` entry points (:func:`pgm.models.get_config`), adds the options the config
+declares to the parser (:func:`add_model_options`), and asks the config for the graph of
+the video at hand (:meth:`~pgm.models.config.ModelConfig.graph_for`: its size, frame
+rate, the initial box, the detections' typical height). What the model tracks — one
+object from a box, many targets from detections — is its ``kind``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from pgm.core.errors import InputError, one_line
+
+from .cli_args import (
+    _check_box_in_image,
+    _given,
+    _memory_limit,
+    _print_metrics,
+    _print_mot_metrics,
+    _record_option,
+    load_model_file,
+    parse_box,
+    parse_drop_frames,
+)
+
+__all__ = ["cmd_track", "add_model_options", "model_values", "graph_from_config",
+           "default_model", "explain_unknown_options", "GENERIC_MULTI_TARGET"]
+
+#: options of ``pgm track`` that every multi-target model takes (measurements, gaps)
+GENERIC_MULTI_TARGET = ("detections", "detector", "drop_frames")
+
+
+def add_model_options(parser: argparse.ArgumentParser, config) -> None:
+    """The options ``config`` declares, in their own group of ``parser``'s help."""
+    if config is None or not config.options:
+        return
+    group = parser.add_argument_group(f"options of the model {config.name}",
+                                      "(another model's: pgm track --model NAME --help)")
+    for opt in config.options:
+        group.add_argument(opt.flag, **opt.argparse_kwargs())
+    parser.set_defaults(model_config=config)
+
+
+def model_values(args: argparse.Namespace, config) -> dict:
+    """The model's option values from ``args`` (``None`` where not given)."""
+    return {o.dest: getattr(args, o.dest, None) for o in config.options}
+
+
+def graph_from_config(config, args: argparse.Namespace, video):
+    """``config.graph_for(values, video)``; a value the model refuses is an
+    :class:`InputError` naming the options given (``--appearance 'cf(padding=1e6)':
+    ...``), not only the factor or field that refused it."""
+    values = model_values(args, config)
+    try:
+        return config.graph_for(values, video)
+    except InputError:
+        raise
+    except (ValueError, TypeError) as exc:
+        given = [f"{o.flag} {values[o.dest]!r}" for o in config.options
+                 if values[o.dest] not in (None, False)]
+        msg = one_line(exc)
+        if not given or any(o.flag in msg for o in config.options):
+            raise InputError(f"model {config.name!r}: {msg}") from None
+        raise InputError(f"{', '.join(given)}: {msg}") from None
+
+
+def default_model(source: str | None, multi_target_hint: bool) -> str:
+    """The model ``pgm track`` runs without ``--model``: the multi-target default when
+    detections are given or the source is a MOTChallenge folder with ``det/det.txt``,
+    else the single-object default."""
+    from pgm.models import DEFAULT_MULTI_TARGET, DEFAULT_SINGLE_OBJECT
+
+    if multi_target_hint:
+        return DEFAULT_MULTI_TARGET
+    if source is not None:
+        try:
+            if (Path(source) / "det" / "det.txt").is_file():
+                return DEFAULT_MULTI_TARGET
+        except (OSError, ValueError):
+            pass
+    return DEFAULT_SINGLE_OBJECT
+
+
+def explain_unknown_options(flags: list[str], model: str | None) -> str | None:
+    """A message for options the chosen model does not take, naming the models that do
+    (``None`` when some flag is no model's option)."""
+    from pgm.models import get_config, model_names
+
+    owners: dict[str, list[str]] = {}
+    for name in model_names():
+        try:
+            config = get_config(name)
+        except ValueError:
+            continue
+        for opt in config.options:
+            owners.setdefault(opt.flag, []).append(name)
+    bases = [flag.split("=", 1)[0] for flag in flags]
+    if not bases or any(b not in owners for b in bases):
+        return None
+    what = f"model {model!r}" if model and not model.endswith(".json") else \
+        f"a saved model ({model}): its factors are fixed" if model else "this model"
+    takers = sorted({n for b in bases for n in owners[b]})
+    verb = "does" if len(bases) == 1 else "do"
+    return (f"{', '.join(bases)} {verb} not apply to {what} (models that take "
+            f"{'it' if len(bases) == 1 else 'them'}: {', '.join(takers)})")
+
+
+def _with_init_box(graph, box_cxcywh: np.ndarray, path: str):
+    """A saved single-object graph moved to start on ``box_cxcywh``: its one Gaussian
+    prior over ``(cx, cy, w, h)`` gets the box as its mean (everything else is kept)."""
+    from pgm.core.graph import FactorGraph
+    from pgm.factors.gaussian import GaussianPrior
+
+    priors = [f for f in graph.factors.values() if f.kind == "prior"]
+    ok = (len(priors) == 1 and isinstance(priors[0], GaussianPrior)
+          and priors[0].mean_.size == 4)
+    if not ok:
+        raise InputError(f"cannot move saved model {path} to a new initial box: it has "
+                         f"{len(priors)} priors (one over cx, cy, w, h is needed); leave out "
+                         f"--init/--gt to start where it was saved, or build it with "
+                         f"--model NAME")
+    old = priors[0]
+    new = GaussianPrior(old.variables[0], mean=np.asarray(box_cxcywh, dtype=float),
+                        cov=old.cov, name=old.name)
+    factors = [new if f is old else f for f in graph.factors.values()]
+    return FactorGraph(list(graph.variables.values()), factors, name=graph.name,
+                       meta=graph.meta)
+
+
+def _kind(args: argparse.Namespace, saved) -> str:
+    """What the run tracks: a saved graph's by its variables (a set or a plate: many
+    targets), a named model's by its config."""
+    if saved is not None:
+        return "multi-target" if saved.multi_target else "single-object"
+    return args.model_config.kind
+
+
+def cmd_track_multi(args, source, saved=None) -> int:
+    """``pgm track`` with a multi-target model: detections, the graph, :func:`track_multi`."""
+    from pgm.app.runner import track_multi
+    from pgm.io.annotations import load_mot
+    from pgm.models.config import VideoInfo
+    from pgm.observation.detections import PublicDetections, make_detector
+
+    if args.init is not None:
+        raise InputError(f"--init does not apply to the multi-target model {args.model!r}")
+    if args.detections is not None and args.detector is not None:
+        raise InputError("give either --detections FILE or --detector SPEC, not both")
+    if args.detections is not None:
+        detector = PublicDetections(args.detections)
+    else:
+        detector = make_detector(args.detector or "public", source)
+    gt_path = args.gt or source.gt_path
+    gt = load_mot(gt_path, kind="gt") if gt_path is not None else None
+    engine_kwargs = None
+    if saved is not None:
+        graph = saved
+        if args.particles is not None:
+            engine_kwargs = {"num_particles": args.particles}
+    else:
+        width, height = source.size
+        table = getattr(detector, "table", None)  # public detections: their median height
+        typical = float(np.median(table.boxes[:, 3])) if table is not None and len(table) \
+            else None
+        video = VideoInfo(width=width, height=height, fps=float(source.fps),
+                          typical_height=typical, particles=args.particles)
+        graph = graph_from_config(args.model_config, args, video)
+    result = track_multi(source, graph, detector, rng=args.seed, out_dir=args.out,
+                         gt=gt, write_video=not args.no_video, show_particles=args.show_particles,
+                         progress=not args.quiet, max_frames=args.max_frames,
+                         camera_motion=args.camera_motion or "auto",
+                         engine_kwargs=engine_kwargs,
+                         memory_limit_bytes=_memory_limit(args),
+                         drop_frames=parse_drop_frames(args.drop_frames, len(source)),
+                         record=_record_option(args))
+    print(f"tracked {result.n_frames} frames at {result.fps:.1f} frames/s (inference only; "
+          f"detector {result.n_frames / max(result.detector_seconds, 1e-9):.0f} frames/s) -> "
+          f"{Path(args.out) / 'tracks.txt'}")
+    if result.metrics is not None:
+        _print_mot_metrics(result.metrics)
+    return 0
+
+
+def cmd_track(args) -> int:
+    """``pgm track``: one object from a box, or every target from detections, as the
+    model's kind says."""
+    from pgm.app.runner import init_box_from_gt, track
+    from pgm.io.annotations import load_single_gt
+    from pgm.io.video import open_source
+    from pgm.models.config import VideoInfo
+
+    if Path(args.out).exists() and not Path(args.out).is_dir():
+        raise InputError(f"--out {args.out} exists and is not a folder")
+    source = open_source(args.source)
+    saved = None
+    if args.model is None:
+        args.model = args.model_config.name
+        if not args.quiet:
+            print(f"pgm: using model {args.model} (no --model given)", file=sys.stderr)
+    if args.model.endswith(".json"):
+        saved = load_model_file(args.model)
+    kind = _kind(args, saved)
+    if kind == "state-space":
+        raise InputError(f"model {args.model!r} is a state-space model without an image "
+                         f"likelihood: it runs on measurements from Python "
+                         f"(pgm.inference.Engine), not on a video")
+    if kind == "multi-target":
+        return cmd_track_multi(args, source, saved)
+    if _given(args, "detections") or _given(args, "detector"):
+        raise InputError(f"--detections/--detector apply to multi-target models, not to the "
+                         f"single-object model {args.model!r}")
+    if _given(args, "drop_frames"):
+        raise InputError(f"--drop-frames applies to plate models (one sub-graph per "
+                         f"target), not to the single-object model {args.model!r}")
+    gt = None
+    gt_path = args.gt
+    if gt_path is None and args.init is None and source.gt_path is not None:
+        gt_path = str(source.gt_path)
+        if not args.quiet:
+            print(f"pgm: using the sequence's ground truth {gt_path}", file=sys.stderr)
+    if gt_path is not None:
+        gt = load_single_gt(gt_path)
+    box_xywh, what = None, "--init box"
+    if args.init is not None:
+        box_xywh = parse_box(args.init)
+    elif gt is not None:
+        c = init_box_from_gt(gt, 1)
+        box_xywh = np.array([c[0] - c[2] / 2, c[1] - c[3] / 2, c[2], c[3]])
+        what = f"the first box of {gt_path}"
+    elif saved is None:
+        raise InputError("give the initial box with --init X,Y,W,H or a ground truth with --gt")
+    init_c = None
+    if box_xywh is not None:
+        _check_box_in_image(box_xywh, source.size, what)
+        init_c = np.array([box_xywh[0] + box_xywh[2] / 2, box_xywh[1] + box_xywh[3] / 2,
+                           box_xywh[2], box_xywh[3]])
+    if saved is not None:
+        graph = saved if init_c is None else _with_init_box(saved, init_c, args.model)
+    else:
+        width, height = source.size
+        graph = graph_from_config(args.model_config, args, VideoInfo(
+            width=width, height=height, fps=float(source.fps), particles=args.particles,
+            init_box=tuple(float(v) for v in init_c)))
+    result = track(source, graph, rng=args.seed, out_dir=args.out, gt=gt,
+                   num_particles=args.particles, write_video=not args.no_video,
+                   show_particles=args.show_particles, progress=not args.quiet,
+                   max_frames=args.max_frames, camera_motion=args.camera_motion or "off",
+                   memory_limit_bytes=_memory_limit(args), record=_record_option(args))
+    print(f"tracked {len(result.frames)} frames at {result.fps:.1f} frames/s "
+          f"(inference only) -> {Path(args.out) / 'tracks.txt'}")
+    if result.metrics is not None:
+        _print_metrics({**result.metrics, "fps": result.fps})
+    return 0
