@@ -29,14 +29,17 @@ never all held in memory.
 
 from __future__ import annotations
 
+import collections
 import configparser
 import itertools
 import logging
 import math
+import os
 import re
 from abc import ABC, abstractmethod
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -268,73 +271,51 @@ class ImageSequenceSource(FrameSource):
 
     def frames(self, start: int = 1, stop: int | None = None
                ) -> Iterator[tuple[int, np.ndarray]]:
-        """As :meth:`FrameSource.frames`; the next :data:`PREFETCH` images are decoded in
+        """As :meth:`FrameSource.frames`; the next :data:`PREFETCH` images are decoded by
         a thread while the caller works on this one (decoding releases the GIL), and a
         file's error is raised when its frame is reached, as without it."""
         start, stop = _check_range(start, stop, self.path)
         end = len(self.files) if stop is None else min(stop - 1, len(self.files))
-
-        def decoded():
-            first: tuple[int, int] | None = None
-            for k in range(start, end + 1):
-                image = _read_image(self.files[k - 1])
+        pool = _decoder() if end > start else None
+        ahead: collections.deque = collections.deque()
+        first: tuple[int, int] | None = None
+        k = start
+        try:
+            while True:
+                while pool is not None and k <= end and len(ahead) <= PREFETCH:
+                    ahead.append((k, pool.submit(_read_image, self.files[k - 1])))
+                    k += 1
+                if ahead:
+                    number, job = ahead.popleft()
+                    image = job.result()
+                elif k <= end:
+                    number, image = k, _read_image(self.files[k - 1])
+                    k += 1
+                else:
+                    return
                 first = _check_same_size(first, image,
-                                         f"image {self.files[k - 1]} (frame {k})")
-                yield k, image
-
-        return _prefetched(decoded()) if end - start >= 1 else decoded()
+                                         f"image {self.files[number - 1]} (frame {number})")
+                yield number, image
+        finally:
+            for _, job in ahead:  # stopped early: what is not started is not decoded
+                job.cancel()
 
 
 #: frames an :class:`ImageSequenceSource` decodes ahead of the one being used
 PREFETCH = 2
+_DECODER: tuple[int, Any] | None = None
 
 
-def _prefetched(items: Iterator, depth: int = PREFETCH) -> Iterator:
-    """``items``, produced up to ``depth`` ahead by a thread. An exception of the
-    producer is raised where its item would have been; closing the iterator early (a
-    ``max_frames``, an interruption) stops the thread after the item it is on."""
-    import queue
-    import threading
+def _decoder():
+    """This process's decoding thread (one per process, made anew in a forked child,
+    where the parent's thread does not exist)."""
+    global _DECODER
+    if _DECODER is None or _DECODER[0] != os.getpid():
+        from concurrent.futures import ThreadPoolExecutor
 
-    q: queue.Queue = queue.Queue(maxsize=depth)
-    stop = threading.Event()
-    end = object()
-
-    def put(entry) -> bool:
-        while not stop.is_set():
-            try:
-                q.put(entry, timeout=0.05)
-                return True
-            except queue.Full:
-                continue
-        return False
-
-    def produce() -> None:
-        try:
-            for item in items:
-                if not put((True, item)):
-                    return
-            put((True, end))
-        except BaseException as exc:  # noqa: BLE001 - handed to the consumer
-            put((False, exc))
-
-    thread = threading.Thread(target=produce, name="pgm-decode", daemon=True)
-
-    def consume():
-        thread.start()
-        try:
-            while True:
-                ok, item = q.get()
-                if not ok:
-                    raise item
-                if item is end:
-                    return
-                yield item
-        finally:
-            stop.set()
-            thread.join()
-
-    return consume()
+        _DECODER = (os.getpid(), ThreadPoolExecutor(max_workers=1,
+                                                    thread_name_prefix="pgm-decode"))
+    return _DECODER[1]
 
 
 def _check_same_size(first: tuple[int, int] | None, image: np.ndarray,
