@@ -222,6 +222,20 @@ def _probe(argv: list[str]) -> argparse.Namespace | None:
         return None
 
 
+def _scan_model(argv: list[str], command: str) -> str | None:
+    """The model named in ``argv`` read token by token: ``--model NAME`` (``track``) or
+    the first word after ``graph``."""
+    for i, a in enumerate(argv):
+        if command == "track":
+            if a == "--model" and i + 1 < len(argv):
+                return argv[i + 1]
+            if a.startswith("--model="):
+                return a.split("=", 1)[1]
+        elif a == "graph":
+            return next((b for b in argv[i + 1:] if not b.startswith("-")), None)
+    return None
+
+
 def model_config_for(argv: list[str]):
     """The config of the model that ``argv`` (``track`` or ``graph``) names, or that
     ``pgm track`` runs by default; ``None`` for a saved model ``.json`` or another
@@ -234,6 +248,8 @@ def model_config_for(argv: list[str]):
     if command not in ("track", "graph"):
         return None
     model = getattr(ns, "model", None)
+    if model is None and ns is None:  # the probe failed (e.g. --help without --out)
+        model = _scan_model(argv, command)
     if model is None:
         if command == "graph":
             return None
