@@ -381,6 +381,19 @@ def _worker_context():
     return ctx
 
 
+def _outcomes(futures: dict, completed, failure: str) -> Iterator[Outcome]:
+    """``(run, outcome)`` of each future in the order ``completed`` yields them (a pool's
+    or a cluster's ``as_completed``); a future that raises (a dead worker, a lost task)
+    fails its run only, with ``failure`` and the error as its message."""
+    for fut in completed:
+        run = futures[fut]
+        try:
+            yield run, fut.result()
+        except Exception as exc:  # noqa: BLE001 - a dead worker fails its run only
+            yield run, {"status": "failed", "seconds": 0.0, "warnings": [],
+                        "error": f"{failure}: {type(exc).__name__}: {one_line(exc)}"}
+
+
 def _run_processes(runs: Sequence[RunSpec], out: str, jobs: int) -> Iterator[Outcome]:
     """The local backend: one pool of ``jobs`` worker processes for all the runs, each
     worker started once with the toolkit imported (:func:`_worker_context`); outcomes
@@ -391,14 +404,7 @@ def _run_processes(runs: Sequence[RunSpec], out: str, jobs: int) -> Iterator[Out
                                mp_context=_worker_context(), initializer=_worker_init)
     futures = {pool.submit(run_task, run, out): run for run in runs}
     try:
-        for fut in as_completed(futures):
-            run = futures[fut]
-            try:
-                yield run, fut.result()
-            except Exception as exc:  # noqa: BLE001 - a dead worker fails its run only
-                yield run, {"status": "failed", "seconds": 0.0, "warnings": [],
-                            "error": f"worker process failed: {type(exc).__name__}: "
-                                     f"{one_line(exc)}"}
+        yield from _outcomes(futures, as_completed(futures), "worker process failed")
     except BaseException:
         for fut in futures:
             fut.cancel()
@@ -443,14 +449,8 @@ def _run_dask(runs: Sequence[RunSpec], out: str, jobs: int,
     try:
         futures = {client.submit(run_task, run, out, pure=False): run for run in runs}
         try:
-            for fut in distributed.as_completed(list(futures)):
-                run = futures[fut]
-                try:
-                    yield run, fut.result()
-                except Exception as exc:  # noqa: BLE001 - a lost worker fails its run only
-                    yield run, {"status": "failed", "seconds": 0.0, "warnings": [],
-                                "error": f"Dask task failed: {type(exc).__name__}: "
-                                         f"{one_line(exc)}"}
+            yield from _outcomes(futures, distributed.as_completed(list(futures)),
+                                 "Dask task failed")
         except BaseException:
             client.cancel(list(futures))
             raise
