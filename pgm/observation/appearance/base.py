@@ -1,0 +1,139 @@
+"""The base of the box appearance likelihoods: the first-frame model protocol, box
+indices, the adapt rate, and the bounds of the sizes a cue takes
+(:mod:`pgm.observation.appearance.likelihoods`)."""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+from typing import Any, ClassVar
+
+import cv2
+import numpy as np
+
+from pgm.core.frame import FrameContext
+from pgm.core.numerics import check_finite_param
+from pgm.core.variable import Variable
+from pgm.factors import LikelihoodFactor
+
+__all__ = ["BoxAppearanceLikelihood", "SIZE_BOUNDS", "bounded_int", "grey_frame"]
+
+
+#: bounds of the sizes an appearance cue takes (bins, cells, rings, samples, ...): a
+#: size is work and memory per particle and frame, so ``gradient(n_orient=1e6)`` is
+#: refused when the factor is built, naming the option, not met as an out-of-memory
+SIZE_BOUNDS = {"n_orient": (2, 36), "cells": (1, 16), "grid": (1, 64), "rings": (1, 64),
+               "angles": (1, 360), "radial_samples": (1, 16), "n_components": (1, 64),
+               "n_samples": (1, 65536), "n_h": (1, 180), "n_s": (1, 256), "n_v": (1, 256),
+               "scales": (1, 15)}
+
+
+def bounded_int(factor: str, name: str, value: Any) -> int:
+    """``value`` as an integer within :data:`SIZE_BOUNDS` ``[name]``; anything else (a
+    fraction, NaN, infinity, out of bounds) is a ``ValueError`` naming the factor and
+    the parameter."""
+    low, high = SIZE_BOUNDS[name]
+    try:
+        v = float(value)
+        ok = np.isfinite(v) and v == int(v) and low <= v <= high
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok:
+        raise ValueError(f"factor {factor!r}: {name} must be an integer from {low} to "
+                         f"{high}, got {value!r}")
+    return int(v)
+
+
+def _bins(factor: str, n_h: Any, n_s: Any, n_v: Any) -> tuple[int, int, int | None]:
+    """Colour bin counts ``n_h, n_s, n_v`` (``n_v`` may be None: the layout's own)."""
+    return (bounded_int(factor, "n_h", n_h), bounded_int(factor, "n_s", n_s),
+            None if n_v is None else bounded_int(factor, "n_v", n_v))
+
+
+def _bounded_pair(factor: str, name: str, value: Any) -> tuple[int, int]:
+    """A pair of :func:`bounded_int` (``cells``, ``grid``)."""
+    try:
+        a, b = value
+    except (TypeError, ValueError):
+        raise ValueError(f"factor {factor!r}: {name} must be two integers, got "
+                         f"{value!r}") from None
+    return bounded_int(factor, name, a), bounded_int(factor, name, b)
+
+
+class BoxAppearanceLikelihood(LikelihoodFactor):
+    """Base of the appearance factors: a box ``(cx, cy, w, h)`` inside a variable's state
+    scored against an appearance model learned in the first frame.
+
+    It holds what every appearance cue shares: ``lam`` (the likelihood's sharpness),
+    ``box_indices`` (where ``cx, cy, w, h`` sit in the state), :meth:`boxes`, the check
+    that the indices fit the variable, ``adapt_rate`` (in [0, 1]; the factor learns
+    after each frame only when it is positive) and the first-frame protocol:
+    :meth:`initialize` calls the subclass's :meth:`learn` at the prior mean unless the
+    model (the attribute named by ``model_attr``) was given, and :meth:`require_model`
+    refuses to score without one.
+    """
+
+    abstract = True
+    #: the attribute holding the appearance model (None until given or learned)
+    model_attr: ClassVar[str] = "template"
+
+    def __init__(self, variable: str, *, lam: float, box_indices=(0, 1, 2, 3),
+                 adapt_rate: float = 0.0, name: str | None = None):
+        super().__init__(variable, name=name)
+        self.lam = float(check_finite_param(f"{self.name}.lam", lam, positive=True))
+        self.box_indices = tuple(int(i) for i in box_indices)
+        if len(self.box_indices) != 4:
+            raise ValueError(f"factor {self.name!r}: box_indices must have 4 entries")
+        self.adapt_rate = float(check_finite_param(f"{self.name}.adapt_rate", adapt_rate,
+                                                   nonneg=True))
+        if self.adapt_rate > 1:
+            raise ValueError(f"factor {self.name!r}: adapt_rate must be in [0, 1]")
+
+    @property
+    def learns(self) -> bool:
+        """Whether :meth:`update` runs after each frame (``adapt_rate > 0``)."""
+        return self.adapt_rate > 0
+
+    @property
+    def has_model(self) -> bool:
+        """Whether the appearance model is there (given, or learned in the first frame)."""
+        return getattr(self, self.model_attr, None) is not None
+
+    def require_model(self) -> None:
+        """Raise a ``ValueError`` naming the factor when there is no model to score with."""
+        if not self.has_model:
+            raise ValueError(f"factor {self.name!r} has no {self.model_attr}: give one or run "
+                             f"it from the first frame")
+
+    def check(self, variables: dict[str, Variable]) -> None:
+        dim = variables[self.variables[0]].dim
+        if max(self.box_indices) >= dim:
+            raise ValueError(f"factor {self.name!r}: box_indices {self.box_indices} do not fit "
+                             f"variable {self.variables[0]!r} of dim {dim}")
+
+    def boxes(self, x: np.ndarray) -> np.ndarray:
+        """Boxes ``(N, 4)`` ``(cx, cy, w, h)`` of particles ``x``."""
+        i = self.box_indices
+        if i == (i[0], i[0] + 1, i[0] + 2, i[0] + 3):
+            return x[:, i[0]:i[0] + 4]  # a view: no copy on the hot path
+        return x[:, list(i)]
+
+    def initialize(self, ctx: FrameContext, value: np.ndarray) -> None:
+        """Learn the model from the first frame at the state ``value`` (unless given)."""
+        if not self.has_model:
+            self.learn(ctx, np.asarray(value, dtype=float))
+
+    @abstractmethod
+    def learn(self, ctx: FrameContext, value: np.ndarray) -> None:
+        """Set the appearance model from frame ``ctx`` at the state ``value`` ``(d,)``."""
+
+
+def grey_frame(ctx: FrameContext) -> np.ndarray:
+    """The frame as ``float32`` grey levels, computed once per frame (cached)."""
+    def make():
+        img = ctx.image
+        if img is None:
+            raise ValueError(f"frame {ctx.index} has no image")
+        grey = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY) if img.ndim == 3 else img
+        return np.ascontiguousarray(grey, dtype=np.float32)
+
+    return ctx.cached(("grey-f32",), make)
