@@ -13,7 +13,7 @@ from __future__ import annotations
 import os
 import re
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -111,12 +111,48 @@ def init_box_from_gt(gt: SingleTrack, first_frame: int = 1) -> np.ndarray:
     return np.array([x + w / 2, y + h / 2, w, h])
 
 
+def _pairs(frames: Iterable) -> Iterator[tuple[int, np.ndarray]]:
+    """``(frame_number, image)`` pairs of an iterable, each checked as it comes."""
+    for item in frames:
+        ok = (isinstance(item, tuple) and len(item) == 2
+              and isinstance(item[0], (int, np.integer)) and not isinstance(item[0], bool)
+              and isinstance(item[1], np.ndarray) and item[1].ndim in (2, 3))
+        if not ok:
+            what = type(item).__name__ if not isinstance(item, np.ndarray) else \
+                f"an array of shape {item.shape}"
+            raise InputError(f"source must yield (frame_number, image) pairs, got {what}; "
+                             f"pass a path, a FrameSource, or pairs such as "
+                             f"enumerate(images, start=1)")
+        yield int(item[0]), item[1]
+
+
 def _frames_of(source) -> tuple[Iterable[tuple[int, np.ndarray]], float, int | None]:
     if isinstance(source, (str, Path)):
         source = open_source(source)
     if isinstance(source, FrameSource):
         return source.frames(), float(source.fps), len(source)
-    return source, 25.0, None
+    return _pairs(source), 25.0, None
+
+
+def check_api_arguments(source: Any, graph: Any, gt: Any, max_frames: Any,
+                        gt_types: tuple[type, ...]) -> None:
+    """The arguments of :func:`track` and :func:`track_multi` checked up front: a
+    ``ValueError`` naming the argument, never an error deep inside a run."""
+    if not isinstance(graph, FactorGraph):
+        raise InputError(f"graph must be a pgm.FactorGraph (e.g. "
+                         f"pgm.models.get_config(NAME).graph_for(...)), got "
+                         f"{type(graph).__name__}")
+    if gt is not None and not isinstance(gt, (str, Path, *gt_types)):
+        raise InputError(f"gt must be a path or a {' or '.join(t.__name__ for t in gt_types)}, "
+                         f"got {type(gt).__name__}")
+    if not isinstance(source, (str, Path, FrameSource)) and not (
+            hasattr(source, "__iter__") and not isinstance(source, (bytes, dict))):
+        raise InputError(f"source must be a path, a FrameSource or an iterable of "
+                         f"(frame_number, image) pairs, got {type(source).__name__}")
+    if max_frames is not None and (isinstance(max_frames, bool) or not isinstance(
+            max_frames, (int, np.integer)) or max_frames < 1):
+        raise InputError(f"max_frames must be a positive integer (or None: every frame), got "
+                         f"{max_frames!r}")
 
 
 def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
@@ -176,6 +212,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
                                       or not isinstance(num_particles, (int, np.integer))
                                       or num_particles < 1):
         raise InputError(f"number of particles must be a positive integer, got {num_particles}")
+    check_api_arguments(source, graph, gt, max_frames, (SingleTrack,))
     rec_settings = _record_settings(record, out_dir)
     if isinstance(gt, (str, Path)):
         gt = load_single_gt(gt)
@@ -500,6 +537,7 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
     from pgm.evaluation.mot import evaluate_mot
     from pgm.io.annotations import MotTable, load_mot
 
+    check_api_arguments(source, graph, gt, max_frames, (MotTable,))
     rec_settings = _record_settings(record, out_dir)
     if isinstance(gt, (str, Path)):
         gt = load_mot(gt, kind="gt")

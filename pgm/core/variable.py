@@ -76,5 +76,8 @@ class Variable:
     def from_dict(cls, d: dict) -> Variable:
         """Inverse of :meth:`to_dict`."""
         labels = d.get("labels")
-        return cls(name=d["name"], dim=int(d["dim"]), role=d.get("role", "state"),
+        dim = d["dim"]
+        if isinstance(dim, bool) or not isinstance(dim, (int, float)) or int(dim) != dim:
+            raise ValueError(f"variable {d.get('name')!r}: dim must be an integer, got {dim!r}")
+        return cls(name=d["name"], dim=int(dim), role=d.get("role", "state"),
                    labels=tuple(labels) if labels is not None else None)

@@ -300,9 +300,6 @@ def test_bench_reruns_a_run_whose_tracks_were_deleted(files, tmp_path, capsys):
     assert [row["seed"] for row in exp.collect_rows(runs, out)] == [runs[0].seed]
 
 
-@pytest.mark.xfail(reason="pgm/core/variable.py: Variable.from_dict must refuse a dim that "
-                          "is not an integer (issue 26, item 15; not this change's file)",
-                   strict=False)
 def test_model_file_with_a_fractional_dim_is_refused():
     from pgm.core.graph import FactorGraph
 
@@ -342,11 +339,6 @@ def test_fifo_is_refused_not_waited_on(files, tmp_path):
 
 
 # -- API: ValueError, naming the argument ----------------------------------------------------
-API_XFAIL = pytest.mark.xfail(
-    reason="pgm/app/runner.py: track() must check gt, source, graph and max_frames up front "
-           "(issue 26, item 14; not this change's file)", strict=False)
-
-
 @pytest.fixture(scope="module")
 def graph(files):
     from pgm.io.annotations import load_single_gt
@@ -372,7 +364,6 @@ API_CASES = [
 ]
 
 
-@API_XFAIL
 @pytest.mark.parametrize("case, kwargs, needle", API_CASES, ids=[c[0] for c in API_CASES])
 def test_track_api_bad_arguments(files, graph, case, kwargs, needle):
     from pgm.app.runner import track
