@@ -134,6 +134,15 @@ def _frames_of(source) -> tuple[Iterable[tuple[int, np.ndarray]], float, int | N
     return _pairs(source), 25.0, None
 
 
+def source_text(source: Any) -> str | None:
+    """How ``run.json`` names a source: a stream URL or camera index as given
+    (``Path("http://host/s.ts")`` would read ``http:/host/s.ts``), else its path."""
+    spec = getattr(source, "spec", None)
+    if isinstance(spec, str):
+        return spec
+    return str(getattr(source, "path", "")) or None
+
+
 def check_api_arguments(source: Any, graph: Any, gt: Any, max_frames: Any,
                         gt_types: tuple[type, ...]) -> None:
     """The arguments of :func:`track` and :func:`track_multi` checked up front: a
@@ -226,7 +235,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     engine = Engine(graph, rng, num_particles=num_particles, **(engine_kwargs or {}))
     motion = CameraMotionEstimator(camera_motion)
     out = prepare_run_folder(out_dir) if out_dir is not None else None
-    run = {"model": graph.name, "source": str(getattr(source, "path", "")) or None,
+    run = {"model": graph.name, "source": source_text(source),
            "num_particles": engine.num_particles, "camera_motion": camera_motion}
     recorder = None
     if rec_settings is not None and out is not None:
@@ -564,7 +573,7 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
     motion_secs = 0.0
     noise = [v for v in engine.graph.variables.values() if v.role == "noise"]
     out = prepare_run_folder(out_dir) if out_dir is not None else None
-    run = {"model": graph.name, "source": str(source.path), "camera_motion": camera_motion}
+    run = {"model": graph.name, "source": source_text(source), "camera_motion": camera_motion}
     if dropped:
         run["dropped_frames"] = sorted(dropped)
     recorder = None

@@ -398,3 +398,20 @@ def test_learn_gpdm_on_trajectories_that_do_not_vary(tmp_path, capsys):
     code, _, err = run_cli(capsys, ["learn", "gpdm", "--train", folder, "--out",
                                     tmp_path / "m.npz", "--max-iter", "1"])
     assert_names_the_input(code, err, "--train", "do not vary")
+
+
+def test_run_json_names_a_stream_url_as_given():
+    """Issue 26, item 9: ``Path`` collapses ``//``; the URL is recorded as given."""
+    from pathlib import Path
+
+    from pgm.app.runner import source_text
+    from pgm.io.video import LiveSource
+
+    live = object.__new__(LiveSource)
+    live.spec, live.path = "http://host/s.ts", Path("http://host/s.ts")
+    assert source_text(live) == "http://host/s.ts"
+
+    class Folder:
+        path = Path("/data/seq")
+
+    assert source_text(Folder()) == "/data/seq"
