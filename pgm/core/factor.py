@@ -44,6 +44,11 @@ _REGISTRY: dict[str, type[Factor]] = {}
 #: factor types the toolkit defines in modules that are not imported with ``pgm`` (they
 #: pull torch or a model file): a saved declaration naming one imports that module —
 #: a fixed toolkit module from this table, never a name taken from the file
+#: the modules that define the toolkit's factor types, imported when a saved graph names a
+#: type that is not registered yet (a model file loaded in a fresh process)
+FACTOR_MODULES = ("pgm.factors", "pgm.factors.plates", "pgm.factors.multitarget",
+                  "pgm.factors.scores", "pgm.observation.appearance.likelihoods",
+                  "pgm.observation.appearance.correlation")
 _TOOLKIT_MODULES = {"GPDMPrior": "pgm.dynamics.factors",
                     "GPDMTransition": "pgm.dynamics.factors",
                     "DBNLikelihood": "pgm.observation.appearance.dbn"}
@@ -148,6 +153,28 @@ class Factor(ABC):  # noqa: B024 - kind base classes declare the abstract method
     __hash__ = object.__hash__
 
 
+def _import_factor_type(type_name: str) -> type[Factor] | None:
+    """Register ``type_name`` by importing where it may be defined: the toolkit's factor
+    modules, then (for a type of an installed package's model) the models declared under
+    the ``pgm.models`` entry points. Only installed code is imported, never the file."""
+    import importlib
+
+    for module in (_TOOLKIT_MODULES.get(type_name),) + FACTOR_MODULES:
+        if module is not None and type_name not in _REGISTRY:
+            importlib.import_module(module)
+    if type_name not in _REGISTRY:
+        from importlib.metadata import entry_points
+
+        for ep in entry_points(group="pgm.models"):
+            try:
+                ep.load()
+            except Exception:  # noqa: BLE001 - a broken plug-in registers nothing
+                continue
+            if type_name in _REGISTRY:
+                break
+    return _REGISTRY.get(type_name)
+
+
 def factor_from_dict(d: dict[str, Any]) -> Factor:
     """Rebuild a factor from :meth:`Factor.to_dict` output (a registry lookup, no code)."""
     try:
@@ -156,11 +183,8 @@ def factor_from_dict(d: dict[str, Any]) -> Factor:
     except (KeyError, TypeError) as exc:
         raise ValueError(f"malformed factor declaration {d!r}: missing {exc}") from None
     cls = _REGISTRY.get(type_name)
-    if cls is None and isinstance(type_name, str) and type_name in _TOOLKIT_MODULES:
-        import importlib
-
-        importlib.import_module(_TOOLKIT_MODULES[type_name])
-        cls = _REGISTRY.get(type_name)
+    if cls is None and isinstance(type_name, str):
+        cls = _import_factor_type(type_name)
     if cls is None:
         raise ValueError(
             f"unknown factor type {type_name!r}: import the module that defines it before "

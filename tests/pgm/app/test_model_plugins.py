@@ -95,3 +95,18 @@ def test_the_toolkit_declares_its_models_as_entry_points():
     text = (Path(__file__).resolve().parents[3] / "pyproject.toml").read_text()
     for name, target in BUILTIN.items():
         assert f'{name} = "{target}"' in text
+
+
+def test_a_saved_model_loads_in_a_fresh_process(tmp_path):
+    """Model modules are imported lazily; loading a saved graph still finds its factor
+    types (a fresh ``pgm report`` or ``pgm view`` reads model.json files)."""
+    from pgm.models import get_config
+
+    for name in ("single-object", "vb-phd", "multi-pf"):
+        graph, _ = get_config(name).example_graph()
+        graph.save(tmp_path / f"{name}.json")
+    code = ("import sys; from pgm.core.graph import FactorGraph; "
+            "[FactorGraph.load(p) for p in sys.argv[1:]]; print('ok')")
+    res = subprocess.run([sys.executable, "-c", code, *sorted(map(str, tmp_path.glob("*.json")))],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0 and res.stdout.strip() == "ok", res.stderr

@@ -38,7 +38,7 @@ def test_same_frames_in_order(seq):
     src = open_source(seq)
     got = list(src)
     assert [k for k, _ in got] == list(range(1, 9))
-    for (_, img), f in zip(got, src.files):
+    for (_, img), f in zip(got, src.files, strict=True):
         np.testing.assert_array_equal(img, cv2.imread(str(f)))
     assert [k for k, _ in src.frames(3, 6)] == [3, 4, 5]
 
