@@ -97,8 +97,28 @@ def register_readout(name: str) -> Callable[[Readout], Readout]:
     return deco
 
 
+def _import_readout(name: str) -> None:
+    """Register ``name`` by importing the models that may define it: the toolkit's, then
+    those of the ``pgm.models`` entry points (a model file loaded in a fresh process)."""
+    import importlib
+    from importlib.metadata import entry_points
+
+    importlib.import_module("pgm.inference.plates")
+    targets = [ep.value for ep in entry_points(group="pgm.models")]
+    builtin = importlib.import_module("pgm.models").BUILTIN
+    for target in list(builtin.values()) + targets:
+        if name in _READOUTS:
+            return
+        try:
+            importlib.import_module(target.partition(":")[0])
+        except Exception:  # noqa: BLE001 - a broken plug-in registers nothing
+            continue
+
+
 def get_readout(name: str) -> Readout:
-    """The readout registered as ``name``."""
+    """The readout registered as ``name`` (the models are imported to find it if needed)."""
+    if name not in _READOUTS:
+        _import_readout(name)
     try:
         return _READOUTS[name]
     except KeyError:

@@ -99,14 +99,17 @@ def test_the_toolkit_declares_its_models_as_entry_points():
 
 def test_a_saved_model_loads_in_a_fresh_process(tmp_path):
     """Model modules are imported lazily; loading a saved graph still finds its factor
-    types (a fresh ``pgm report`` or ``pgm view`` reads model.json files)."""
+    types and its readout (a fresh ``pgm report``, ``pgm view`` or ``pgm track --model
+    model.json`` reads model.json files)."""
     from pgm.models import get_config
 
     for name in ("single-object", "vb-phd", "multi-pf"):
         graph, _ = get_config(name).example_graph()
         graph.save(tmp_path / f"{name}.json")
     code = ("import sys; from pgm.core.graph import FactorGraph; "
-            "[FactorGraph.load(p) for p in sys.argv[1:]]; print('ok')")
+            "from pgm.core.readout import get_readout; "
+            "gs = [FactorGraph.load(p) for p in sys.argv[1:]]; "
+            "[get_readout(g.meta['readout']) for g in gs if 'readout' in g.meta]; print('ok')")
     res = subprocess.run([sys.executable, "-c", code, *sorted(map(str, tmp_path.glob("*.json")))],
                          capture_output=True, text=True, timeout=120)
     assert res.returncode == 0 and res.stdout.strip() == "ok", res.stderr
