@@ -32,7 +32,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 __all__ = ["Track", "TrackManager", "match", "update_tracks", "confirm_tracks", "reported"]
 
@@ -83,6 +82,8 @@ def match(cost: np.ndarray, valid: np.ndarray, lost: np.ndarray | list[bool]
     ``valid`` is no match. The cost is pluggable: ``1 − IoU`` (plates), a gated
     Mahalanobis-like distance (the PHD's extracted states). Returns the matched
     (track, measurement) indices, the recent round's first."""
+    from scipy.optimize import linear_sum_assignment  # imported when tracks are matched
+
     cost = np.asarray(cost, dtype=float)
     valid = np.asarray(valid, dtype=bool)
     lost = np.asarray(lost, dtype=bool).reshape(-1)
