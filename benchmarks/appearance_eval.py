@@ -58,7 +58,7 @@ OLD = dict(appearance="contrast+template", scale_noise=0.005)
 #: (label, part_graph.Params overrides): the ablation
 CONFIGS = [
     ("colour PF (Pérez et al. 2002)", dict(appearance="colour")),
-    ("part graph, 3 nodes x 10, colour", dict(n_parts=3, num_particles=10, appearance="colour")),
+    ("part graph, 3 nodes x 10, colour", part_graph.PRESETS["paper"] | dict(num_particles=10)),
     ("fragments", dict(appearance="fragments")),
     ("GMM-KL", dict(appearance="gmm")),
     ("rings (rotation-invariant)", dict(appearance="rings")),

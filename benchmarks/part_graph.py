@@ -50,9 +50,9 @@ OPENCV = {  # ../shared/bench/README.md: success AUC at frames/s
 
 
 def run(frames, init_box, n_nodes, per_node, seed=0, trace=False, appearance="colour"):
-    graph = part_graph.build_graph(part_graph.Params(init_box=tuple(init_box), n_parts=n_nodes,
-                                                     num_particles=per_node,
-                                                     appearance=appearance))
+    graph = part_graph.build_graph(part_graph.Params.paper(tuple(init_box), n_parts=n_nodes,
+                                                           num_particles=per_node,
+                                                           appearance=appearance))
     engine = Engine(graph, np.random.default_rng(seed))
     return time_engine(engine, frames, trace)
 

@@ -62,7 +62,7 @@ else:
 gt = load_single_gt(source.gt_path)
 x, y, w, h = gt.boxes[0]
 box = (x + w / 2, y + h / 2, w, h)
-graph = part_graph.build_graph(part_graph.Params(init_box=box, n_parts=args.parts))
+graph = part_graph.build_graph(part_graph.Params.paper(box, n_parts=args.parts))
 print(graph)
 graph.draw(out / "part_graph.png")
 bands = part_graph.split_box(box, args.parts)

@@ -38,7 +38,7 @@ import signal
 import sys
 import warnings
 
-from pgm.core.errors import InputError, Interrupted, one_line, user_message
+from pgm.core.errors import InputError, Interrupted, interrupt, one_line, user_message
 
 from .cli_args import (
     EXIT_BAD_INPUT,
@@ -320,7 +320,7 @@ def _ensure_std_streams() -> None:
 
 
 def _raise_interrupted(signum, frame):  # noqa: ARG001 - signal handler signature
-    raise Interrupted(signum)
+    interrupt(signum)  # raises Interrupted, or holds it to the end of an uninterrupted block
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -10,11 +10,12 @@ a bug in the toolkit (``pgm: internal error``, exit 1).
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import signal
 
 __all__ = ["InputError", "DegenerateWeightsError", "RuleContractError", "Interrupted",
-           "user_message", "one_line"]
+           "user_message", "one_line", "uninterrupted", "interrupt"]
 
 
 class InputError(ValueError):
@@ -48,6 +49,34 @@ class Interrupted(KeyboardInterrupt):
     def name(self) -> str:
         """``"SIGINT"`` or ``"SIGTERM"``."""
         return signal.Signals(self.signum).name
+
+
+#: blocks a signal must not cut (depth), and the signal that arrived inside one
+_HELD: dict[str, int | None] = {"depth": 0, "pending": None}
+
+
+def interrupt(signum: int) -> None:
+    """What a SIGINT/SIGTERM handler calls: raise :class:`Interrupted` now, or, inside an
+    :func:`uninterrupted` block, when the block ends."""
+    if _HELD["depth"]:
+        _HELD["pending"] = int(signum)
+        return
+    raise Interrupted(signum)
+
+
+@contextlib.contextmanager
+def uninterrupted():
+    """A block that a signal does not cut in the middle (e.g. muxing a video packet: cut
+    there, the file loses its index and plays no frame); a signal that arrives inside it
+    is raised when it ends."""
+    _HELD["depth"] += 1
+    try:
+        yield
+    finally:
+        _HELD["depth"] -= 1
+        if not _HELD["depth"] and _HELD["pending"] is not None:
+            signum, _HELD["pending"] = _HELD["pending"], None
+            raise Interrupted(signum)
 
 
 def one_line(text: object) -> str:

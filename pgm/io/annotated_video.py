@@ -22,7 +22,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from pgm.core.errors import InputError
+from pgm.core.errors import InputError, uninterrupted
 
 __all__ = ["AnnotatedVideoWriter", "CODECS", "h264_available"]
 
@@ -176,14 +176,16 @@ class AnnotatedVideoWriter:
         pad_w, pad_h = self.size[0] - self._frame_size[0], self.size[1] - self._frame_size[1]
         if pad_w or pad_h:
             image = cv2.copyMakeBorder(image, 0, pad_h, 0, pad_w, cv2.BORDER_REPLICATE)
-        self._sink.write(image)
+        with uninterrupted():  # a signal waits for the frame to be muxed
+            self._sink.write(image)
         self.frames_written += 1
 
     def close(self) -> None:
         """Finish the file (flushes the encoder: every frame written is in the file)."""
         if self._sink is not None:
             sink, self._sink = self._sink, None
-            sink.close()
+            with uninterrupted():  # the index is written whole, or the file plays nothing
+                sink.close()
 
     def __enter__(self) -> AnnotatedVideoWriter:
         return self

@@ -117,7 +117,7 @@ def test_fusion_rules_differ_where_product_cannot_move_particles():
 
 def test_mixture_keeps_one_over_one_plus_degree_of_own_mass():
     """With equal likelihoods the joint normalisation leaves a node 1/(1 + degree)."""
-    g = part_graph.build_graph(part_graph.Params(init_box=(60, 60, 30, 60), n_parts=3))
+    g = part_graph.build_graph(part_graph.Params.paper((60, 60, 30, 60), n_parts=3))
     image = np.full((120, 120, 3), 128, np.uint8)  # flat: every box scores the same
     eng = Engine(g, np.random.default_rng(0))
     rec = eng.step(FrameContext(1, image))
@@ -153,7 +153,7 @@ def test_colour_pf_is_the_one_node_part_graph():
 @pytest.mark.parametrize("n, names", [(2, ["top", "bottom"]), (3, ["top", "middle", "bottom"])])
 def test_part_graph_structure(n, names, tmp_path):
     box = (100.0, 80.0, 40.0, 60.0)
-    g = part_graph.build_graph(part_graph.Params(init_box=box, n_parts=n))
+    g = part_graph.build_graph(part_graph.Params.paper(box, n_parts=n))
     assert list(g.variables) == names
     assert g.meta["engine"]["num_particles"] == {2: 15, 3: 10}[n]
     assert g.meta["engine"]["message_particles"] == {2: 15, 3: 10}[n]
@@ -281,8 +281,8 @@ def test_batched_colour_scoring_equals_factor_by_factor(monkeypatch):
 
     seq = part_occlusion_scene(seed=0, n_frames=25, n_bands=3)
     x, y, w, h = seq.gt[0].boxes[0]
-    g = part_graph.build_graph(part_graph.Params(init_box=(x + w / 2, y + h / 2, w, h),
-                                                 n_parts=3))
+    g = part_graph.build_graph(part_graph.Params.paper((x + w / 2, y + h / 2, w, h),
+                                                       n_parts=3))
 
     def run():
         eng = Engine(g, np.random.default_rng(3))

@@ -33,10 +33,12 @@ def test_colour_pf_on_real_sequences(shared_data, tmp_path, capsys, sequence, fl
 
 @pytest.mark.parametrize("parts, floor_auc", [(2, 0.74), (3, 0.76)])
 def test_part_graph_on_faceocc1(shared_data, tmp_path, capsys, parts, floor_auc):
-    """Measured over seeds 0-4 (issue 3 note): two nodes 0.787-0.812, three 0.802-0.810;
-    the one-node filter at the paper's 30 particles 0.750-0.772."""
-    code = main(["track", str(shared_data / "FaceOcc1"), "--model", "part-graph", "--parts",
-                 str(parts), "--out", str(tmp_path), "--seed", "0", "--no-video", "--quiet"])
+    """The paper's setting (``--preset paper``), measured over seeds 0-4 (issue 3 note): two
+    nodes 0.787-0.812, three 0.802-0.810; the one-node filter at the paper's 30 particles
+    0.750-0.772."""
+    code = main(["track", str(shared_data / "FaceOcc1"), "--model", "part-graph", "--preset",
+                 "paper", "--parts", str(parts), "--out", str(tmp_path), "--seed", "0",
+                 "--no-video", "--quiet"])
     assert code == 0, capsys.readouterr().err
     m = json.loads((tmp_path / "metrics.json").read_text())
     assert m["success_auc"] > floor_auc
