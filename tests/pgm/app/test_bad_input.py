@@ -21,22 +21,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from cli_run import run_cli
 
-from pgm.app.cli import main
 from pgm.io.video import write_image_sequence, write_seqinfo
 from pgm.synthetic import demo_scene, multi_target_scene
 
 N_FRAMES = 6
 
-
-def run_cli(capsys, argv):
-    """``(exit code, stdout, stderr)`` of ``pgm argv`` run in this process."""
-    try:
-        code = main([str(a) for a in argv])
-    except SystemExit as exc:  # argparse
-        code = exc.code
-    cap = capsys.readouterr()
-    return code, cap.out, cap.err
 
 
 def assert_one_line_error(code, err, needle=""):

@@ -6,6 +6,7 @@ import sys
 
 import numpy as np
 import pytest
+from cli_run import run_cli
 
 from pgm.app.cli import main
 from pgm.app.runner import track
@@ -21,11 +22,6 @@ def scene_dir(tmp_path_factory):
     demo_scene(seed=0, n_frames=30).write_otb(d)
     return d
 
-
-def run_cli(capsys, *argv):
-    code = main(list(map(str, argv)))
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
 
 
 def assert_one_line_error(code, err, *needles):

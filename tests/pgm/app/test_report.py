@@ -6,6 +6,7 @@ import shutil
 from html.parser import HTMLParser
 
 import pytest
+from cli_run import run_cli
 
 from pgm.app.cli import main
 from pgm.app.report import FILES_DIR, find_runs, group_runs, load_run, write_report
@@ -65,11 +66,6 @@ def _check_self_contained(text, page, folder):
         assert url.startswith(("#", "data:image/png;base64,")), url
     assert "http://" not in text and "https://" not in text
 
-
-def run_cli(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 @pytest.fixture(scope="module")

@@ -4,8 +4,8 @@ combined and mean rows, and the errors."""
 import json
 
 import pytest
+from cli_run import run_cli
 
-from pgm.app.cli import main
 from pgm.core.errors import InputError
 from pgm.evaluation.folders import evaluate_mot_folders
 
@@ -63,11 +63,6 @@ def test_combined_equals_the_sequences_when_all_are_perfect(folders):
         assert res["combined"][key] == pytest.approx(1.0), key
     assert res["combined"]["id_switches"] == 0  # identities never meet across sequences
 
-
-def run_cli(capsys, *argv):
-    code = main([str(a) for a in argv])
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def test_cli_table_and_json(folders, capsys):
