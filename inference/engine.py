@@ -220,6 +220,7 @@ class Engine:
         if self.plate is not None:
             from . import plates
 
+            self._plates = plates  # the plate's stages (imported once, not per frame)
             plates.setup(self)
         self._check_rules()
 
@@ -342,9 +343,7 @@ class Engine:
             self._run(self.schedule.first_frame if self.t == 0 else self.schedule.phases,
                       frame, record)
         else:
-            from . import plates
-
-            plates.step(self, frame, record, lifecycle)
+            self._plates.step(self, frame, record, lifecycle)
         record.beliefs = dict(self.beliefs)
         record.messages = dict(self.messages)
         self.t += 1
@@ -476,9 +475,7 @@ class Engine:
     def _score_group(self, fs: list[Factor], frame: FrameContext) -> list[np.ndarray]:
         """Log-likelihoods of a group of factors scored in one batched pass."""
         if self.replicas is not None:
-            from .batched import score_group
-
-            return score_group(self, fs, frame)
+            return self._plates.score_group(self, fs, frame)
         return type(fs[0]).log_likelihood_batch(fs, [self.beliefs[f.variables[0]].x
                                                      for f in fs], frame)
 
@@ -519,9 +516,7 @@ class Engine:
             rule = self.rules.lookup("estimate", type(self.beliefs[v]))
             record.estimates[v] = rule(self, v, frame)
         if self.replicas is not None:
-            from . import plates
-
-            plates.learn(self, items, frame, record)
+            self._plates.learn(self, items, frame, record)
         elif self._learners:
             scores = {v: self.score_at(v, record.estimates[v], frame) for v in items
                       if self.graph.factors_of(v, "likelihood")}
@@ -529,9 +524,7 @@ class Engine:
                 f.update(record.estimates, scores, frame)
 
     def _stage_associate(self, items, frame, record) -> None:
-        from . import plates
-
-        plates.associate(self, frame, record)
+        self._plates.associate(self, frame, record)
 
     def log_likelihood(self, variable: str, x: np.ndarray, frame: FrameContext) -> np.ndarray:
         """Sum of ``variable``'s likelihood factors at particles ``x`` ``(N, d)``."""

@@ -54,7 +54,7 @@ from pgm.core.readout import Targets, register_readout
 from pgm.factors import LikelihoodFactor
 
 from . import batched as _batched  # noqa: F401  (registers the batched rules)
-from .batched import BOX, box_columns
+from .batched import BOX, box_columns, score_group  # noqa: F401  (score_group: the engine's)
 from .engine import Engine, StepRecord
 from .tracks import Track, confirm_tracks, match, reported, update_tracks
 

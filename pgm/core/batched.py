@@ -177,14 +177,15 @@ class BatchedParticles(ParticleArrays):
         prediction) when given, else its own."""
         lm = self.log_mass
         bad = ~np.isfinite(lm)
-        lw = self.log_weights - np.where(bad, 0.0, lm)[:, None]
+        any_bad = bool(bad.any())
+        lw = self.log_weights - (np.where(bad, 0.0, lm) if any_bad else lm)[:, None]
         out_lm = np.zeros(self.K)
-        if bad.any():
+        if any_bad:
             src = fallback if fallback is not None else self
             lw[bad] = src.log_weights[bad]
             out_lm[bad] = np.asarray(src.log_mass)[bad]
         out = self._trusted(self.x, lw, self.history, log_mass=out_lm)
-        if not bad.any():
+        if not any_bad:
             for key in ("weights", "ess"):  # identical for the normalised copy
                 if key in self.__dict__:
                     out.__dict__[key] = self.__dict__[key]
