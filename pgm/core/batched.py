@@ -151,8 +151,9 @@ class BatchedParticles(ParticleArrays):
         lm = self.log_mass
         ok = np.isfinite(lm)
         w = np.exp(self.log_weights - np.where(ok, lm, 0.0)[:, None])
-        for k in range(self.K):  # exact per-row normalisation, as Particles.weights
-            w[k] = w[k] / float(w[k].sum()) if ok[k] else np.nan
+        # each row divided by its own 1-D sum, as Particles.weights divides (exactly)
+        sums = np.array([float(row.sum()) for row in w]) if self.K else np.zeros(0)
+        w = w / np.where(ok, sums, np.nan)[:, None]
         w.flags.writeable = False
         return w
 
