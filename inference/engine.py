@@ -214,6 +214,7 @@ class Engine:
         self.frame: FrameContext | None = None
         self.t = 0
         self._hooks: dict[str, list[Hook]] = {s: [] for s in STAGES}
+        self._stage_functions = {s: getattr(self, f"_stage_{s}") for s in STAGES}
         #: the plate's replicas (:class:`pgm.inference.plates.Replicas`), or None
         self.replicas = None
         self.plate = self.graph.plates[0] if self.graph.plates else None
@@ -351,12 +352,16 @@ class Engine:
 
     def _run(self, phases, frame: FrameContext, record: StepRecord, hooks: bool = True,
              skip: tuple[str, ...] = ()) -> None:
-        """Run the stages ``phases`` (calling the hooks after each)."""
+        """Run the stages ``phases`` (calling the hooks after each). A stage with nothing
+        to do is not called (the prior stage always is: it also initialises templates);
+        its hooks still are."""
+        stages = self._stage_functions
         for stage, items in phases:
             if stage in skip:
                 continue
-            getattr(self, f"_stage_{stage}")(items, frame, record)
-            if hooks:
+            if items or stage == "prior":
+                stages[stage](items, frame, record)
+            if hooks and self._hooks[stage]:
                 for hook in self._hooks[stage]:
                     hook(self, stage, frame, record)
 
