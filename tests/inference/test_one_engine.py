@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_conformance import _vb_akf  # the VB-AKF graph of the conformance cases
 
 from pgm import FactorGraph, Plate, Variable
 from pgm.core.batched import BatchedParticles, Replicated, batched_type
@@ -20,10 +21,8 @@ from pgm.core.frame import FrameContext
 from pgm.factors import (
     GaussianPrior,
     LikelihoodFactor,
-    LinearGaussianLikelihood,
     LinearGaussianTransition,
 )
-from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, VBNoise
 from pgm.inference import DEFAULT_RULES, Engine
 from pgm.models import colour_pf, linear_gaussian, part_graph, single_object
 from pgm.synthetic.scenes import multi_target_scene
@@ -57,19 +56,6 @@ def _lg_frames(n=12, dim=1):
     return [FrameContext(t + 1, measurements=rng.normal(0.1 * t, 0.7, dim)) for t in range(n)]
 
 
-def _vb_graph() -> FactorGraph:
-    F = np.array([[1.0, 1, 0, 0], [0, 1, 0, 0], [0, 0, 1, 1], [0, 0, 0, 1]])
-    H = np.array([[1.0, 0, 0, 0], [0, 0, 1, 0]])
-    return FactorGraph(
-        [Variable("x", 4), Variable("noise", 2, role="noise")],
-        [GaussianPrior("x", mean=np.zeros(4), cov=np.eye(4)),
-         LinearGaussianTransition("x", F=F, Q=0.01 * np.eye(4)),
-         LinearGaussianLikelihood("x", H=H, R=np.eye(2)),
-         InverseGammaPrior("noise", sigma=[1.0, 1.0], alpha=10.0),
-         NoiseForgetting("noise", rho=0.9, alpha_min=2.0),
-         VBNoise("noise", "x", tol=1e-6, max_iter=5)], name="vb-akf")
-
-
 def _cases(scene):
     box = _box(scene)
     lg = linear_gaussian.build_graph(linear_gaussian.Params())
@@ -85,7 +71,7 @@ def _cases(scene):
             init_box=box, num_particles=N)), _image_frames(scene), {}),
         "linear-gaussian-particles": (lg, _lg_frames(), {"num_particles": 200}),
         "linear-gaussian-kalman": (lg, _lg_frames(), {"belief_types": {"x": Gaussian}}),
-        "vb-akf": (_vb_graph(), _lg_frames(dim=2), {"belief_types": {"x": Gaussian}}),
+        "vb-akf": (_vb_akf(), _lg_frames(dim=2), {"belief_types": {"x": Gaussian}}),
     }
 
 
