@@ -374,8 +374,13 @@ def coupling_batched(engine: Engine, factor, frame: FrameContext, src: str, dst:
     d_dst = engine.beliefs[dst].dim
     x_msg = x_msg.reshape(K, n, d_dst)
     n_hist = len(engine.beliefs[dst].history)
-    hist = [np.asarray(factor.map(h.reshape(K * n, d), src)).reshape(K, n, d_dst)
-            for h in b.history[:n_hist]]
+    if _local(engine, factor.name):  # each replica's own (learned) coupling
+        hist = [np.stack([np.asarray(reps.graphs[k].factors[factor.name].map(h[k], src))
+                          for k in range(K)]).reshape(K, n, d_dst)
+                for h in b.history[:n_hist]]
+    else:
+        hist = [np.asarray(factor.map(h.reshape(K * n, d), src)).reshape(K, n, d_dst)
+                for h in b.history[:n_hist]]
     hist += [x_msg.copy() for _ in range(n_hist - len(hist))]
     lw0, ll = _evidence(engine, src)
     engine.messages[(src, dst)] = BatchedMixtureMessage(x_msg, lw0 + ll, tuple(hist))

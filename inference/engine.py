@@ -250,6 +250,10 @@ class Engine:
         """Belief class of a variable: its role's, batched for a plate variable."""
         bt = self.row_belief_type(variable)
         if self.plate is not None and variable in self.plate.variables:
+            if issubclass(bt, Particles) and bt is not Particles:
+                raise ValueError(f"variable {variable!r}: a plate keeps Particles batched "
+                                 f"(BatchedParticles); {bt.__name__} has no batched form (give "
+                                 f"it one and register its rules, or use Particles)")
             return batched_type(bt)
         return bt
 
@@ -333,7 +337,11 @@ class Engine:
         With a plate, replicas are born at the ``associate`` stage (and run the
         first-frame stages there); ``lifecycle=False`` skips that stage (replicas managed
         by the caller with :meth:`add` and :meth:`remove`). A frame with neither image nor
-        detections is *missing* for a plate: its replicas are only predicted."""
+        detections is *missing* for a plate: its replicas are only predicted.
+
+        Hooks (:meth:`add_hook`) run after each stage of the frame's schedule; for a plate,
+        on the replicas there are (none on a frame without replicas; only ``predict`` on a
+        missing frame), and not on the first-frame stages of replicas born in the frame."""
         if not isinstance(frame, FrameContext):
             raise ValueError(f"step() needs a FrameContext, got {type(frame).__name__}")
         self.frame = frame
@@ -365,10 +373,12 @@ class Engine:
                 for hook in self._hooks[stage]:
                     hook(self, stage, frame, record)
 
-    def run(self, frames: Iterable[FrameContext]) -> Iterator[StepRecord]:
-        """Step through ``frames`` lazily, yielding one :class:`StepRecord` per frame."""
+    def run(self, frames: Iterable[FrameContext], *, lifecycle: bool = True
+            ) -> Iterator[StepRecord]:
+        """Step through ``frames`` lazily, yielding one :class:`StepRecord` per frame
+        (``lifecycle``: as for :meth:`step`)."""
         for frame in frames:
-            yield self.step(frame)
+            yield self.step(frame, lifecycle=lifecycle)
 
     # -- stages ------------------------------------------------------------------------
     def _apply_factor(self, name: str, frame: FrameContext, record: StepRecord) -> None:
@@ -491,7 +501,7 @@ class Engine:
         b = self.beliefs[v]
         out = rule(self, factor, frame)
         if not likelihood_reweights(type(b)):
-            if out:
+            if isinstance(out, dict) and out:
                 record.info[factor.name] = out
             return None
         if self.beliefs[v] is not b:

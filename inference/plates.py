@@ -268,6 +268,32 @@ def add(engine: Engine, boxes: np.ndarray | None, frame: FrameContext,
     return list(range(first, first + m))
 
 
+#: what the plate itself reports in ``record.info[plate.name]`` (one entry per replica
+#: after the step, or per frame)
+PLATE_KEYS = frozenset({"ids", "boxes", "reported", "existence", "births", "deaths",
+                        "missing"})
+
+
+def _realigned(values: dict, keep: np.ndarray, births: int) -> dict:
+    """Per-replica diagnostics (arrays with a leading replica axis) after the replicas
+    ``keep`` survived and ``births`` were added: survivors' rows, then empty rows (NaN,
+    False or 0); replica indices (``degenerate``) renumbered; anything else as it was."""
+    new_index = np.cumsum(keep) - 1
+    out = {}
+    for key, a in values.items():
+        if isinstance(a, dict):
+            out[key] = _realigned(a, keep, births)
+        elif key == "degenerate" and isinstance(a, np.ndarray):
+            out[key] = np.array([new_index[i] for i in a if keep[i]], dtype=int)
+        elif isinstance(a, np.ndarray) and a.ndim >= 1 and a.shape[0] == keep.shape[0]:
+            fill = False if a.dtype == bool else (np.nan if a.dtype.kind == "f" else 0)
+            pad = np.full((births,) + a.shape[1:], fill, dtype=a.dtype)
+            out[key] = np.concatenate([a[keep], pad])
+        else:
+            out[key] = a
+    return out
+
+
 def remove(engine: Engine, indices: Sequence[int]) -> None:
     """Remove the replicas at ``indices``."""
     keep = np.ones(engine.num_targets, dtype=bool)
@@ -379,12 +405,13 @@ def associate(engine: Engine, frame: FrameContext, record: StepRecord) -> None:
                               dtype=np.int64)
     _keep(engine, np.flatnonzero(keep))
     # the frame's per-replica diagnostics follow the replicas (births: none yet)
-    for per_variable, fill in ((record.ess, np.nan), (record.log_evidence, np.nan),
-                               (record.resampled, False)):
-        for v, a in per_variable.items():
-            if isinstance(a, np.ndarray) and a.shape == keep.shape:
-                per_variable[v] = np.concatenate([a[keep], np.full(len(births), fill,
-                                                                   dtype=a.dtype)])
+    for per_variable in (record.ess, record.log_evidence, record.resampled):
+        per_variable.update(_realigned(per_variable, keep, len(births)))
+    for name in dict.fromkeys(list(engine.graph.variables) + list(engine.graph.factors)):
+        values = record.info.get(name)
+        if isinstance(values, dict):  # in place: a variable may share the plate's name
+            values.update(_realigned({k: a for k, a in values.items() if k not in PLATE_KEYS},
+                                     keep, len(births)))
     info["births"] = len(births)
     if births:
         add(engine, det_boxes[sorted(births)], frame)

@@ -210,16 +210,54 @@ def _command(target):
 
 def _probe(argv: list[str]) -> argparse.Namespace | None:
     """The arguments as far as the parser without model options reads them (no help, no
-    error: what it cannot read now is reported by the full parse)."""
+    error: what it cannot read now is reported by the full parse). Models' options are
+    set aside first, so that their values are not taken for the source or the model;
+    ``--out`` is supplied if missing, so that ``--help`` alone still finds the source."""
     import contextlib
     import io
 
+    base = build_parser()
     probe = [a for a in argv if a not in ("-h", "--help")]
+    command = next((a for a in probe if a in ("track", "graph")), None)
+    if command is not None:
+        sub = next(a for a in base._actions if isinstance(a, argparse._SubParsersAction))
+        known = set(sub.choices[command]._option_string_actions)
+        probe = _without_model_options(probe, known)
+        if "--out" not in probe and not any(a.startswith("--out=") for a in probe):
+            probe += ["--out", "-"]
     try:
         with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
-            return build_parser().parse_known_args(probe)[0]
+            return base.parse_known_args(probe)[0]
     except SystemExit:
         return None
+
+
+def _without_model_options(argv: list[str], known: set[str]) -> list[str]:
+    """``argv`` less the options (and their values) that some model declares and the
+    command itself does not know (the models are imported only if there are any)."""
+    unknown = [a.split("=", 1)[0] for a in argv if a.startswith("--")
+               and a.split("=", 1)[0] not in known]
+    if not unknown:
+        return argv
+    from pgm.models import get_config, model_names
+
+    flag_only: dict[str, bool] = {}
+    for name in model_names():
+        try:
+            for opt in get_config(name).options:
+                flag_only[opt.flag] = opt.flag_only
+        except ValueError:  # a broken plug-in: its options are not set aside
+            continue
+    out, i = [], 0
+    while i < len(argv):
+        a = argv[i]
+        flag = a.split("=", 1)[0]
+        if a.startswith("--") and flag not in known and flag in flag_only:
+            i += 1 if (flag_only[flag] or "=" in a) else 2
+            continue
+        out.append(a)
+        i += 1
+    return out
 
 
 def _scan_model(argv: list[str], command: str) -> str | None:

@@ -288,9 +288,10 @@ _REPLICATED: dict[type, type] = {}
 
 def batched_type(row_type: type) -> type:
     """The batched belief class for ``row_type``: :class:`BatchedParticles` for
-    :class:`~pgm.Particles` (and its subclasses without a batched form of their own),
-    ``Replicated[row_type]`` for any other belief."""
-    if issubclass(row_type, Particles) and row_type is Particles:
+    :class:`~pgm.Particles`, ``Replicated[row_type]`` for any other belief (a subclass
+    of ``Particles`` has no batched form unless it is given one: the engine refuses it in
+    a plate)."""
+    if row_type is Particles:
         return BatchedParticles
     cls = _REPLICATED.get(row_type)
     if cls is None:

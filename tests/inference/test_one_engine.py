@@ -24,6 +24,7 @@ from pgm.factors import (
     LinearGaussianTransition,
 )
 from pgm.inference import DEFAULT_RULES, Engine
+from pgm.inference.settings import EngineSettings
 from pgm.models import colour_pf, linear_gaussian, part_graph, single_object
 from pgm.synthetic.scenes import multi_target_scene
 
@@ -67,6 +68,11 @@ def _cases(scene):
         "part-graph-product": (part_graph.build_graph(part_graph.Params(
             init_box=box, n_parts=2, num_particles=N)), _image_frames(scene),
             {"fusion": "product"}),
+        # couplings that learn per replica, on the batched mixture path (one message
+        # particle per particle: the engine's default settings)
+        "part-graph-learned-offsets": (part_graph.build_graph(part_graph.Params(
+            init_box=box, n_parts=2, num_particles=N, adapt_offsets=True)),
+            _image_frames(scene), {"settings": EngineSettings(num_particles=N)}),
         "single-object": (single_object.build_graph(single_object.Params(
             init_box=box, num_particles=N)), _image_frames(scene), {}),
         "linear-gaussian-particles": (lg, _lg_frames(), {"num_particles": 200}),
@@ -75,7 +81,8 @@ def _cases(scene):
     }
 
 
-CASE_NAMES = ["colour-pf", "part-graph-mixture", "part-graph-product", "single-object",
+CASE_NAMES = ["colour-pf", "part-graph-mixture", "part-graph-product",
+              "part-graph-learned-offsets", "single-object",
               "linear-gaussian-particles", "linear-gaussian-kalman", "vb-akf"]
 
 
@@ -222,3 +229,13 @@ def test_variables_outside_the_plate_are_refused():
                        list(g.factors.values()) + y, plates=[Plate("t", ("x",))])
     with pytest.raises(ValueError, match="outside the plate"):
         Engine(half, 0)
+
+
+def test_a_particles_subclass_without_a_batched_form_is_refused_in_a_plate():
+    class MyParticles(Particles):
+        pass
+
+    g = colour_pf.build_graph(colour_pf.Params(init_box=(50, 50, 20, 30)))
+    with pytest.raises(ValueError, match="MyParticles has no batched form"):
+        Engine(_plated(g), 0, belief_types={"object": MyParticles})
+

@@ -207,3 +207,26 @@ def test_replica_rng_splits_draws_and_refuses_others():
         r.standard_normal((4, 2))
     with pytest.raises(ValueError, match="cannot"):
         r.integers(3)
+
+
+def test_per_replica_diagnostics_follow_births_and_deaths(scene):
+    """After the associate stage every per-replica array of the step record has one row
+    per replica, in the replicas' order (the plate's ids)."""
+    g = multi_pf.build_graph(multi_pf.Params(num_particles=30, lifecycle=Lifecycle(
+        confirm_hits=2, max_coast=1, max_lost=2)))
+    eng = Engine(g, np.random.default_rng(0))
+    sizes = set()
+    for f in range(1, 13):
+        ids, boxes = scene.boxes_at(f)
+        if f > 6:  # one target's detections stop: its replica dies
+            boxes = boxes[ids != ids.min() + 1]
+        rec = eng.step(FrameContext(f, scene.frames[f - 1],
+                                    detections=Detections(boxes, np.ones(len(boxes)))))
+        k = eng.num_targets
+        sizes.add(k)
+        info = rec.info["person"]
+        assert info["ids"].shape == (k,) and rec.estimates["person"].shape[0] == k
+        for a in (rec.ess.get("person"), info.get("ess"), info.get("resampled"),
+                  rec.resampled.get("person")):
+            assert a is None or np.shape(a) == (k,), (f, np.shape(a), k)
+    assert len(sizes) > 1  # replicas were born and removed

@@ -112,3 +112,21 @@ def test_building_the_parser_imports_no_model():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == "[]"
+
+
+def test_the_model_is_found_whatever_the_order_of_the_options(tmp_path, capsys):
+    """A model's option before the source or the model name is not taken for either; a
+    MOTChallenge folder's default model is found for --help too."""
+    from pgm.app.cli import model_config_for
+
+    seq = tmp_path / "seq"
+    (seq / "det").mkdir(parents=True)
+    (seq / "det" / "det.txt").write_text("1,-1,1,1,5,5,1\n")
+    assert model_config_for(["track", str(seq), "--help"]).name == "vb-phd"
+    assert model_config_for(["track", "--scores", "off", str(seq), "--out", "o"]).name == "vb-phd"
+    assert model_config_for(["track", "--parts", "2", str(seq), "--model", "part-graph",
+                             "--out", "o"]).name == "part-graph"
+    assert model_config_for(["graph", "--parts", "2", "multi-pf", "--out", "g"]).name == \
+        "multi-pf"
+    assert main(["graph", "--parts", "2", "multi-pf", "--out", str(tmp_path / "g.dot")]) == 0
+    assert (tmp_path / "g.dot").read_text().startswith("graph")
