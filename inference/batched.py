@@ -240,6 +240,10 @@ def predict_batched(engine: Engine, factor, frame: FrameContext) -> None:
     """Move every replica's particles: one ``factor.sample`` call on ``(K·N, d)`` for a
     shared transition (draws split per replica), one call per replica for its own copy."""
     var = factor.variables[0]
+    if engine.graph.factors_of(var, "proposal"):  # proposals: the single-graph rule, per replica
+        from .engine import _predict_particles
+
+        return per_replica(_predict_particles, TransitionFactor)(engine, factor, frame)
     b: BatchedParticles = engine.beliefs[var]
     reps = engine.replicas
     K, n, d = b.x.shape  # noqa: N806

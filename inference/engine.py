@@ -476,7 +476,7 @@ class Engine:
         for v, b0 in before.items():
             b = self.beliefs[v]
             self.evidence[v] = (b0.log_weights, log_lik[v])
-            record.log_evidence[v] = b.log_mass - b0.log_mass
+            record.log_evidence[v] = b.log_mass - self._prior_log_mass(v, b0)
             record.ess[v] = b.ess
             if self.replicas is None:
                 self.beliefs[v] = b.normalized()
@@ -486,6 +486,17 @@ class Engine:
             if bad.any():
                 self.evidence[v] = (b0.log_weights, np.where(bad[:, None], 0.0, log_lik[v]))
                 record.info.setdefault(v, {})["degenerate"] = np.flatnonzero(bad)
+
+    def _prior_log_mass(self, variable: str, b0) -> Any:
+        """The mass the frame's evidence is measured against: the belief's as the weight
+        stage found it, or, after a proposal's weight correction, the mass before it."""
+        auxes = [self.aux] if self.replicas is None else self.replicas.aux
+        held = [a.get(variable, {}).pop("prior_log_mass", None) for a in auxes]
+        if self.replicas is None:
+            return b0.log_mass if held[0] is None else held[0]
+        if any(h is None for h in held):
+            return b0.log_mass
+        return np.array(held, dtype=float)
 
     def _score_group(self, fs: list[Factor], frame: FrameContext) -> list[np.ndarray]:
         """Log-likelihoods of a group of factors scored in one batched pass."""
@@ -579,11 +590,41 @@ def _predict_particles(engine: Engine, factor, frame) -> None:
         labels = engine.graph.variables[var].labels
         b = b._trusted(warp_states(b.x, labels, frame.camera_motion), b.log_weights,
                        tuple(warp_states(h, labels, frame.camera_motion) for h in b.history))
+    proposals = engine.graph.factors_of(var, "proposal")
+    if proposals:
+        return _propose_particles(engine, factor, proposals[0], frame, b)
     x_new = np.asarray(factor.sample(engine.rng, b.x, *b.history), dtype=float)
     if x_new.shape != b.x.shape:
         raise ValueError(f"factor {factor.name!r}: sample() returned shape {x_new.shape}, "
                          f"expected {b.x.shape}")
     engine.beliefs[var] = b.moved(x_new, history_len=max(0, factor.order - 1))
+
+
+def _propose_particles(engine: Engine, transition, proposal, frame, b: Particles) -> dict:
+    """The predict stage with a proposal factor: each particle drawn from the proposal
+    with probability ``f = proposal.fraction`` (else from the transition) and its weight
+    multiplied by ``p(x_t | x_{t-1}) / ((1 - f) p + f q)`` (the mixture's importance
+    weight; :class:`~pgm.factors.kinds.ProposalFactor`)."""
+    var = transition.variables[0]
+    past = (b.x,) + b.history
+    f = proposal.fraction
+    x_q = np.asarray(proposal.sample(engine.rng, frame, *past), dtype=float)
+    if x_q.shape != b.x.shape:
+        raise ValueError(f"factor {proposal.name!r}: sample() returned shape {x_q.shape}, "
+                         f"expected {b.x.shape}")
+    if f < 1.0:
+        x_p = np.asarray(transition.sample(engine.rng, *past), dtype=float)
+        x_new = np.where((engine.rng.random(b.num) < f)[:, None], x_q, x_p)
+    else:
+        x_new = x_q
+    log_p = np.asarray(transition.log_prob(x_new, *past), dtype=float)
+    log_q = np.asarray(proposal.log_prob(x_new, frame, *past), dtype=float)
+    log_mix = log_q if f == 1.0 else np.logaddexp(np.log1p(-f) + log_p, np.log(f) + log_q)
+    moved = b.moved(x_new, history_len=max(0, transition.order - 1))
+    # the evidence of this frame is measured against the mass before the correction
+    engine.aux.setdefault(var, {})["prior_log_mass"] = moved.log_mass
+    engine.beliefs[var] = moved.reweight(log_p - log_mix)
+    return {"proposed": f}
 
 
 def _check_ll(factor, ll, shape: tuple[int, ...]) -> np.ndarray:

@@ -111,6 +111,13 @@ def derive_schedule(graph: FactorGraph, inframe_iterations: int = 1,
     scheduled = {i[0] if isinstance(i, tuple) else i
                  for phases in (schedule.first_frame, schedule.phases) for _, items in phases
                  for i in items}
+    for f in graph.factors_by_kind("proposal"):  # the predict stage draws from it
+        if not graph.factors_of(f.variables[0], "transition"):
+            raise ValueError(f"proposal {f.name!r}: variable {f.variables[0]!r} has no "
+                             f"transition to propose in place of")
+        if len(graph.factors_of(f.variables[0], "proposal")) > 1:
+            raise ValueError(f"variable {f.variables[0]!r} has more than one proposal")
+        scheduled.add(f.name)
     for f in graph.factors.values():
         off = f.kind == "conjugate" and inframe_iterations == 0  # VB switched off
         if f.name not in scheduled and f.name not in under_vb and not off:

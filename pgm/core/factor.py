@@ -39,7 +39,8 @@ from pgm.core.variable import Variable
 
 __all__ = ["Factor", "factor_from_dict", "registered_factor_types", "KINDS"]
 
-KINDS = ("prior", "transition", "likelihood", "coupling", "conjugate", "interaction")
+KINDS = ("prior", "transition", "likelihood", "coupling", "conjugate", "interaction",
+         "proposal")
 _REGISTRY: dict[str, type[Factor]] = {}
 #: factor types the toolkit defines in modules that are not imported with ``pgm`` (they
 #: pull torch or a model file): a saved declaration naming one imports that module —

@@ -11,6 +11,7 @@ from pgm.factors.gaussian import (
     AveragedVelocityTransition,
     GaussianPrior,
     LinearGaussianLikelihood,
+    LinearGaussianProposal,
     LinearGaussianTransition,
 )
 from pgm.factors.kinds import (
@@ -18,10 +19,12 @@ from pgm.factors.kinds import (
     CouplingFactor,
     LikelihoodFactor,
     PriorFactor,
+    ProposalFactor,
     TransitionFactor,
 )
 
-__all__ = ["Factor", "PriorFactor", "TransitionFactor", "LikelihoodFactor", "CouplingFactor",
+__all__ = ["Factor", "PriorFactor", "ProposalFactor", "TransitionFactor", "LikelihoodFactor",
+           "CouplingFactor", "LinearGaussianProposal",
            "ConjugateFactor", "GaussianPrior", "LinearGaussianTransition", "AR2Transition",
            "AveragedVelocityTransition",
            "LinearGaussianLikelihood", "factor_from_dict", "registered_factor_types", "KINDS"]

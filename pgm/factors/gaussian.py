@@ -17,10 +17,10 @@ import numpy as np
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param, scratch
 from pgm.core.variable import Variable
-from pgm.factors.kinds import LikelihoodFactor, PriorFactor, TransitionFactor
+from pgm.factors.kinds import LikelihoodFactor, PriorFactor, ProposalFactor, TransitionFactor
 
 __all__ = ["GaussianPrior", "LinearGaussianTransition", "AR2Transition",
-           "LinearGaussianLikelihood"]
+           "LinearGaussianLikelihood", "LinearGaussianProposal"]
 
 
 # ------------------------------------------------------------------------------------
@@ -437,3 +437,71 @@ class LinearGaussianLikelihood(LikelihoodFactor):
 
         u = solve_triangular(self._chol, r.T, lower=True)  # (k, N)
         return self._log_norm - 0.5 * np.sum(u * u, axis=0)
+
+
+class LinearGaussianProposal(ProposalFactor):
+    r"""The Gaussian proposal of a linear-Gaussian step, ``x_t = F x_{t-1} + N(0, Q)``
+    observed as ``y_t = H x_t + N(0, R)``:
+
+    .. math::
+        q(x_t \mid x_{t-1}, y_t) = \mathcal N\big(\Sigma (Q^{-1} F x_{t-1}
+            + H^\top R^{-1} y_t),\ \Sigma\big),\qquad
+        \Sigma = (Q^{-1} + H^\top R^{-1} H)^{-1},
+
+    the *locally optimal* proposal (Doucet, Godsill & Andrieu 2000): with it the
+    incremental weight is ``p(y_t | x_{t-1})`` whatever ``x_t`` was drawn. Given ``F``
+    and ``Q`` only (``H`` omitted), or with ``inflate > 1``, it is a plain Gaussian
+    random walk around ``F x_{t-1}`` of covariance ``inflate · Q`` — a broad, wrong but
+    valid proposal. A frame with no measurement (``key``, as
+    :class:`LinearGaussianLikelihood`) proposes from ``N(F x_{t-1}, inflate · Q)``.
+    """
+
+    def __init__(self, variable: str, *, F, Q, H=None, R=None, inflate: float = 1.0,
+                 key: str | None = None, fraction: float = 1.0, name: str | None = None):
+        super().__init__(variable, fraction=fraction, name=name)
+        self.F = np.atleast_2d(np.asarray(F, dtype=float))
+        d = self.F.shape[0]
+        self.Q = _as_cov(Q, d, f"{self.name}.Q")
+        self.inflate = check_finite_param(f"{self.name}.inflate", inflate, positive=True)
+        self.key = key
+        self.H = None if H is None else np.atleast_2d(np.asarray(H, dtype=float))
+        self.R = None if R is None else _as_cov(R, self.H.shape[0], f"{self.name}.R")
+        q = self.inflate * self.Q
+        if self.H is not None:
+            info = np.linalg.inv(q) + self.H.T @ np.linalg.solve(self.R, self.H)
+            self._cov = np.linalg.inv(info)
+            self._cov = 0.5 * (self._cov + self._cov.T)
+        self._q = q
+
+    def params(self) -> dict[str, Any]:
+        p: dict[str, Any] = {"F": self.F, "Q": self.Q, "fraction": self.fraction}
+        if self.H is not None:
+            p.update(H=self.H, R=self.R)
+        if self.inflate != 1.0:
+            p["inflate"] = self.inflate
+        if self.key is not None:
+            p["key"] = self.key
+        return p
+
+    def _moments(self, ctx: FrameContext, x_prev: np.ndarray):
+        mean = x_prev @ self.F.T
+        z = ctx.measurements
+        if isinstance(z, dict):
+            z = z.get(self.key if self.key is not None else self.variables[0])
+        if self.H is None or z is None:
+            return mean, self._q
+        y = np.asarray(z, dtype=float).reshape(-1)
+        m = (mean @ np.linalg.inv(self._q).T + y @ np.linalg.solve(self.R, self.H)) @ self._cov.T
+        return m, self._cov
+
+    def sample(self, rng: np.random.Generator, ctx: FrameContext,
+               *past: np.ndarray) -> np.ndarray:
+        mean, cov = self._moments(ctx, np.asarray(past[0], dtype=float))
+        return mean + rng.standard_normal(mean.shape) @ np.linalg.cholesky(cov).T
+
+    def log_prob(self, x: np.ndarray, ctx: FrameContext, *past: np.ndarray) -> np.ndarray:
+        mean, cov = self._moments(ctx, np.asarray(past[0], dtype=float))
+        chol = np.linalg.cholesky(cov)
+        u = np.linalg.solve(chol, (np.asarray(x, dtype=float) - mean).T)
+        return (-0.5 * np.sum(u * u, axis=0) - np.sum(np.log(np.diag(chol)))
+                - 0.5 * cov.shape[0] * np.log(2 * np.pi))

@@ -16,7 +16,7 @@ from pgm.core.frame import FrameContext
 from pgm.core.variable import Variable
 
 __all__ = ["PriorFactor", "TransitionFactor", "LikelihoodFactor", "CouplingFactor",
-           "ConjugateFactor"]
+           "ConjugateFactor", "ProposalFactor"]
 
 
 # ------------------------------------------------------------------------------------
@@ -158,3 +158,43 @@ class ConjugateFactor(Factor):
                              f"'noise', has {variables[noise].role!r}")
         if noise == target:
             raise ValueError(f"factor {self.name!r}: links variable {noise!r} to itself")
+
+
+class ProposalFactor(Factor):
+    r"""A proposal ``q(x_t | x_{t-1}, z_t)`` for one variable's particles (kind
+    ``"proposal"``), used by the predict stage in place of the transition for a share
+    ``fraction`` of the particles.
+
+    The engine draws ``round(fraction · N)`` particles from :meth:`sample` and the rest
+    from the variable's transition, and corrects every particle's weight by the
+    deterministic-mixture ratio
+
+    .. math::
+        w \leftarrow w \, \frac{p(x_t \mid x_{t-1})}
+                                  {(1 - f)\, p(x_t \mid x_{t-1}) + f\, q(x_t \mid x_{t-1}, z_t)}
+
+    (the transition's :meth:`TransitionFactor.log_prob` and this factor's
+    :meth:`log_prob`), so the weighted particles stay an unbiased approximation of the
+    same posterior whatever ``q`` is; a ``q`` close to the posterior lowers the weights'
+    variance, and ``fraction < 1`` keeps the transition's support (a defensive mixture).
+    """
+
+    kind = "proposal"
+    abstract = True
+
+    def __init__(self, variable: str, *, fraction: float = 1.0, name: str | None = None):
+        super().__init__(variable, name=name)
+        f = float(fraction)
+        if not 0.0 < f <= 1.0:
+            raise ValueError(f"factor {self.name!r}: fraction must be in (0, 1], got "
+                             f"{fraction!r}")
+        self.fraction = f
+
+    @abstractmethod
+    def sample(self, rng: np.random.Generator, ctx: FrameContext,
+               *past: np.ndarray) -> np.ndarray:
+        """Draw one particle per row of ``past[0]`` (``x_{t-1}``, shape ``(N, d)``)."""
+
+    @abstractmethod
+    def log_prob(self, x: np.ndarray, ctx: FrameContext, *past: np.ndarray) -> np.ndarray:
+        """``log q(x_t | past, z_t)``, shape ``(N,)``."""
