@@ -104,3 +104,12 @@ def test_bad_proposals_are_refused():
                                          LinearGaussianProposal("x", F=[[1.0]], Q=1.0)])
     with pytest.raises(ValueError, match="no transition"):
         Engine(g, 0)
+
+
+def test_a_proposal_saves_loads_and_draws(problem, tmp_path):
+    p, graph, _, _ = problem
+    g = _with(graph, LinearGaussianProposal("x", F=p.F, Q=p.Q, H=p.H, R=p.R, fraction=0.5))
+    g.save(tmp_path / "m.json")
+    assert FactorGraph.load(tmp_path / "m.json") == g
+    g.draw(tmp_path / "m.png")
+    assert (tmp_path / "m.png").stat().st_size > 1000
