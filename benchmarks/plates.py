@@ -48,6 +48,7 @@ from _common import PeakMemory, machine_note, print_table, single_thread  # noqa
 single_thread()
 
 from pgm import FactorGraph, Plate  # noqa: E402
+from pgm.core.boxes import BOX_LABELS  # noqa: E402
 from pgm.core.frame import FrameContext  # noqa: E402
 from pgm.inference import Engine  # noqa: E402
 from pgm.models import colour_pf  # noqa: E402
@@ -56,7 +57,6 @@ from pgm.synthetic.scene import ObjectSpec, Scene  # noqa: E402
 SIZE = (640, 480)
 GRID = (10, 5)  # columns × rows: 50 cells of 64×96 px
 OBJ = (24, 48)  # object width × height
-BOX = ("cx", "cy", "w", "h")
 
 
 def scene(k: int, n_frames: int, seed: int = 0):
@@ -98,7 +98,7 @@ def graphs(box0: np.ndarray, n: int) -> tuple[FactorGraph, FactorGraph]:
 def at_box(g: FactorGraph, box: np.ndarray) -> FactorGraph:
     """``g`` with its prior re-centred on ``box`` (one target's single-object graph)."""
     return FactorGraph(list(g.variables.values()), [
-        f if f.kind != "prior" else f.born_at(dict(zip(BOX, box, strict=True)), BOX)
+        f if f.kind != "prior" else f.born_at(dict(zip(BOX_LABELS, box, strict=True)), BOX_LABELS)
         for f in g.factors.values()], name=g.name, meta=g.meta)
 
 

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from pgm.core.batched import BatchedParticles
+from pgm.core.boxes import box_columns as _box_columns
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
 from pgm.core.motion import warp_states
@@ -44,10 +45,7 @@ from .resampling import ess_triggered
 from .rules import DEFAULT_RULES
 
 __all__ = ["ReplicaRNG", "per_replica", "RowMessages", "BatchedMixtureMessage", "score_group",
-           "weight_batched", "box_columns", "BOX"]
-
-#: the labels of a box variable's columns
-BOX = ("cx", "cy", "w", "h")
+           "weight_batched", "box_columns"]
 
 
 # -------------------------------------------------------------------------------------
@@ -131,11 +129,7 @@ class ReplicaRNG:
 # -------------------------------------------------------------------------------------
 def box_columns(graph: FactorGraph, variable: str) -> list[int]:
     """Columns of cx, cy, w, h in ``variable`` (a ``ValueError`` if it is not a box)."""
-    v = graph.variables[variable]
-    if v.labels is None or not all(b in v.labels for b in BOX):
-        raise ValueError(f"plate variable {variable!r} must have the labels cx, cy, w, h "
-                         f"(a box), got {v.labels}")
-    return [v.labels.index(b) for b in BOX]
+    return _box_columns(graph.variables[variable].labels, f"plate variable {variable!r}")
 
 
 # -------------------------------------------------------------------------------------

@@ -47,6 +47,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from pgm.core.batched import BatchedParticles
+from pgm.core.boxes import box_columns as box_columns_of
 from pgm.core.boxes import cxcywh_to_xywh, iou_xywh
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
@@ -54,7 +55,7 @@ from pgm.core.readout import Targets, register_readout
 from pgm.factors import LikelihoodFactor
 
 from . import batched as _batched  # noqa: F401  (registers the batched rules)
-from .batched import BOX, box_columns, score_group  # noqa: F401  (score_group: the engine's)
+from .batched import box_columns, score_group  # noqa: F401  (score_group: the engine's)
 from .engine import Engine, StepRecord
 from .tracks import Track, confirm_tracks, match, reported, update_tracks
 
@@ -166,8 +167,7 @@ def setup(engine: Engine) -> None:
 
 
 def _has_box(graph: FactorGraph, variable: str) -> bool:
-    labels = graph.variables[variable].labels
-    return labels is not None and all(b in labels for b in BOX)
+    return box_columns_of(graph.variables[variable].labels) is not None
 
 
 def _empty_beliefs(engine: Engine) -> dict[str, Any]:

@@ -19,7 +19,7 @@ from typing import Any
 from . import config
 from .config import ModelConfig
 
-__all__ = ["BUILTIN", "model_names", "get_config", "get_model", "registry",
+__all__ = ["BUILTIN", "model_names", "get_config", "get_model", "registry", "option_owners",
            "DEFAULT_SINGLE_OBJECT", "DEFAULT_MULTI_TARGET", "ENTRY_POINT_GROUP", "config",
            "ModelConfig", "colour_pf", "gpdm", "linear_gaussian", "multi_pf", "part_graph", "phd",
            "single_object", "vb_phd"]
@@ -105,3 +105,18 @@ def get_model(name: str):
 def registry() -> dict[str, ModelConfig]:
     """Every model's config, by name (imports every model)."""
     return {name: get_config(name) for name in model_names()}
+
+
+def option_owners() -> dict[str, list[tuple[str, config.Option]]]:
+    """Every model option flag → the ``(model name, option)`` pairs that declare it
+    (imports every model; a plug-in that cannot be loaded declares nothing)."""
+    owners: dict[str, list[tuple[str, config.Option]]] = {}
+    for name in model_names():
+        try:
+            options = get_config(name).options
+        except ValueError:
+            continue
+        for opt in options:
+            owners.setdefault(opt.flag, []).append((name, opt))
+    return owners
+

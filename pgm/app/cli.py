@@ -239,15 +239,9 @@ def _without_model_options(argv: list[str], known: set[str]) -> list[str]:
                and a.split("=", 1)[0] not in known]
     if not unknown:
         return argv
-    from pgm.models import get_config, model_names
+    from pgm.models import option_owners
 
-    flag_only: dict[str, bool] = {}
-    for name in model_names():
-        try:
-            for opt in get_config(name).options:
-                flag_only[opt.flag] = opt.flag_only
-        except ValueError:  # a broken plug-in: its options are not set aside
-            continue
+    flag_only = {flag: pairs[0][1].flag_only for flag, pairs in option_owners().items()}
     out, i = [], 0
     while i < len(argv):
         a = argv[i]
@@ -278,25 +272,31 @@ def model_config_for(argv: list[str]):
     """The config of the model that ``argv`` (``track`` or ``graph``) names, or that
     ``pgm track`` runs by default; ``None`` for a saved model ``.json`` or another
     command. An unknown model is an :class:`InputError`."""
+    return _model_of(argv)[0]
+
+
+def _model_of(argv: list[str]) -> tuple[object | None, str | None]:
+    """``(config, name)`` of the model ``argv`` names (the name alone for a saved
+    ``.json``; ``(None, None)`` for a command without a model)."""
     from pgm.models import get_config
 
     ns = _probe(argv)
     command = getattr(ns, "command", None) or next(
         (a for a in argv if a in ("track", "graph")), None)
     if command not in ("track", "graph"):
-        return None
+        return None, None
     model = getattr(ns, "model", None)
-    if model is None and ns is None:  # the probe failed (e.g. --help without --out)
+    if model is None and ns is None:  # the probe failed
         model = _scan_model(argv, command)
     if model is None:
         if command == "graph":
-            return None
+            return None, None
         hint = any(a.split("=", 1)[0] in ("--detections", "--detector") for a in argv)
         model = default_model(getattr(ns, "source", None), hint)
     if model.endswith(".json"):
-        return None
+        return None, model
     try:
-        return get_config(model)
+        return get_config(model), model
     except ValueError as exc:
         raise InputError(one_line(exc)) from None
 
@@ -306,10 +306,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     reads its options too (``args.model_config``: its :class:`~pgm.models.config.ModelConfig`,
     ``None`` for a saved ``.json``)."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    config = model_config_for(argv)
+    config, name = _model_of(argv)
     parser = build_parser(config)
-    ns = _probe(argv) if config is None else None
-    parser.model_name = config.name if config is not None else getattr(ns, "model", None)
+    parser.model_name = name
     args = parser.parse_args(argv)
     if not hasattr(args, "model_config"):
         args.model_config = config

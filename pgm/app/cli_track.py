@@ -92,16 +92,9 @@ def default_model(source: str | None, multi_target_hint: bool) -> str:
 def explain_unknown_options(flags: list[str], model: str | None) -> str | None:
     """A message for options the chosen model does not take, naming the models that do
     (``None`` when some flag is no model's option)."""
-    from pgm.models import get_config, model_names
+    from pgm.models import option_owners
 
-    owners: dict[str, list[str]] = {}
-    for name in model_names():
-        try:
-            config = get_config(name)
-        except ValueError:
-            continue
-        for opt in config.options:
-            owners.setdefault(opt.flag, []).append(name)
+    owners = {flag: [name for name, _ in pairs] for flag, pairs in option_owners().items()}
     bases = [flag.split("=", 1)[0] for flag in flags]
     if not bases or any(b not in owners for b in bases):
         return None

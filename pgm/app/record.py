@@ -82,6 +82,7 @@ import cv2
 import numpy as np
 
 from pgm.core.batched import BatchedParticles, is_batched
+from pgm.core.boxes import box_columns
 from pgm.core.errors import InputError
 from pgm.core.graph import FactorGraph
 from pgm.io.outputs import write_json
@@ -186,10 +187,7 @@ def xy_columns(graph: FactorGraph, variable: str) -> tuple[list[int], bool]:
 
 
 def _box_columns(graph: FactorGraph, variable: str) -> list[int] | None:
-    labels = graph.variables[variable].labels or ()
-    if all(name in labels for name in ("cx", "cy", "w", "h")):
-        return [labels.index(n) for n in ("cx", "cy", "w", "h")]
-    return None
+    return box_columns(graph.variables[variable].labels)
 
 
 # -- numbers as JSON (finite floats, rounded; NaN and infinities become null) ---------

@@ -37,7 +37,9 @@ number.
 
 The page's HTML template, style and script are package data beside this module
 (``pgm/app/viewer/viewer.html``, ``viewer.css``, ``viewer.js``), read when a page is
-written; the template's ``__NAME__`` placeholders are filled in one pass.
+written. The template marks where the title, style, graph, video, data, images and
+script go; all seven are substituted in one regular-expression pass, so a value that
+happens to contain another marker is never substituted again.
 """
 
 from __future__ import annotations

@@ -13,7 +13,21 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["xywh_to_cxcywh", "cxcywh_to_xywh", "iou_xywh", "centre_xywh"]
+__all__ = ["xywh_to_cxcywh", "cxcywh_to_xywh", "iou_xywh", "centre_xywh", "BOX_LABELS",
+           "box_columns"]
+
+#: the labels of a box variable's columns (centre, width, height)
+BOX_LABELS = ("cx", "cy", "w", "h")
+
+
+def box_columns(labels, what: str | None = None) -> list[int] | None:
+    """Columns of ``cx, cy, w, h`` in a variable's ``labels``; ``None`` if it is not a
+    box, or a ``ValueError`` starting with ``what`` when ``what`` is given."""
+    if labels is not None and all(b in labels for b in BOX_LABELS):
+        return [list(labels).index(b) for b in BOX_LABELS]
+    if what is None:
+        return None
+    raise ValueError(f"{what} must have the labels cx, cy, w, h (a box), got {labels}")
 
 
 def xywh_to_cxcywh(b: np.ndarray) -> np.ndarray:

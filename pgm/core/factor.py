@@ -30,6 +30,7 @@ the generic factors are in :mod:`pgm.factors`.
 from __future__ import annotations
 
 from abc import ABC
+from collections.abc import Callable
 from typing import Any, ClassVar
 
 import numpy as np
@@ -154,25 +155,33 @@ class Factor(ABC):  # noqa: B024 - kind base classes declare the abstract method
     __hash__ = object.__hash__
 
 
+def import_model_modules(found: Callable[[], bool]) -> None:
+    """Import the modules of the models (the toolkit's, then those of the ``pgm.models``
+    entry points) until ``found()``: what a saved graph names (a factor type, a readout)
+    may be registered by one of them. Installed code only; a broken plug-in is skipped."""
+    import importlib
+    from importlib.metadata import entry_points
+
+    targets = list(importlib.import_module("pgm.models").BUILTIN.values())
+    targets += [ep.value for ep in entry_points(group="pgm.models")]
+    for target in targets:
+        if found():
+            return
+        try:
+            importlib.import_module(target.partition(":")[0])
+        except Exception:  # noqa: BLE001 - a broken plug-in registers nothing
+            continue
+
+
 def _import_factor_type(type_name: str) -> type[Factor] | None:
     """Register ``type_name`` by importing where it may be defined: the toolkit's factor
-    modules, then (for a type of an installed package's model) the models declared under
-    the ``pgm.models`` entry points. Only installed code is imported, never the file."""
+    modules, then the models' modules (:func:`import_model_modules`)."""
     import importlib
 
     for module in (_TOOLKIT_MODULES.get(type_name),) + FACTOR_MODULES:
         if module is not None and type_name not in _REGISTRY:
             importlib.import_module(module)
-    if type_name not in _REGISTRY:
-        from importlib.metadata import entry_points
-
-        for ep in entry_points(group="pgm.models"):
-            try:
-                ep.load()
-            except Exception:  # noqa: BLE001 - a broken plug-in registers nothing
-                continue
-            if type_name in _REGISTRY:
-                break
+    import_model_modules(lambda: type_name in _REGISTRY)
     return _REGISTRY.get(type_name)
 
 

@@ -98,21 +98,14 @@ def register_readout(name: str) -> Callable[[Readout], Readout]:
 
 
 def _import_readout(name: str) -> None:
-    """Register ``name`` by importing the models that may define it: the toolkit's, then
-    those of the ``pgm.models`` entry points (a model file loaded in a fresh process)."""
+    """Register ``name`` by importing the plate engine's readout, then the models'
+    modules (a model file loaded in a fresh process)."""
     import importlib
-    from importlib.metadata import entry_points
+
+    from pgm.core.factor import import_model_modules
 
     importlib.import_module("pgm.inference.plates")
-    targets = [ep.value for ep in entry_points(group="pgm.models")]
-    builtin = importlib.import_module("pgm.models").BUILTIN
-    for target in list(builtin.values()) + targets:
-        if name in _READOUTS:
-            return
-        try:
-            importlib.import_module(target.partition(":")[0])
-        except Exception:  # noqa: BLE001 - a broken plug-in registers nothing
-            continue
+    import_model_modules(lambda: name in _READOUTS)
 
 
 def get_readout(name: str) -> Readout:

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from pgm.core.boxes import cxcywh_to_xywh, iou_xywh
+from pgm.core.boxes import box_columns, cxcywh_to_xywh, iou_xywh
 from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
@@ -46,17 +46,10 @@ from .kinds import LikelihoodFactor
 
 __all__ = ["InteractionFactor", "MutualExclusion", "DetectionLikelihood"]
 
-_BOX = ("cx", "cy", "w", "h")
-
-
 def _box_columns(factor: Factor, variables: dict[str, Variable], var: str) -> list[int]:
     """Columns of ``cx, cy, w, h`` in ``var``; a ``ValueError`` naming ``factor`` if the
     variable is not a box."""
-    labels = variables[var].labels
-    if labels is None or not all(b in labels for b in _BOX):
-        raise ValueError(f"factor {factor.name!r}: variable {var!r} must have the labels "
-                         f"cx, cy, w, h (a box), got {labels}")
-    return [labels.index(b) for b in _BOX]
+    return box_columns(variables[var].labels, f"factor {factor.name!r}: variable {var!r}")
 
 
 class InteractionFactor(Factor):
