@@ -210,6 +210,7 @@ class Engine:
         #: per-variable state that rules keep across frames (PHD tracks, extraction, ...)
         self.aux: dict[str, dict[str, Any]] = {}
         self._learners = [f for f in self.graph.factors.values() if f.learns]
+        self._proposals = bool(self.graph.factors_by_kind("proposal"))
         self._groups_cache: dict[tuple, list[tuple[list[Factor], list[Rule], bool]]] = {}
         self.frame: FrameContext | None = None
         self.t = 0
@@ -490,6 +491,8 @@ class Engine:
     def _prior_log_mass(self, variable: str, b0) -> Any:
         """The mass the frame's evidence is measured against: the belief's as the weight
         stage found it, or, after a proposal's weight correction, the mass before it."""
+        if not self._proposals:
+            return b0.log_mass
         auxes = [self.aux] if self.replicas is None else self.replicas.aux
         held = [a.get(variable, {}).pop("prior_log_mass", None) for a in auxes]
         if self.replicas is None:
