@@ -11,6 +11,8 @@ held to them by running any model with ``rules=checked(table)``:
   unchanged — and the engine's evidence is then exactly that increment;
 * **prior** rules leave a belief for their variable; **transition** rules keep a
   weighted particle belief's particle count and never produce NaN particles;
+* **association** rules leave this frame's assignment in ``engine.assignment``: matched
+  replica and detection indices, as many of each, in range, none twice;
 * **resample** rules keep a particle belief's total mass (``log_mass``, to 1e-9);
 * **estimate** rules return a value; every rule returns ``None``, a dict of
   diagnostics, or (likelihood) the increment.
@@ -116,6 +118,8 @@ def _wrap_factor_rule(key: type, rule):
         if out is not None and not isinstance(out, dict):
             _fail(rule, what, f"returned {type(out).__name__}; expected None or a dict")
         after = engine.beliefs.get(var)
+        if getattr(key, "kind", None) == "association":
+            _check_assignment(engine, rule, what, frame)
         if issubclass(key, PriorFactor) and after is None:
             _fail(rule, what, f"left no belief for {var!r}")
         if (issubclass(key, TransitionFactor) and likelihood_reweights(type(before))
@@ -128,6 +132,22 @@ def _wrap_factor_rule(key: type, rule):
         return out
 
     return run
+
+
+def _check_assignment(engine: Engine, rule, what: str, frame) -> None:
+    a = engine.assignment
+    if a is None:
+        _fail(rule, what, "left no assignment in engine.assignment")
+    rows, cols = np.asarray(a.rows), np.asarray(a.cols)
+    K = engine.num_targets  # noqa: N806
+    M = 0 if frame.detections is None else len(frame.detections.scores)  # noqa: N806
+    if rows.shape != cols.shape or rows.ndim != 1:
+        _fail(rule, what, f"assigned {rows.shape} replicas to {cols.shape} detections")
+    if (rows.size and (rows.min() < 0 or rows.max() >= K or cols.min() < 0
+                       or cols.max() >= M)):
+        _fail(rule, what, f"assigned indices out of range ({K} replicas, {M} detections)")
+    if len(set(rows.tolist())) != rows.size or len(set(cols.tolist())) != cols.size:
+        _fail(rule, what, "assigned a replica or a detection twice")
 
 
 def _wrap_belief_rule(operation: str, rule):

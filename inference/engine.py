@@ -3,14 +3,16 @@
 A frame's step:
 
 1. **predict** — every variable with a transition factor moves its belief;
-2. **weight** — likelihood factors score the belief against the frame (the local
+2. **assign** — (a plate with an association factor) the frame's detections assigned to
+   the replicas, whose likelihoods then read their own detection;
+3. **weight** — likelihood factors score the belief against the frame (the local
    evidence, kept unnormalised in ``engine.evidence`` for the messages);
-3. **in-frame** — coupling factors (particle BP) and conjugate factors (mean-field VB)
+4. **in-frame** — coupling factors (particle BP) and conjugate factors (mean-field VB)
    exchange messages, then **fuse** combines each variable's own particles with its
    incoming messages (``"mixture"`` or ``"product"``, :mod:`pgm.inference.pbp`);
-4. **estimate** — per-variable estimates (before resampling: lower variance), then
+5. **estimate** — per-variable estimates (before resampling: lower variance), then
    factors that learn after a frame (adaptive offsets) are updated;
-5. **resample** — ESS-triggered, scheme chosen by the user; mass is kept; a fused
+6. **resample** — ESS-triggered, scheme chosen by the user; mass is kept; a fused
    mixture is always brought back to the variable's particle count.
 
 An order with the in-frame passes before weighting would not do: both fusion rules of
@@ -196,7 +198,7 @@ class Engine:
         self.resampler = get_resampler(self.settings.resampling)
         self.ess_threshold = self.settings.ess_threshold
         self.rules = rules if rules is not None else DEFAULT_RULES
-        self.belief_types = dict(belief_types or {})
+        self.belief_types = {**self.settings.belief_classes(), **dict(belief_types or {})}
         unknown = sorted(set(self.belief_types) - set(self.graph.variables))
         if unknown:
             raise ValueError(f"belief_types names unknown variables {unknown}")
@@ -212,7 +214,11 @@ class Engine:
         self._learners = [f for f in self.graph.factors.values() if f.learns]
         self._proposals = bool(self.graph.factors_by_kind("proposal"))
         self._groups_cache: dict[tuple, list[tuple[list[Factor], list[Rule], bool]]] = {}
+        self._rule_cache: dict[tuple, Rule] = {}
         self.frame: FrameContext | None = None
+        #: this frame's assignment of detections to a plate's replicas (``assign`` stage;
+        #: :class:`pgm.inference.association.Assignment`), or None
+        self.assignment = None
         self.t = 0
         self._hooks: dict[str, list[Hook]] = {s: [] for s in STAGES}
         self._stage_functions = {s: getattr(self, f"_stage_{s}") for s in STAGES}
@@ -266,12 +272,18 @@ class Engine:
         return self.belief_type(factor.variables[0])
 
     def rule_for(self, factor: Factor) -> Rule:
-        """The rule this engine applies to ``factor``."""
-        return self.rules.lookup(type(factor), self.factor_belief_type(factor))
+        """The rule this engine applies to ``factor`` (looked up once per factor type and
+        belief type: both are fixed for an engine's life)."""
+        key = (type(factor), factor.variables)
+        rule = self._rule_cache.get(key)
+        if rule is None:
+            rule = self._rule_cache[key] = self.rules.lookup(type(factor),
+                                                             self.factor_belief_type(factor))
+        return rule
 
     def _check_rules(self) -> None:
         """Fail at construction, naming the factor, if some stage has no rule."""
-        factor_stages = ("prior", "predict", "inframe", "weight", "interaction")
+        factor_stages = ("prior", "predict", "assign", "inframe", "weight", "interaction")
         for phases in (self.schedule.first_frame, self.schedule.phases):
             for stage, items in phases:
                 for item in items:
@@ -348,6 +360,7 @@ class Engine:
         self.frame = frame
         self.evidence = {}
         self.messages = {}
+        self.assignment = None
         record = StepRecord(frame=frame.index)
         if self.plate is None:
             self._run(self.schedule.first_frame if self.t == 0 else self.schedule.phases,
@@ -403,6 +416,7 @@ class Engine:
             self._apply_factor(name, frame, record)
 
     _stage_interaction = _stage_predict
+    _stage_assign = _stage_predict
 
     def _stage_inframe(self, items, frame, record) -> None:
         for item in items:

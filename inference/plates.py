@@ -46,14 +46,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pgm.core.batched import BatchedParticles
-from pgm.core.boxes import box_columns as box_columns_of
-from pgm.core.boxes import cxcywh_to_xywh, iou_xywh
+from pgm.core.batched import BatchedGaussian, BatchedParticles
+from pgm.core.boxes import box_coding, cxcywh_to_xywh, iou_xywh, state_boxes
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
 from pgm.core.readout import Targets, register_readout
 from pgm.factors import LikelihoodFactor
 
+from . import association as _association  # noqa: F401  (the exact Kalman replicas' rules)
 from . import batched as _batched  # noqa: F401  (registers the batched rules)
 from .batched import box_columns, score_group  # noqa: F401  (score_group: the engine's)
 from .engine import Engine, StepRecord
@@ -82,9 +82,10 @@ def _bounding(boxes: list[np.ndarray]) -> np.ndarray:
 
 def plate_boxes(graph: FactorGraph, estimates: dict[str, np.ndarray]) -> np.ndarray:
     """The targets' boxes ``(K, 4)`` (cx, cy, w, h): the bounding box of the output
-    variables' boxes in ``estimates`` (each ``(K, d)``)."""
-    return _bounding([np.asarray(estimates[v])[..., box_columns(graph, v)]
-                      for v in graph.output])
+    variables' boxes in ``estimates`` (each ``(K, d)``; any box coding of
+    :data:`pgm.core.boxes.BOX_CODINGS`)."""
+    return _bounding([state_boxes(graph.variables[v].labels, estimates[v],
+                                  f"plate variable {v!r}") for v in graph.output])
 
 
 # -------------------------------------------------------------------------------------
@@ -161,13 +162,14 @@ def setup(engine: Engine) -> None:
                                type(f).initialize is not LikelihoodFactor.initialize))]
     engine.plate_spec = PlateSpec(plate, copy.deepcopy(g), local,
                                   [f.name for f in g.factors.values() if f.learns], boxed,
-                                  reference, {v: m[box_columns(g, v)] for v, m in means.items()})
+                                  reference, {v: state_boxes(g.variables[v].labels, m)
+                                              for v, m in means.items()})
     engine.replicas = Replicas()
     engine.beliefs = _empty_beliefs(engine)
 
 
 def _has_box(graph: FactorGraph, variable: str) -> bool:
-    return box_columns_of(graph.variables[variable].labels) is not None
+    return box_coding(graph.variables[variable].labels) is not None
 
 
 def _empty_beliefs(engine: Engine) -> dict[str, Any]:
@@ -178,6 +180,8 @@ def _empty_beliefs(engine: Engine) -> dict[str, Any]:
             tr = engine.graph.factors_of(v, "transition")
             out[v] = BatchedParticles.empty(engine.num_particles[v], var.dim,
                                             max(0, getattr(tr[0], "order", 1) - 1) if tr else 0)
+        elif bt is BatchedGaussian:
+            out[v] = BatchedGaussian.empty(var.dim)
         else:
             out[v] = bt.stack([])
     return out
@@ -187,7 +191,8 @@ def _replica_graph(engine: Engine, values: dict[str, dict[str, float]] | None) -
     """A replica's view of the graph: the shared factors, its own copies of those that
     learn, and its priors re-centred on its birth box (``values``)."""
     spec = engine.plate_spec
-    g = copy.copy(engine.graph)
+    g = object.__new__(type(engine.graph))  # a shallow copy (copy.copy, without its overhead)
+    g.__dict__.update(engine.graph.__dict__)
     factors = dict(engine.graph.factors)
     for name in spec.local:
         factors[name] = copy.deepcopy(spec.template.factors[name])
@@ -251,15 +256,19 @@ def add(engine: Engine, boxes: np.ndarray | None, frame: FrameContext,
             spec.next_id += 1
     newborn = Replicas(rngs, [_replica_graph(engine, v) for v in values], tracks,
                        [{} for _ in range(m)])
-    saved = engine.beliefs, engine.replicas, engine.evidence, engine.messages
+    saved = (engine.beliefs, engine.replicas, engine.evidence, engine.messages,
+             engine.assignment)
+    # newborns: their own first frame (no detection was assigned to them)
     engine.beliefs, engine.replicas, engine.evidence, engine.messages = {}, newborn, {}, {}
+    engine.assignment = None
     rec = StepRecord(frame=frame.index)
     try:
         engine._run(engine.schedule.first_frame, frame, rec, hooks=False,
                     skip=("interaction", "associate"))
         born = engine.beliefs
     finally:
-        engine.beliefs, engine.replicas, engine.evidence, engine.messages = saved
+        (engine.beliefs, engine.replicas, engine.evidence, engine.messages,
+         engine.assignment) = saved
     first = engine.replicas.K
     for v, b in born.items():
         engine.beliefs[v] = engine.beliefs[v].concat(b)
@@ -332,12 +341,20 @@ def step(engine: Engine, frame: FrameContext, record: StepRecord, lifecycle: boo
     record.estimates = {v: reps.est.get(v, np.zeros((0, engine.graph.variables[v].dim)))
                         for v in engine.graph.variables}
     lc = engine.plate.lifecycle
+    boxes = (plate_boxes(engine.graph, reps.est) if reps.K and engine.plate_spec.boxed
+             else np.zeros((reps.K, 4)))
+    shown = reported(reps.tracks, lc.max_coast)
+    if lc.report == "detection":  # the matched detections' boxes, only where matched
+        matched = np.array([t.matched_box is not None for t in reps.tracks], dtype=bool)
+        shown &= matched
+        if matched.any():
+            boxes = boxes.copy()
+            boxes[matched] = [t.matched_box for t in reps.tracks if t.matched_box is not None]
     info.update(
         ids=np.array([t.track_id or 0 for t in reps.tracks], dtype=np.int64),
-        boxes=(plate_boxes(engine.graph, reps.est) if reps.K and engine.plate_spec.boxed
-               else np.zeros((reps.K, 4))),
-        reported=reported(reps.tracks, lc.max_coast),
-        existence=np.array([t.existence for t in reps.tracks], dtype=float))
+        boxes=boxes, reported=shown,
+        existence=1.0 / (1.0 + np.exp(-np.array([t.log_odds for t in reps.tracks],
+                                                 dtype=float))))
 
 
 def learn(engine: Engine, items: list[str], frame: FrameContext, record: StepRecord) -> None:
@@ -366,52 +383,66 @@ def learn(engine: Engine, items: list[str], frame: FrameContext, record: StepRec
 
 def associate(engine: Engine, frame: FrameContext, record: StepRecord) -> None:
     """The ``associate`` stage: the replicas' boxes against the frame's detections
-    (:func:`pgm.inference.tracks.match` on ``1 − IoU``), the track life cycle of the plate's
-    :class:`~pgm.core.plate.Lifecycle`, births from the detections no replica explains."""
+    (:func:`pgm.inference.tracks.match` on ``1 − IoU``; or, in a graph with an
+    association factor, the assignment its ``assign`` stage made before the
+    likelihoods), the track life cycle of the plate's :class:`~pgm.core.plate.Lifecycle`,
+    births from the detections no replica explains."""
     spec = engine.plate_spec
     info = record.info.setdefault(engine.plate.name, {})
-    dets = frame.detections
-    if dets is None or not spec.boxed:
-        det_boxes, scores = np.zeros((0, 4)), np.zeros(0)
-    else:
-        d = np.asarray(dets.boxes, dtype=float).reshape(-1, 4)
-        det_boxes = np.column_stack([d[:, 0] + d[:, 2] / 2, d[:, 1] + d[:, 3] / 2,
-                                     d[:, 2], d[:, 3]])
-        scores = np.asarray(dets.scores, dtype=float)
     reps = engine.replicas
     lc = engine.plate.lifecycle
-    boxes = plate_boxes(engine.graph, reps.est) if reps.K and spec.boxed else np.zeros((0, 4))
-    iou = _iou(boxes[:, None, :], det_boxes[None, :, :])
-    rows, cols = match(-iou, iou >= lc.match_iou, [t.misses > lc.max_coast for t in reps.tracks])
+    assignment = engine.assignment
+    if assignment is not None:  # the assign stage matched the replicas' predictions
+        det_boxes, scores = assignment.boxes, assignment.scores
+        rows, cols = assignment.rows, assignment.cols
+        iou = assignment.iou
+    else:
+        dets = frame.detections
+        if dets is None or not spec.boxed:
+            det_boxes, scores = np.zeros((0, 4)), np.zeros(0)
+        else:
+            d = np.asarray(dets.boxes, dtype=float).reshape(-1, 4)
+            det_boxes = np.column_stack([d[:, 0] + d[:, 2] / 2, d[:, 1] + d[:, 3] / 2,
+                                         d[:, 2], d[:, 3]])
+            scores = np.asarray(dets.scores, dtype=float)
+        boxes = plate_boxes(engine.graph, reps.est) if reps.K and spec.boxed else np.zeros((0, 4))
+        iou = _iou(boxes[:, None, :], det_boxes[None, :, :])
+        rows, cols = match(-iou, iou >= lc.match_iou,
+                           [t.misses > lc.max_coast for t in reps.tracks])
+    for t in reps.tracks:
+        t.matched_box = None
+        t.age += 1
     for k, j in zip(rows, cols, strict=True):
         reps.tracks[k].state = det_boxes[j].copy()
-    for t in reps.tracks:
-        t.age += 1
+        reps.tracks[k].matched_box = det_boxes[j].copy()
     keep = update_tracks(reps.tracks, rows, confirm_hits=lc.confirm_hits,
                          max_coast=lc.max_coast, max_lost=lc.max_lost,
-                         hit_log_odds=lc.hit_log_odds, miss_log_odds=lc.miss_log_odds)
+                         hit_log_odds=lc.hit_log_odds, miss_log_odds=lc.miss_log_odds,
+                         recover_hits=lc.recover_hits)
     spec.next_id = confirm_tracks([t for t, k in zip(reps.tracks, keep, strict=True) if k],
-                                  lc.confirm_hits, spec.next_id)
+                                  lc.confirm_hits, spec.next_id, on=lc.confirm_on)
     used = set(cols.tolist())
+    overlap = lc.birth_iou < 1.0
     free = [j for j in range(len(det_boxes)) if j not in used
             and scores[j] >= lc.birth_min_score
-            and (not reps.K or iou[:, j].max() < lc.birth_iou)]
+            and (not overlap or not reps.K or iou[:, j].max() < lc.birth_iou)]
     # the free detections must not overlap each other either (one birth per person)
     births: list[int] = []
     for j in sorted(free, key=lambda j: -scores[j]):
-        if all(_iou(det_boxes[j], det_boxes[i]) < lc.birth_iou for i in births):
+        if not overlap or all(_iou(det_boxes[j], det_boxes[i]) < lc.birth_iou for i in births):
             births.append(j)
     info["deaths"] = np.array([reps.tracks[k].track_id or 0 for k in np.flatnonzero(~keep)],
                               dtype=np.int64)
-    _keep(engine, np.flatnonzero(keep))
-    # the frame's per-replica diagnostics follow the replicas (births: none yet)
-    for per_variable in (record.ess, record.log_evidence, record.resampled):
-        per_variable.update(_realigned(per_variable, keep, len(births)))
-    for name in dict.fromkeys(list(engine.graph.variables) + list(engine.graph.factors)):
-        values = record.info.get(name)
-        if isinstance(values, dict):  # in place: a variable may share the plate's name
-            values.update(_realigned({k: a for k, a in values.items() if k not in PLATE_KEYS},
-                                     keep, len(births)))
+    if births or not keep.all():
+        _keep(engine, np.flatnonzero(keep))
+        # the frame's per-replica diagnostics follow the replicas (births: none yet)
+        for per_variable in (record.ess, record.log_evidence, record.resampled):
+            per_variable.update(_realigned(per_variable, keep, len(births)))
+        for name in dict.fromkeys(list(engine.graph.variables) + list(engine.graph.factors)):
+            values = record.info.get(name)
+            if isinstance(values, dict):  # in place: a variable may share the plate's name
+                values.update(_realigned({k: a for k, a in values.items()
+                                          if k not in PLATE_KEYS}, keep, len(births)))
     info["births"] = len(births)
     if births:
         add(engine, det_boxes[sorted(births)], frame)

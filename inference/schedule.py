@@ -1,6 +1,8 @@
 """The per-frame schedule an engine derives from the factor kinds of its graph.
 
-A frame's stages, in order: **predict** (the first frame: **prior**), **weight**
+A frame's stages, in order: **predict** (the first frame: **prior**), **assign** (the
+data-association factors of a plate: the frame's detections given to its replicas, so that
+each replica's likelihood reads the one assigned to it), **weight**
 (likelihoods), **interaction** (factors between the replicas of a plate), **inframe**
 (coupling messages of particle BP and the VB fixed point of conjugate factors), **fuse**,
 **estimate**, **resample** and, for a graph with a plate, **associate** (the track layer:
@@ -19,7 +21,7 @@ from .settings import FUSIONS
 
 __all__ = ["STAGES", "Schedule", "message_order", "derive_schedule"]
 
-STAGES = ("prior", "predict", "weight", "interaction", "inframe", "fuse", "estimate",
+STAGES = ("prior", "predict", "assign", "weight", "interaction", "inframe", "fuse", "estimate",
           "resample", "associate")
 
 @dataclass
@@ -98,16 +100,22 @@ def derive_schedule(graph: FactorGraph, inframe_iterations: int = 1,
     particle_vars = [v.name for v in graph.variables.values() if v.role != "noise"]
     weighted = [n for n in names("likelihood") if n not in under_vb]
     interactions = names("interaction")
-    if interactions and not graph.plates:
-        raise ValueError(f"factor {interactions[0]!r} of kind 'interaction' links the replicas "
-                         f"of a plate; graph {graph.name!r} declares no plate")
+    assignments = names("association")
+    for kind, fs in (("interaction", interactions), ("association", assignments)):
+        if fs and not graph.plates:
+            raise ValueError(f"factor {fs[0]!r} of kind {kind!r} links the replicas of a plate; "
+                             f"graph {graph.name!r} declares no plate")
+    if len(assignments) > 1:
+        raise ValueError(f"graph {graph.name!r}: one association factor per plate, got "
+                         f"{assignments}")
     tail = [("weight", weighted), ("interaction", interactions),
             ("inframe", messages + conjugates), ("fuse", receivers),
             ("estimate", list(graph.variables)), ("resample", particle_vars)]
     if graph.plates:
         tail.append(("associate", [p.name for p in graph.plates]))
     schedule = Schedule(first_frame=[("prior", names("prior"))] + tail,
-                        phases=[("predict", names("transition"))] + tail)
+                        phases=[("predict", names("transition")),
+                                ("assign", assignments)] + tail)
     scheduled = {i[0] if isinstance(i, tuple) else i
                  for phases in (schedule.first_frame, schedule.phases) for _, items in phases
                  for i in items}

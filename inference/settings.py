@@ -33,6 +33,10 @@ def _positive_int(name: str, value: Any) -> int:
     return int(value)
 
 
+#: the belief forms a model may declare for a variable (``EngineSettings.beliefs``)
+BELIEF_FORMS = ("particles", "gaussian", "intensity", "inverse-gamma")
+
+
 @dataclass(frozen=True)
 class EngineSettings:
     """Settings of the generic engine.
@@ -56,6 +60,10 @@ class EngineSettings:
         particle.
     message_particles : int, optional
         Message particles per coupling message (default: one per source particle).
+    beliefs : dict, optional
+        Variable name → belief form, overriding the one of its role: ``"particles"``,
+        ``"gaussian"`` (exact Kalman rules), ``"intensity"``, ``"inverse-gamma"`` (what a
+        model declares; ``Engine(belief_types=...)`` overrides it with classes).
     """
 
     num_particles: int | dict[str, int] = 100
@@ -65,6 +73,7 @@ class EngineSettings:
     fusion: str = "mixture"
     message_weight: str = "source"
     message_particles: int | None = None
+    beliefs: dict[str, str] | None = None
 
     def __post_init__(self) -> None:
         if isinstance(self.num_particles, dict):
@@ -90,6 +99,21 @@ class EngineSettings:
         if self.message_particles is not None:
             object.__setattr__(self, "message_particles",
                                _positive_int("message_particles", self.message_particles))
+        if self.beliefs is not None:
+            if not isinstance(self.beliefs, dict) or any(
+                    not isinstance(v, str) or v not in BELIEF_FORMS for v in self.beliefs.values()):
+                raise ValueError(f"beliefs must map variable names to one of "
+                                 f"{sorted(BELIEF_FORMS)}, got {self.beliefs!r}")
+            object.__setattr__(self, "beliefs", dict(self.beliefs))
+
+    def belief_classes(self) -> dict[str, type]:
+        """``beliefs`` as belief classes."""
+        from pgm.core.beliefs import Intensity, Particles
+        from pgm.core.expfam import Gaussian, InverseGamma
+
+        classes = {"particles": Particles, "gaussian": Gaussian, "intensity": Intensity,
+                   "inverse-gamma": InverseGamma}
+        return {v: classes[form] for v, form in (self.beliefs or {}).items()}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any] | None) -> EngineSettings:

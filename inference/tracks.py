@@ -50,6 +50,8 @@ class Track:
     streak: int = 1
     recovering: bool = False
     history: list = field(default_factory=list)
+    #: the box of the detection matched in the latest frame (None: no match)
+    matched_box: np.ndarray | None = None
 
     @property
     def existence(self) -> float:
@@ -105,29 +107,33 @@ def match(cost: np.ndarray, valid: np.ndarray, lost: np.ndarray | list[bool]
 
 def update_tracks(tracks: list[Track], matched: np.ndarray, *, confirm_hits: int,
                   max_coast: int, max_lost: int, hit_log_odds: float,
-                  miss_log_odds: float) -> np.ndarray:
+                  miss_log_odds: float, recover_hits: int | None = None) -> np.ndarray:
     """One frame of the life cycle for ``tracks`` given the ``matched`` track indices: a
     hit (a lost track re-attached is *recovering*: reported again after
-    ``confirm_hits`` hits in a row) or a miss for each; returns the mask of tracks kept
-    (a tentative track ends at its first miss, a confirmed one after ``max_lost``)."""
+    ``recover_hits`` hits in a row, default ``confirm_hits``) or a miss for each; returns
+    the mask of tracks kept (a tentative track ends at its first miss, a confirmed one
+    after ``max_lost``)."""
     hit = set(np.asarray(matched, dtype=int).tolist())
     keep = np.ones(len(tracks), dtype=bool)
+    recover = confirm_hits if recover_hits is None else recover_hits
     for k, t in enumerate(tracks):
         if k in hit:
-            if t.misses > max_coast and t.track_id is not None:
+            if t.misses > max_coast and t.track_id is not None and recover > 1:
                 t.recovering, t.streak = True, 0
-            t.hit(confirm_hits, hit_log_odds)
+            t.hit(recover, hit_log_odds)
         else:
             t.miss(miss_log_odds)
             keep[k] = t.track_id is not None and t.misses <= max_lost
     return keep
 
 
-def confirm_tracks(tracks: list[Track], confirm_hits: int, next_id: int) -> int:
-    """Give an identity to every tentative track with ``confirm_hits`` hits (in list
-    order, so identities follow the order tracks started); returns the next free id."""
+def confirm_tracks(tracks: list[Track], confirm_hits: int, next_id: int,
+                   on: str = "hits") -> int:
+    """Give an identity to every tentative track with ``confirm_hits`` hits (``on="streak"``:
+    hits in a row), in list order, so identities follow the order tracks started;
+    returns the next free id."""
     for t in tracks:
-        if t.track_id is None and t.hits >= confirm_hits:
+        if t.track_id is None and (t.streak if on == "streak" else t.hits) >= confirm_hits:
             t.track_id = next_id
             next_id += 1
     return next_id

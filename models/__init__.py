@@ -21,14 +21,15 @@ from .config import ModelConfig
 
 __all__ = ["BUILTIN", "model_names", "get_config", "get_model", "registry", "option_owners",
            "DEFAULT_SINGLE_OBJECT", "DEFAULT_MULTI_TARGET", "ENTRY_POINT_GROUP", "config",
-           "ModelConfig", "colour_pf", "gpdm", "linear_gaussian", "multi_pf", "part_graph", "phd",
-           "single_object", "vb_phd"]
+           "ModelConfig", "bytetrack", "colour_pf", "gpdm", "linear_gaussian", "multi_pf",
+           "part_graph", "phd", "single_object", "sort", "vb_phd"]
 
 #: the entry-point group where packages declare models
 ENTRY_POINT_GROUP = "pgm.models"
 #: the toolkit's own models: name → ``module:attribute`` of their :class:`ModelConfig`
 #: (also declared as entry points in the toolkit's ``pyproject.toml``)
 BUILTIN = {
+    "bytetrack": "pgm.models.bytetrack:CONFIG",
     "colour-pf": "pgm.models.colour_pf:CONFIG",
     "gpdm": "pgm.models.gpdm:CONFIG",
     "linear-gaussian": "pgm.models.linear_gaussian:CONFIG",
@@ -36,6 +37,7 @@ BUILTIN = {
     "part-graph": "pgm.models.part_graph:CONFIG",
     "phd": "pgm.models.phd:CONFIG",
     "single-object": "pgm.models.single_object:CONFIG",
+    "sort": "pgm.models.sort:CONFIG",
     "vb-phd": "pgm.models.vb_phd:CONFIG",
 }
 #: what ``pgm track`` runs on a single object when no ``--model`` is given

@@ -121,6 +121,8 @@ class VideoInfo:
         The median height of the video's detections (multi-target models), px.
     particles : int, optional
         ``--particles``: the model's particle count (per variable, or per target).
+    score_range : tuple, optional
+        The lowest and highest score of the video's detections (multi-target models).
     """
 
     width: int = 640
@@ -129,6 +131,7 @@ class VideoInfo:
     init_box: tuple[float, float, float, float] | None = None
     typical_height: float | None = None
     particles: int | None = None
+    score_range: tuple[float, float] | None = None
 
 
 #: the shared options of the toolkit's models (each model lists the ones it takes)

@@ -164,7 +164,8 @@ def cmd_track_multi(args, source, saved=None) -> int:
         typical = float(np.median(table.boxes[:, 3])) if table is not None and len(table) \
             else None
         video = VideoInfo(width=width, height=height, fps=float(source.fps),
-                          typical_height=typical, particles=args.particles)
+                          typical_height=typical, particles=args.particles,
+                          score_range=getattr(detector, "score_range", None))
         graph = graph_from_config(args.model_config, args, video)
     result = track_multi(source, graph, detector, rng=args.seed, out_dir=args.out,
                          gt=gt, write_video=not args.no_video, show_particles=args.show_particles,

@@ -11,10 +11,13 @@ All functions are vectorised over a leading axis: ``(..., 4) -> (..., 4)``.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 __all__ = ["xywh_to_cxcywh", "cxcywh_to_xywh", "iou_xywh", "centre_xywh", "BOX_LABELS",
-           "box_columns"]
+           "box_columns", "BOX_CODINGS", "box_coding", "box_code_columns", "encode_boxes",
+           "decode_boxes", "state_boxes"]
 
 #: the labels of a box variable's columns (centre, width, height)
 BOX_LABELS = ("cx", "cy", "w", "h")
@@ -28,6 +31,81 @@ def box_columns(labels, what: str | None = None) -> list[int] | None:
     if what is None:
         return None
     raise ValueError(f"{what} must have the labels cx, cy, w, h (a box), got {labels}")
+
+
+#: how a state's box columns may code a box, by their labels: centre and size; corners
+#: (``x1, y1`` top-left, ``x2, y2`` bottom-right: the ``trackers`` package's SORT state);
+#: centre, area ``s = w h`` and aspect ``r = w / h`` (the SORT paper's state)
+BOX_CODINGS: dict[str, tuple[str, str, str, str]] = {
+    "cxcywh": BOX_LABELS, "xyxy": ("x1", "y1", "x2", "y2"), "xysr": ("cx", "cy", "s", "r")}
+
+
+def box_coding(labels) -> str | None:
+    """The :data:`BOX_CODINGS` name a variable's ``labels`` hold (``None``: not a box)."""
+    if labels is None:
+        return None
+    return box_code_columns(tuple(labels))[0]
+
+
+@functools.lru_cache(maxsize=256)
+def box_code_columns(labels: tuple) -> tuple[str | None, list[int] | None]:
+    """The coding of ``labels`` (a tuple) and the columns of its four box components
+    (``(None, None)``: not a box); cached."""
+    for name, cols in BOX_CODINGS.items():
+        if all(c in labels for c in cols):
+            return name, [labels.index(c) for c in cols]
+    return None, None
+
+
+def encode_boxes(b: np.ndarray, coding: str) -> np.ndarray:
+    """Centre boxes ``(..., 4)`` in the coding ``coding`` (:data:`BOX_CODINGS`)."""
+    b = np.asarray(b, dtype=float)
+    if coding == "cxcywh":
+        return b.copy()
+    out = np.empty(b.shape)
+    if coding == "xyxy":
+        half = b[..., 2:4] / 2.0
+        out[..., 0:2] = b[..., 0:2] - half
+        out[..., 2:4] = b[..., 0:2] + half
+        return out
+    if coding == "xysr":
+        out[..., 0:2] = b[..., 0:2]
+        out[..., 2] = b[..., 2] * b[..., 3]
+        out[..., 3] = b[..., 2] / b[..., 3]
+        return out
+    raise ValueError(f"unknown box coding {coding!r} (known: {sorted(BOX_CODINGS)})")
+
+
+def decode_boxes(z: np.ndarray, coding: str) -> np.ndarray:
+    """Inverse of :func:`encode_boxes`: coded boxes ``(..., 4)`` to centre boxes (an
+    ``xysr`` box of non-positive area or aspect decodes to NaN)."""
+    z = np.asarray(z, dtype=float)
+    if coding == "cxcywh":
+        return z.copy()
+    out = np.empty(z.shape)
+    if coding == "xyxy":
+        out[..., 0:2] = (z[..., 0:2] + z[..., 2:4]) / 2.0
+        out[..., 2:4] = z[..., 2:4] - z[..., 0:2]
+        return out
+    if coding == "xysr":
+        sr = z[..., 2] * z[..., 3]
+        w = np.sqrt(np.where(sr > 0, sr, np.nan))
+        out[..., 0:2] = z[..., 0:2]
+        out[..., 2] = w
+        out[..., 3] = z[..., 2] / w
+        return out
+    raise ValueError(f"unknown box coding {coding!r} (known: {sorted(BOX_CODINGS)})")
+
+
+def state_boxes(labels, x: np.ndarray, what: str | None = None) -> np.ndarray:
+    """Centre boxes ``(..., 4)`` of states ``x`` ``(..., d)`` whose columns are labelled
+    ``labels`` in any of the :data:`BOX_CODINGS` (a ``ValueError`` starting with ``what``
+    when they code no box)."""
+    coding, cols = box_code_columns(tuple(labels)) if labels is not None else (None, None)
+    if coding is None:
+        raise ValueError(f"{what or 'a state'} must code a box (labels {BOX_CODINGS}), got "
+                         f"{labels}")
+    return decode_boxes(np.asarray(x, dtype=float)[..., cols], coding)
 
 
 def xywh_to_cxcywh(b: np.ndarray) -> np.ndarray:

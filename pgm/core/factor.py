@@ -12,6 +12,8 @@ kind            role in inference
 ``coupling``    links two variables in the same frame (parts of one object)
 ``conjugate``   links a ``noise`` variable to a likelihood it parameterises (VB)
 ``interaction`` links the replicas of a plate to each other (mutual exclusion, ...)
+``proposal``    proposes a variable's next value in place of its transition (SMC)
+``association`` assigns the frame's detections to the replicas of a plate (SORT, ...)
 =============== ======================================================================
 
 Each factor is a small object with the few vectorised methods the algorithms need
@@ -41,7 +43,7 @@ from pgm.core.variable import Variable
 __all__ = ["Factor", "factor_from_dict", "registered_factor_types", "KINDS"]
 
 KINDS = ("prior", "transition", "likelihood", "coupling", "conjugate", "interaction",
-         "proposal")
+         "proposal", "association")
 _REGISTRY: dict[str, type[Factor]] = {}
 #: factor types the toolkit defines in modules that are not imported with ``pgm`` (they
 #: pull torch or a model file): a saved declaration naming one imports that module —
@@ -49,6 +51,7 @@ _REGISTRY: dict[str, type[Factor]] = {}
 #: the modules that define the toolkit's factor types, imported when a saved graph names a
 #: type that is not registered yet (a model file loaded in a fresh process)
 FACTOR_MODULES = ("pgm.factors", "pgm.factors.plates", "pgm.factors.multitarget",
+                  "pgm.factors.association",
                   "pgm.factors.scores", "pgm.observation.appearance.likelihoods",
                   "pgm.observation.appearance.correlation")
 _TOOLKIT_MODULES = {"GPDMPrior": "pgm.dynamics.factors",

@@ -20,7 +20,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["warp_states", "motion_scale", "POSITION_PAIRS"]
+__all__ = ["warp_states", "motion_scale", "POSITION_PAIRS", "linear_state_warp"]
 
 #: label pairs read as an image position, in order of preference
 POSITION_PAIRS = (("cx", "cy"), ("px", "py"), ("x", "y"))
@@ -66,3 +66,41 @@ def warp_states(x: np.ndarray, labels: Sequence[str] | None,
     if k is not None and s > 0:
         out[:, k] = x[:, k] + np.log(s)
     return out
+
+
+def linear_state_warp(labels: Sequence[str], affine: np.ndarray | None
+                      ) -> tuple[np.ndarray, np.ndarray] | None:
+    """The image motion ``affine`` as a linear map ``x ↦ T x + c`` of a box state (a
+    Gaussian's mean moves so, its covariance to ``T P Tᵀ``: camera-motion compensation of
+    a Kalman tracker), read off the labels: corner pairs ``x1, y1`` / ``x2, y2``, centres
+    ``cx, cy``, and positions ``x, y`` ``↦ M p + t``; their rates (``v`` + label) ``↦ M v``;
+    sizes ``w, h`` (and their rates) ``↦ s ·``; an area ``s`` (and its rate) ``↦ s² ·``,
+    with ``s = sqrt(|det M|)``; anything else is unchanged. None when there is no motion
+    or no position in the labels."""
+    if affine is None or not labels:
+        return None
+    labels = list(labels)
+    A = np.asarray(affine, dtype=float)
+    M, t = A[:, :2], A[:, 2]
+    d = len(labels)
+    T, c = np.eye(d), np.zeros(d)
+    moved = False
+    for a, b in (("x1", "y1"), ("x2", "y2"), ("cx", "cy"), ("px", "py"), ("x", "y")):
+        if a in labels and b in labels:
+            i, j = labels.index(a), labels.index(b)
+            T[np.ix_([i, j], [i, j])] = M
+            c[[i, j]] = t
+            moved = True
+            if f"v{a}" in labels and f"v{b}" in labels:
+                vi, vj = labels.index(f"v{a}"), labels.index(f"v{b}")
+                T[np.ix_([vi, vj], [vi, vj])] = M
+    if not moved:
+        return None
+    scale = motion_scale(A)
+    for name, power in (("w", 1), ("h", 1), ("s", 2)):
+        for label in (name, f"v{name}"):
+            if label in labels:
+                k = labels.index(label)
+                T[k, k] = scale ** power
+    return T, c
+

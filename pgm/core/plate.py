@@ -65,6 +65,15 @@ class Lifecycle:
     of a log-odds that gains ``hit_log_odds`` per match and loses ``miss_log_odds`` per
     miss (clamped to ±10).
 
+    The classic trackers' variants of this life cycle (:mod:`pgm.models.sort`):
+    ``confirm_on="streak"`` confirms after ``confirm_hits`` matches *in a row*
+    (ByteTrack) instead of in all; ``recover_hits`` is the number of matches in a row
+    before a lost replica found again is reported (default ``confirm_hits``; 1 reports
+    it at once, as SORT and ByteTrack do); ``report="detection"`` reports a replica only
+    in the frames where a detection was assigned to it, with that detection's box (what
+    the ``trackers`` package writes), instead of its estimate; ``birth_iou = 1`` starts
+    a replica on every free detection, however much it overlaps the others.
+
     Attributes
     ----------
     confirm_hits, max_coast, max_lost : int
@@ -73,6 +82,9 @@ class Lifecycle:
     birth_min_score : float
         Detections scoring below it never start a replica (``-inf``: all do).
     hit_log_odds, miss_log_odds : float
+    confirm_on : {"hits", "streak"}
+    recover_hits : int, optional
+    report : {"estimate", "detection"}
     """
 
     confirm_hits: int = 3
@@ -83,6 +95,9 @@ class Lifecycle:
     birth_min_score: float = float("-inf")
     hit_log_odds: float = 1.0
     miss_log_odds: float = 1.0
+    confirm_on: str = "hits"
+    recover_hits: int | None = None
+    report: str = "estimate"
 
     def __post_init__(self) -> None:
         _check_number("confirm_hits", self.confirm_hits, 1, integer=True)
@@ -96,6 +111,14 @@ class Lifecycle:
                              f"{self.birth_min_score!r}")
         _check_number("hit_log_odds", self.hit_log_odds, 0.0)
         _check_number("miss_log_odds", self.miss_log_odds, 0.0)
+        if self.confirm_on not in ("hits", "streak"):
+            raise ValueError(f"plate lifecycle: confirm_on must be 'hits' or 'streak', got "
+                             f"{self.confirm_on!r}")
+        if self.recover_hits is not None:
+            _check_number("recover_hits", self.recover_hits, 1, integer=True)
+        if self.report not in ("estimate", "detection"):
+            raise ValueError(f"plate lifecycle: report must be 'estimate' or 'detection', got "
+                             f"{self.report!r}")
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready settings (``-inf`` written as ``null``)."""

@@ -100,7 +100,17 @@ class GaussianPrior(PriorFactor):
             if key not in labels:
                 raise ValueError(f"prior {self.name!r}: no component {key!r} in {labels}")
             mean[labels.index(key)] = float(val)
-        return GaussianPrior(self.variables[0], mean=mean, cov=self.cov, name=self.name)
+        return self._with_mean(mean)
+
+    def _with_mean(self, mean: np.ndarray) -> GaussianPrior:
+        """This prior with another (finite) mean: the covariance and its square root kept,
+        not recomputed (a plate's births re-centre a prior per new target)."""
+        if not np.isfinite(mean).all():
+            raise ValueError(f"parameter {self.name + '.mean'!r} must be finite, got {mean!r}")
+        new = object.__new__(type(self))  # a shallow copy, without copy.copy's reduce protocol
+        new.__dict__.update(self.__dict__)
+        new.mean_ = mean
+        return new
 
     def log_prob(self, x: np.ndarray) -> np.ndarray:
         """Gaussian log-density (requires a non-singular ``cov``)."""

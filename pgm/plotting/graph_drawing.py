@@ -26,10 +26,10 @@ ROLE_COLOURS = {"part": "#8ecae6", "state": "#b7e4c7", "latent": "#ffd6a5",
                 "noise": "#e0aaff", "set": "#ffadad"}
 KIND_COLOURS = {"prior": "#6c757d", "transition": "#1d3557", "likelihood": "#e63946",
                 "coupling": "#f4a261", "conjugate": "#7b2cbf", "interaction": "#2a9d8f",
-                "proposal": "#457b9d"}
+                "proposal": "#457b9d", "association": "#e9c46a"}
 _UNARY_ANGLE = {"prior": 5 * np.pi / 6, "transition": np.pi / 2, "likelihood": -np.pi / 2,
                 "conjugate": np.pi / 6, "coupling": 0.0, "interaction": 0.0,
-                "proposal": np.pi / 6}
+                "proposal": np.pi / 6, "association": -5 * np.pi / 6}
 
 
 def _dot_id(name: str) -> str:

@@ -87,6 +87,12 @@ def _plate(n_parts):
                                                 lifecycle=Lifecycle(confirm_hits=1)))
 
 
+def _sort(vb_noise: bool):
+    from pgm.models import sort
+
+    return sort.build_graph(sort.Params(min_hits=1, vb_noise=vb_noise))
+
+
 CASES = {
     "particles": (lambda: linear_gaussian.build_graph(linear_gaussian.Params()), _lg_frames, {}),
     "kalman": (lambda: linear_gaussian.build_graph(linear_gaussian.Params()), _lg_frames,
@@ -98,6 +104,9 @@ CASES = {
     "phd": (lambda: _phd(phd), _set_frames, {}),
     # a plate's batched rules (births from detections, then every stage on K replicas)
     "plate": (lambda: _plate(1), _plate_frames, {}),
+    # exact Kalman replicas with data association (SORT; seed 000's VB noise per target)
+    "sort": (lambda: _sort(vb_noise=False), _plate_frames, {}),
+    "vb-sort": (lambda: _sort(vb_noise=True), _plate_frames, {}),
     "plate-parts": (lambda: _plate(2), _plate_frames, {}),
     "vb-phd": (lambda: _phd(vb_phd), _set_frames, {}),
 }

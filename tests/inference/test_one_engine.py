@@ -14,7 +14,7 @@ import pytest
 from test_conformance import _vb_akf  # the VB-AKF graph of the conformance cases
 
 from pgm import FactorGraph, Plate, Variable
-from pgm.core.batched import BatchedParticles, Replicated, batched_type
+from pgm.core.batched import BatchedGaussian, BatchedParticles, Replicated, batched_type
 from pgm.core.beliefs import Particles
 from pgm.core.expfam import Gaussian, InverseGamma
 from pgm.core.frame import FrameContext
@@ -206,7 +206,11 @@ def test_plate_beliefs_are_batched_and_operations_match_particles():
     assert np.array_equal(b.select([2, 0]).x, x[[2, 0]])
     assert b.concat(b.select([1])).K == 4
     assert batched_type(Gaussian).row_type is Gaussian
-    assert issubclass(batched_type(Gaussian), Replicated)
+    assert batched_type(Gaussian) is BatchedGaussian  # means (K, d), covariances (K, d, d)
+    g = BatchedGaussian.stack([Gaussian(np.arange(2.0) + k, np.eye(2) * (k + 1)) for k in range(3)])
+    assert np.array_equal(g.row(2).mean, [2.0, 3.0]) and np.array_equal(g.row(1).cov, 2 * np.eye(2))
+    assert g.select([2, 0]).concat(g).K == 5 and np.array_equal(g.select([2]).mean, g.mean[[2]])
+    assert issubclass(batched_type(InverseGamma), Replicated)
 
 
 def test_a_factor_kind_no_stage_runs_is_refused():

@@ -1,0 +1,244 @@
+"""SORT as a model config: a plate of exact Kalman box states, data association as a factor.
+
+SORT (Bewley et al. [#bewley2016]) declared as a factor graph of the one engine. One
+target is a ``state`` variable ``box`` — the four columns of a box code (the corners
+``x1, y1, x2, y2`` by default, as the ``trackers`` package's SORT; ``box_state="xysr"``:
+the paper's centre, area and aspect) and their rates — with
+
+* :class:`~pgm.factors.association.BoxPrior` — ``N(detection, P0)``, rates zero;
+* :class:`~pgm.factors.LinearGaussianTransition` — constant velocity, noise ``Q``;
+* :class:`~pgm.factors.association.DetectionAssociation` — Hungarian on IoU with a gate
+  (the ``assign`` stage: after predict, before the update);
+* :class:`~pgm.factors.association.AssignedDetectionLikelihood` — ``z = H x + N(0, R)``
+  on the assigned detection, the Kalman update;
+
+replicated by the plate, whose :class:`~pgm.core.plate.Lifecycle` is SORT's: a replica
+is born on every unmatched detection scoring at least ``activation``, confirmed at its
+``min_hits``-th match, removed at its first miss while tentative, kept through
+``lost_frames`` frames without a match once confirmed, and reported only in the frames
+it is matched, with the detection's box. The engine keeps ``box`` as a
+:class:`~pgm.core.batched.BatchedGaussian` (``EngineSettings.beliefs``), so a frame is
+a few batched matrix products over all replicas (:mod:`pgm.inference.association`).
+
+The defaults are those of the ``trackers`` package (2.6.1), which ``benchmarks/
+classic_trackers.py`` reproduces: ``Q = 0.01 I``, ``R = 0.1 I``, ``P0 = I`` on the corner
+state (the paper's state: ``R = diag(1, 1, 10, 10)``, ``P0 = 10 diag(1, 1, 1, 1, 1000,
+1000, 1000)``, ``Q = diag(1, 1, 1, 1, 0.01, 0.01, 0.0001)``); a lost-track buffer of 30
+frames at 30 frames/s (``ceil(fps)`` frames at the video's rate).
+
+The papers' ideas are added as factors, one option each: ``vb_noise`` (seed 000's
+variational-Bayes measurement noise per target: an inverse-Gamma ``noise`` variable in
+the plate and the conjugate :class:`~pgm.factors.multitarget.VBNoise` factor).
+
+>>> g = build_graph(Params())
+>>> sorted(f.kind for f in g.factors.values())
+['association', 'likelihood', 'prior', 'transition']
+>>> g.variables["box"].labels[:4]
+('x1', 'y1', 'x2', 'y2')
+
+References
+----------
+.. [#bewley2016] A. Bewley, Z. Ge, L. Ott, F. Ramos and B. Upcroft, "Simple online and
+   realtime tracking", Proc. IEEE ICIP, 2016. doi:10.1109/ICIP.2016.7533003
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from pgm.core.graph import FactorGraph
+from pgm.core.numerics import check_finite_param
+from pgm.core.plate import Lifecycle, Plate
+from pgm.core.variable import Variable
+from pgm.factors import LinearGaussianTransition
+from pgm.factors.association import (
+    SCORE_MAPS,
+    AssignedDetectionLikelihood,
+    BoxPrior,
+    DetectionAssociation,
+    constant_velocity,
+)
+from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, VBNoise
+from pgm.inference.settings import EngineSettings
+
+from . import config as _config
+
+__all__ = ["CONFIG", "Params", "build_graph", "lost_frames", "score_map_for", "video_build",
+           "OPTIONS"]
+
+#: the box codes a SORT state may use
+BOX_STATES = ("xyxy", "xysr")
+
+
+@dataclass(frozen=True)
+class Params:
+    """Settings of SORT (and of ByteTrack, :mod:`pgm.models.bytetrack`).
+
+    Attributes
+    ----------
+    box_state : {"xyxy", "xysr"}
+        The box code of the state: corners (the ``trackers`` package) or centre, area,
+        aspect (the SORT paper).
+    process_noise, measurement_noise, initial_cov : sequence of float, optional
+        Diagonals of ``Q``, ``R`` and ``P0`` (default: the code's, module docstring).
+    fps : float
+        The video's frame rate (the lost-track buffer is in frames at 30 frames/s).
+    lost_buffer : int
+        Frames at 30 frames/s a confirmed track is kept without a match (30).
+    min_hits : int
+        Matches before a track is confirmed (3).
+    consecutive : bool
+        Confirm after ``min_hits`` matches in a row (ByteTrack) instead of in all.
+    rounds : tuple of dict
+        The association's rounds (:class:`~pgm.factors.association.DetectionAssociation`;
+        SORT: one, IoU ≥ 0.3).
+    activation : float
+        Score a detection needs to start a track (0.25).
+    score_map : {"none", "logistic"}
+        How scores reach [0, 1] before the thresholds (:func:`score_map_for`).
+    vb_noise : bool
+        Seed 000's adaptive measurement noise per target (``vb-sort``).
+    vb_rho, vb_alpha0 : float
+        Its forgetting factor and prior shape (the prior's mean is ``R``).
+    """
+
+    box_state: str = "xyxy"
+    process_noise: tuple[float, ...] | None = None
+    measurement_noise: tuple[float, ...] | None = None
+    initial_cov: tuple[float, ...] | None = None
+    fps: float = 30.0
+    lost_buffer: int = 30
+    min_hits: int = 3
+    consecutive: bool = False
+    rounds: tuple[dict[str, float], ...] = field(default_factory=lambda: ({"iou": 0.3},))
+    activation: float = 0.25
+    score_map: str = "none"
+    vb_noise: bool = False
+    vb_rho: float = 0.8
+    vb_alpha0: float = 10.0
+
+
+def _noise(p: Params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``Q, R, P0`` diagonals of ``p`` (the code's defaults where not given)."""
+    if p.box_state == "xyxy":
+        q, r, p0 = [0.01] * 8, [0.1] * 4, [1.0] * 8
+    else:  # the trackers package's XCYCSR settings, i.e. the SORT paper's
+        q, r, p0 = [1.0] * 4 + [0.01, 0.01, 0.0001], [1.0, 1.0, 10.0, 10.0], \
+            [10.0] * 4 + [10000.0] * 3
+    out = []
+    for given, default, what in ((p.process_noise, q, "process_noise"),
+                                 (p.measurement_noise, r, "measurement_noise"),
+                                 (p.initial_cov, p0, "initial_cov")):
+        v = np.asarray(default if given is None else given, dtype=float)
+        if v.shape != (len(default),):
+            raise ValueError(f"{what} needs {len(default)} values for the {p.box_state} state, "
+                             f"got {v.size}")
+        check_finite_param(what, v, positive=True)
+        out.append(v)
+    return out[0], out[1], out[2]
+
+
+def lost_frames(lost_buffer: int, fps: float) -> int:
+    """Frames a confirmed track survives without a match: ``lost_buffer`` frames at 30
+    frames/s at the video's rate (``max(1, ceil(fps / 30 · lost_buffer))``; 0 stays 0)."""
+    if lost_buffer == 0:
+        return 0
+    return max(1, math.ceil(fps / 30.0 * lost_buffer))
+
+
+def score_map_for(scores: np.ndarray) -> str:
+    """``"logistic"`` when any of a sequence's detection scores lies outside [0, 1] (a
+    detector's margins or unbounded scores: MOT15's run to ~140, MOT16's DPM scores are
+    negative too), else ``"none"`` — one monotone map per sequence, so the scores keep
+    their order (the benchmark protocol of ``benchmarks/peers/mot_peers.py``)."""
+    s = np.asarray(scores, dtype=float)
+    return "logistic" if s.size and (s.min() < 0.0 or s.max() > 1.0) else "none"
+
+
+def _check(p: Params) -> None:
+    if p.box_state not in BOX_STATES:
+        raise ValueError(f"box_state must be one of {BOX_STATES}, got {p.box_state!r}")
+    if p.score_map not in SCORE_MAPS:
+        raise ValueError(f"score_map must be one of {SCORE_MAPS}, got {p.score_map!r}")
+    check_finite_param("fps", p.fps, positive=True)
+    check_finite_param("activation", p.activation)
+    for name in ("lost_buffer", "min_hits"):
+        v = getattr(p, name)
+        if isinstance(v, bool) or int(v) != v or v < (1 if name == "min_hits" else 0):
+            raise ValueError(f"{name} must be a {'positive' if name == 'min_hits' else 'non-negative'}"
+                             f" integer, got {v!r}")
+    check_finite_param("vb_rho", p.vb_rho, positive=True)
+    check_finite_param("vb_alpha0", p.vb_alpha0, positive=True)
+
+
+def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph:
+    """The plate graph of ``params``: one target's Kalman box state, replicated."""
+    p = params or Params()
+    _check(p)
+    q, r, p0 = _noise(p)
+    labels, F, H = constant_velocity(p.box_state)
+    variables = [Variable("box", len(labels), role="state", labels=tuple(labels))]
+    reference = {"xyxy": [80.0, 50.0, 120.0, 150.0], "xysr": [100.0, 100.0, 4000.0, 0.4]}
+    mean = np.zeros(len(labels))
+    mean[:4] = reference[p.box_state]  # a 40 x 100 box at (100, 100); births re-centre it
+    factors: list[Any] = [
+        BoxPrior("box", mean=mean, cov=np.diag(p0)),
+        LinearGaussianTransition("box", F=F, Q=np.diag(q)),
+        DetectionAssociation("box", rounds=list(p.rounds), score_map=p.score_map,
+                             name="association"),
+        AssignedDetectionLikelihood("box", H=H, R=np.diag(r), name="detection"),
+    ]
+    beliefs = {"box": "gaussian"}
+    plate_vars = ["box"]
+    if p.vb_noise:
+        variables.append(Variable("noise", 4, role="noise",
+                                  labels=tuple(f"var_{c}" for c in labels[:4])))
+        factors += [InverseGammaPrior("noise", sigma=np.sqrt(r), alpha=p.vb_alpha0),
+                    NoiseForgetting("noise", rho=p.vb_rho, alpha_min=2.0),
+                    VBNoise("noise", "box", likelihood="detection", name="vb")]
+        plate_vars.append("noise")
+    lc = Lifecycle(confirm_hits=int(p.min_hits), max_coast=0,
+                   max_lost=lost_frames(int(p.lost_buffer), p.fps), match_iou=0.0,
+                   birth_iou=1.0, birth_min_score=float(p.activation), hit_log_odds=1.0,
+                   miss_log_odds=1.0, confirm_on="streak" if p.consecutive else "hits",
+                   recover_hits=1, report="detection")
+    engine = EngineSettings(num_particles=1, beliefs=beliefs)
+    meta = {"output": "box", "engine": engine.to_dict(), "readout": "plate",
+            "reference_box": [100.0, 100.0, 40.0, 100.0]}
+    return FactorGraph(variables, factors, name=name, meta=meta,
+                       plates=[Plate("target", tuple(plate_vars), lifecycle=lc)])
+
+
+#: the options of SORT and ByteTrack on the command line
+OPTIONS = (
+    _config.Option("--box-state", "box_state", choices=BOX_STATES,
+                   help="the state's box code: xyxy (corners, as the trackers package; "
+                        "default) or xysr (centre, area, aspect: the SORT paper)"),
+    _config.Option("--vb-noise", "vb_noise", flag_only=True,
+                   help="seed 000's variational-Bayes measurement noise per target"),
+)
+
+
+def video_build(config: _config.ModelConfig, values: dict[str, Any],
+                video: _config.VideoInfo) -> FactorGraph:
+    """The model for ``video``: its frame rate and, from its detections' scores, the score
+    map (:func:`score_map_for`)."""
+    params = config.module.Params()
+    kw: dict[str, Any] = {o.field: values[o.dest] for o in config.options
+                          if o.field is not None and values.get(o.dest) not in (None, False)}
+    kw["fps"] = float(video.fps)
+    if video.score_range is not None:
+        kw["score_map"] = score_map_for(np.asarray(video.score_range))
+    return config.module.build_graph(replace(params, **kw), name=config.name)
+
+
+#: what the application sees of this model (:mod:`pgm.models.config`)
+CONFIG = _config.ModelConfig(
+    "sort", "multi-target", sys.modules[__name__],
+    "SORT: a Kalman box state per target, Hungarian association on IoU (Bewley et al. 2016)",
+    options=OPTIONS, build=video_build)

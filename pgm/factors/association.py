@@ -1,0 +1,207 @@
+"""Tracking by detection as factors: a box state with exact Kalman rules, and data association.
+
+The classic trackers (SORT, ByteTrack) are a plate of per-target linear-Gaussian box
+states whose measurement is *the detection assigned to the target*. Declared as a
+factor graph of the one engine (:mod:`pgm.models.sort`), one target is
+
+* a ``state`` variable whose first four columns code its box (:data:`pgm.core.boxes.
+  BOX_CODINGS`: the corners ``x1, y1, x2, y2`` of the ``trackers`` package, or the SORT
+  paper's centre, area and aspect ``cx, cy, s, r``) followed by their rates;
+* :class:`BoxPrior` — a Gaussian prior centred on the birth detection, rates zero;
+* a :class:`~pgm.factors.LinearGaussianTransition` (constant velocity);
+* :class:`DetectionAssociation` (kind ``"association"``) — the data-association node
+  between the replicas and the frame's detections: Hungarian assignment on IoU in one or
+  more *rounds* (SORT: one; ByteTrack: high-score detections first, then the
+  low-score ones against the replicas left over), each with its IoU gate; the engine
+  runs it at its ``assign`` stage, after predict and before the likelihoods;
+* :class:`AssignedDetectionLikelihood` — ``z = H x + N(0, R)`` with ``z`` the coded box of
+  the detection assigned to this replica (no assignment: no evidence), updated by the
+  exact Kalman rule of :mod:`pgm.inference.association`, for all replicas in a few
+  batched matrix products.
+
+The track layer (confirmation, coasting, the lost stage, births from the detections
+no replica took) is the plate's :class:`~pgm.core.plate.Lifecycle`, as for every plate;
+with an association factor it reads the assignment of the ``assign`` stage instead of
+matching again.
+
+>>> f = DetectionAssociation("box", rounds=[{"iou": 0.3}])
+>>> f.rounds[0]["min_score"], f.rounds[0]["iou"]
+(-inf, 0.3)
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from pgm.core.boxes import BOX_CODINGS, box_code_columns, box_coding, encode_boxes
+from pgm.core.factor import Factor
+from pgm.core.frame import FrameContext
+from pgm.core.numerics import check_finite_param
+from pgm.core.variable import Variable
+from pgm.factors.gaussian import GaussianPrior, _as_cov
+from pgm.factors.kinds import LikelihoodFactor
+
+__all__ = ["BoxPrior", "DetectionAssociation", "AssignedDetectionLikelihood", "SCORE_MAPS",
+           "map_scores", "constant_velocity"]
+
+#: how detection scores are brought to [0, 1] before the rounds' thresholds: ``"none"``
+#: (as given), ``"logistic"`` (``1 / (1 + e^{-s})``: one monotone map for a detector whose
+#: scores are margins or unbounded, as MOT15's and MOT16's public ones are)
+SCORE_MAPS = ("none", "logistic")
+
+
+def map_scores(scores: np.ndarray, score_map: str) -> np.ndarray:
+    """``scores`` through the map ``score_map`` (:data:`SCORE_MAPS`)."""
+    s = np.asarray(scores, dtype=float)
+    if score_map == "none":
+        return s
+    if score_map == "logistic":
+        return 0.5 * (1.0 + np.tanh(0.5 * s))  # the logistic, without overflow
+    raise ValueError(f"unknown score map {score_map!r} (choose from {SCORE_MAPS})")
+
+
+def _box_labels(factor: Factor, variables: dict[str, Variable], var: str) -> str:
+    coding = box_coding(variables[var].labels)
+    if coding is None:
+        raise ValueError(f"factor {factor.name!r}: variable {var!r} must code a box in its "
+                         f"first columns (labels {BOX_CODINGS}), got {variables[var].labels}")
+    return coding
+
+
+def constant_velocity(coding: str) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """Labels, transition ``F`` and measurement ``H`` of a constant-velocity box state in
+    ``coding``: the four box columns and a rate for each (``xysr``: none for the aspect
+    ``r``, which SORT holds constant)."""
+    box = list(BOX_CODINGS[coding])
+    moving = box[:3] if coding == "xysr" else box
+    labels = box + [f"v{c}" for c in moving]
+    d = len(labels)
+    F = np.eye(d)
+    for i in range(len(moving)):
+        F[i, 4 + i] = 1.0
+    H = np.eye(4, d)
+    return labels, F, H
+
+
+class BoxPrior(GaussianPrior):
+    """A Gaussian prior on a box state (any :data:`~pgm.core.boxes.BOX_CODINGS`), re-centred
+    on each new target's detection box with its rates set to zero; the covariance is kept
+    (``cov``: the initial uncertainty ``P0``)."""
+
+    def check(self, variables: dict[str, Variable]) -> None:
+        super().check(variables)
+        _box_labels(self, variables, self.variables[0])
+
+    def born_at(self, values: dict[str, float], labels) -> BoxPrior:
+        coding, cols = box_code_columns(tuple(labels or ()))
+        try:
+            box = np.array([values["cx"], values["cy"], values["w"], values["h"]], dtype=float)
+        except KeyError:
+            box = None
+        if coding is None or box is None:
+            raise ValueError(f"prior {self.name!r}: needs a box (cx, cy, w, h) and a box state, "
+                             f"got {sorted(values)} for labels {labels}")
+        mean = np.zeros(self.mean_.shape)
+        mean[cols] = encode_boxes(box, coding)
+        return self._with_mean(mean)
+
+
+class DetectionAssociation(Factor):
+    """The assignment of the frame's detections to a plate's replicas (kind
+    ``"association"``).
+
+    Each round assigns the detections whose (mapped) score lies in
+    ``[min_score, max_score)`` to the replicas no earlier round matched, by the
+    Hungarian algorithm maximising the IoU between each replica's predicted box and the
+    detection's (``scipy.optimize.linear_sum_assignment``); a pair below the round's
+    ``iou`` gate is no match.
+
+    Parameters
+    ----------
+    variable : str
+        The plate's box state.
+    rounds : list of dict
+        ``{"iou": gate, "min_score": ..., "max_score": ...}`` per round (scores default
+        to all). SORT: ``[{"iou": 0.3}]``; ByteTrack:
+        ``[{"iou": 0.1, "min_score": 0.6}, {"iou": 0.1, "max_score": 0.6}]``.
+    score_map : {"none", "logistic"}
+        Map applied to the detection scores first (:data:`SCORE_MAPS`); the mapped scores
+        are also what the plate's ``birth_min_score`` compares.
+    """
+
+    kind = "association"
+
+    def __init__(self, variable: str, *, rounds: list[dict[str, float]] | None = None,
+                 score_map: str = "none", name: str | None = None):
+        super().__init__(variable, name=name)
+        if score_map not in SCORE_MAPS:
+            raise ValueError(f"factor {self.name!r}: unknown score_map {score_map!r} (choose "
+                             f"from {SCORE_MAPS})")
+        self.score_map = score_map
+        rounds = [{"iou": 0.3}] if rounds is None else rounds
+        if not isinstance(rounds, (list, tuple)) or not rounds:
+            raise ValueError(f"factor {self.name!r}: rounds must be a non-empty list of dicts")
+        self.rounds: list[dict[str, float]] = []
+        for r in rounds:
+            if not isinstance(r, dict) or set(r) - {"iou", "min_score", "max_score"}:
+                raise ValueError(f"factor {self.name!r}: a round is a dict of iou, min_score, "
+                                 f"max_score; got {r!r}")
+            iou = float(r.get("iou", 0.3))
+            lo = float(r.get("min_score", -math.inf) if r.get("min_score") is not None
+                       else -math.inf)
+            hi = float(r.get("max_score", math.inf) if r.get("max_score") is not None
+                       else math.inf)
+            if not 0.0 <= iou <= 1.0 or math.isnan(lo) or math.isnan(hi) or lo >= hi:
+                raise ValueError(f"factor {self.name!r}: round {r!r} needs an iou gate in "
+                                 f"[0, 1] and min_score < max_score")
+            self.rounds.append({"iou": iou, "min_score": lo, "max_score": hi})
+
+    def params(self) -> dict[str, Any]:
+        def finite(v):
+            return None if math.isinf(v) else v
+
+        return {"rounds": [{k: finite(v) for k, v in r.items()} for r in self.rounds],
+                "score_map": self.score_map}
+
+    def check(self, variables: dict[str, Variable]) -> None:
+        _box_labels(self, variables, self.variables[0])
+
+    def scores(self, ctx: FrameContext) -> np.ndarray:
+        """The frame's detection scores, mapped."""
+        d = ctx.detections
+        return np.zeros(0) if d is None else map_scores(d.scores, self.score_map)
+
+
+class AssignedDetectionLikelihood(LikelihoodFactor):
+    """``z = H x + N(0, R)`` where ``z`` is the coded box (the state's coding) of the
+    detection the ``assign`` stage gave this replica; a replica without one has no
+    evidence in the frame. Exact Kalman rules (and the VB adaptive-noise rule) in
+    :mod:`pgm.inference.association`."""
+
+    def __init__(self, variable: str, *, H, R, name: str | None = None):
+        super().__init__(variable, name=name)
+        self.H = np.atleast_2d(np.asarray(H, dtype=float))
+        check_finite_param(f"{self.name}.H", self.H)
+        self.R = _as_cov(R, self.H.shape[0], f"{self.name}.R")
+        if np.any(np.linalg.eigvalsh(self.R) <= 0):
+            raise ValueError(f"factor {self.name!r}: R must be positive definite")
+        k, d = self.H.shape
+        #: whether ``H = [I 0]`` reads the box columns (the Kalman rule then slices)
+        self.selects = d >= k and bool(np.array_equal(self.H, np.eye(k, d)))
+
+    def params(self) -> dict[str, Any]:
+        return {"H": self.H, "R": self.R}
+
+    def check(self, variables: dict[str, Variable]) -> None:
+        self._check_dim(variables, self.variables[0], self.H.shape[1], "H's column count")
+        if self.H.shape[0] != 4:
+            raise ValueError(f"factor {self.name!r}: H must map the state to a box (4 rows), "
+                             f"got {self.H.shape}")
+        _box_labels(self, variables, self.variables[0])
+
+    def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
+        raise ValueError(f"factor {self.name!r}: the assigned detection exists only in a plate "
+                         f"with a DetectionAssociation (exact Kalman replicas)")

@@ -1,0 +1,249 @@
+"""SORT and ByteTrack as model configs: exact Kalman replicas, association as a factor."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pgm import FactorGraph, Variable
+from pgm.core.boxes import decode_boxes, encode_boxes
+from pgm.core.expfam import Gaussian
+from pgm.core.frame import FrameContext
+from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianTransition
+from pgm.factors.association import (
+    AssignedDetectionLikelihood,
+    DetectionAssociation,
+    map_scores,
+)
+from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, VBNoise
+from pgm.inference import Engine
+from pgm.inference.kalman import kalman_filter
+from pgm.models import bytetrack, sort
+from pgm.observation.detections import Detections
+
+
+def _frame(t, boxes_xywh, scores=None):
+    b = np.asarray(boxes_xywh, dtype=float).reshape(-1, 4)
+    s = np.full(len(b), 0.9) if scores is None else np.asarray(scores, dtype=float)
+    return FrameContext(t, detections=Detections(b, s))
+
+
+def _walk(n=30, seed=0, sigma=1.5, size_sigma=None):
+    """One person walking: noisy top-left boxes ``(n, 4)`` (``sigma`` px on the position,
+    ``size_sigma`` on the size, default the same)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n)[:, None]
+    truth = np.array([100.0, 80.0, 40.0, 100.0]) + t * np.array([3.0, 1.0, 0.2, 0.5])
+    s = sigma if size_sigma is None else size_sigma
+    return truth + np.array([sigma, sigma, s, s]) * rng.standard_normal(truth.shape)
+
+
+@pytest.mark.parametrize("box_state", ["xyxy", "xysr"])
+def test_one_target_is_the_kalman_filter(box_state):
+    """A replica's belief is the Kalman filter's on its detections (coded as its state),
+    born with its first detection as the prior mean and no update in that frame."""
+    p = sort.Params(box_state=box_state)
+    g = sort.build_graph(p)
+    eng = Engine(g, 0)
+    boxes = _walk()
+    cx = boxes.copy()
+    cx[:, :2] += cx[:, 2:] / 2
+    z = encode_boxes(cx, box_state)
+    f, q, lik = g.factors["transition:box"], g.factors["prior:box"], g.factors["detection"]
+    m0 = np.zeros(q.mean_.size)
+    m0[:4] = z[0]
+    ys = z.copy()
+    ys[0] = np.nan  # the birth frame: the prior, no update
+    kf = kalman_filter(m0, q.cov, f.F, f.Q, lik.H, lik.R, ys)
+    for t, b in enumerate(boxes):
+        eng.step(_frame(t + 1, b))
+        belief = eng.beliefs["box"]
+        assert belief.K == 1
+        np.testing.assert_allclose(belief.mean[0], kf.filtered_means[t], rtol=1e-10, atol=1e-9)
+        np.testing.assert_allclose(belief.cov[0], kf.filtered_covs[t], rtol=1e-10, atol=1e-9)
+
+
+def test_vb_sort_one_replica_is_the_vb_adaptive_kalman_filter():
+    """``vb_noise``: a replica's state and noise beliefs are those of the single-graph VB
+    adaptive Kalman filter (seed 000's per-target noise) fed its detections."""
+    p = sort.Params(vb_noise=True, vb_rho=0.9)
+    g = sort.build_graph(p)
+    eng = Engine(g, 0)
+    boxes = _walk(sigma=3.0, size_sigma=1.0, seed=3)
+    cx = boxes.copy()
+    cx[:, :2] += cx[:, 2:] / 2
+    z = encode_boxes(cx, "xyxy")
+    tr, prior, lik = g.factors["transition:box"], g.factors["prior:box"], g.factors["detection"]
+    vb = g.factors["vb"]
+    m0 = np.zeros(8)
+    m0[:4] = z[0]
+    single = FactorGraph(
+        [Variable("x", 8), Variable("noise", 4, role="noise")],
+        [GaussianPrior("x", mean=m0, cov=prior.cov), LinearGaussianTransition("x", F=tr.F, Q=tr.Q),
+         LinearGaussianLikelihood("x", H=lik.H, R=lik.R),
+         InverseGammaPrior("noise", sigma=np.sqrt(np.diag(lik.R)), alpha=p.vb_alpha0),
+         NoiseForgetting("noise", rho=0.9, alpha_min=2.0),
+         VBNoise("noise", "x", tol=vb.tol, max_iter=vb.max_iter)])
+    oracle = Engine(single, 0, belief_types={"x": Gaussian})
+    for t, b in enumerate(boxes):
+        rec = eng.step(_frame(t + 1, b))
+        assert rec.info["target"]["births"] == (t == 0)  # one track throughout
+        oracle.step(FrameContext(t + 1, measurements=None if t == 0 else z[t]))
+        np.testing.assert_allclose(eng.beliefs["box"].mean[0], oracle.beliefs["x"].mean,
+                                   rtol=1e-9, atol=1e-8)
+        q, q0 = eng.beliefs["noise"].row(0), oracle.beliefs["noise"]
+        np.testing.assert_allclose(q.beta / q.alpha, q0.beta / q0.alpha, rtol=1e-9)
+    # the learned noise is far above the assumed R = 0.1 (the corners jitter by 3 px)
+    assert np.all(q.beta / q.alpha > 10 * 0.1)
+
+
+def test_sort_life_cycle_confirms_coasts_and_ends():
+    """SORT's life cycle: confirmed at the third match (identity then), reported only in
+    frames with a match (the detection's box), kept ``ceil(fps)`` frames without one and
+    then removed; a tentative track ends at its first miss."""
+    eng = Engine(sort.build_graph(sort.Params(fps=5.0)), 0)  # kept 5 frames unmatched
+    box = np.array([100.0, 100.0, 40.0, 100.0])
+    other = np.array([400.0, 100.0, 40.0, 100.0])
+    reported = []
+    for t in range(1, 4):
+        rec = eng.step(_frame(t, [box + [t, 0, 0, 0], other] if t == 1 else box + [t, 0, 0, 0]))
+        info = rec.info["target"]
+        reported.append(int(info["reported"].sum()))
+    assert reported == [0, 0, 1]  # confirmed at the third detection
+    assert eng.num_targets == 1  # the other, tentative, ended at its first miss
+    track_id = int(info["ids"][0])
+    np.testing.assert_allclose(info["boxes"][0], [123.0, 150.0, 40.0, 100.0])  # centre box
+    for t in range(4, 10):  # six frames without a detection: kept five, then removed
+        rec = eng.step(_frame(t, np.zeros((0, 4))))
+        assert not rec.info["target"]["reported"].any()
+        assert eng.num_targets == (1 if t < 9 else 0)
+    # found again before the end: reported at once under its identity
+    eng = Engine(sort.build_graph(sort.Params(fps=5.0)), 0)
+    for t in range(1, 4):
+        eng.step(_frame(t, box))
+    first = int(eng.tracks[0].track_id)
+    for t in range(4, 7):
+        eng.step(_frame(t, np.zeros((0, 4))))
+    rec = eng.step(_frame(7, box))
+    assert rec.info["target"]["reported"].tolist() == [True]
+    assert int(rec.info["target"]["ids"][0]) == first == track_id
+
+
+def test_bytetrack_second_round_and_streak():
+    """ByteTrack: the high-score detections are assigned first, the low-score ones only to
+    the replicas left over; confirmation needs two matches in a row; a low-score
+    detection never starts a track."""
+    box = np.array([100.0, 100.0, 40.0, 100.0])
+    near_low = box + [1, 0, 0, 0]  # IoU ~0.95 with the track's prediction
+    far_high = box + [15, 0, 0, 0]  # IoU ~0.45
+    out = {}
+    for name, module in (("sort", sort), ("bytetrack", bytetrack)):
+        eng = Engine(module.build_graph(module.Params()), 0)
+        for t in range(1, 4):
+            eng.step(_frame(t, box))
+        rec = eng.step(_frame(4, [near_low, far_high], scores=[0.3, 0.9]))
+        info = rec.info["target"]
+        k = int(np.flatnonzero(info["ids"] == eng.tracks[0].track_id)[0])
+        out[name] = info["boxes"][k, 0] - box[2] / 2
+    assert out["sort"] == pytest.approx(near_low[0])  # one round: the best IoU
+    assert out["bytetrack"] == pytest.approx(far_high[0])  # high scores first
+    eng = Engine(bytetrack.build_graph(bytetrack.Params()), 0)
+    eng.step(_frame(1, box, scores=[0.5]))  # below activation (0.7): no track
+    assert eng.num_targets == 0
+    rec = eng.step(_frame(2, box, scores=[0.8]))
+    assert eng.num_targets == 1 and not rec.info["target"]["reported"].any()
+    rec = eng.step(_frame(3, box, scores=[0.8]))
+    assert rec.info["target"]["reported"].tolist() == [True]  # two in a row
+
+
+def test_association_rounds_and_scores():
+    f = DetectionAssociation("box", rounds=bytetrack.rounds(0.6, 0.1), score_map="logistic")
+    assert f.params()["rounds"][0] == {"iou": 0.1, "min_score": 0.6, "max_score": None}
+    again = DetectionAssociation("box", **json.loads(json.dumps(f.params())))
+    assert again.rounds == f.rounds
+    np.testing.assert_allclose(map_scores(np.array([-800.0, 0.0, 800.0]), "logistic"),
+                               [0.0, 0.5, 1.0])
+    assert sort.score_map_for(np.array([0.1, 0.9])) == "none"
+    assert sort.score_map_for(np.array([-1.0, 0.5])) == "logistic"
+    assert sort.score_map_for(np.array([3.0, 120.0])) == "logistic"
+    with pytest.raises(ValueError, match="iou gate"):
+        DetectionAssociation("box", rounds=[{"iou": 1.5}])
+    with pytest.raises(ValueError, match="round is a dict"):
+        DetectionAssociation("box", rounds=[{"gate": 0.3}])
+    with pytest.raises(ValueError, match="score_map"):
+        DetectionAssociation("box", score_map="softmax")
+
+
+def test_box_codings_round_trip():
+    rng = np.random.default_rng(0)
+    b = np.column_stack([rng.uniform(0, 500, (50, 2)), rng.uniform(5, 200, (50, 2))])
+    for coding in ("cxcywh", "xyxy", "xysr"):
+        np.testing.assert_allclose(decode_boxes(encode_boxes(b, coding), coding), b,
+                                   rtol=1e-12)
+    assert np.isnan(decode_boxes(np.array([10.0, 10.0, -4.0, 1.0]), "xysr")[2])
+
+
+def test_sort_graph_saves_loads_and_draws(tmp_path):
+    from pgm.plotting.graph_drawing import to_dot
+
+    g = sort.build_graph(sort.Params(vb_noise=True))
+    path = tmp_path / "sort.json"
+    g.save(path)
+    loaded = FactorGraph.load(path)
+    assert loaded.factors["association"].rounds == g.factors["association"].rounds
+    assert loaded.meta["engine"]["beliefs"] == {"box": "gaussian"}
+    dot = to_dot(loaded)
+    assert "association" in dot
+    boxes = _walk(12)
+    runs = []
+    for graph in (g, loaded):
+        eng = Engine(graph, 0)
+        for t, b in enumerate(boxes):
+            eng.step(_frame(t + 1, b))
+        runs.append(eng.beliefs["box"].mean.copy())
+    np.testing.assert_array_equal(runs[0], runs[1])
+
+
+def test_bad_settings_are_value_errors():
+    with pytest.raises(ValueError, match="box_state"):
+        sort.build_graph(sort.Params(box_state="xywh"))
+    with pytest.raises(ValueError, match="min_hits"):
+        sort.build_graph(sort.Params(min_hits=0))
+    with pytest.raises(ValueError, match="process_noise needs 8"):
+        sort.build_graph(sort.Params(process_noise=(0.1,) * 7))
+    with pytest.raises(ValueError, match="measurement_noise"):
+        sort.build_graph(sort.Params(measurement_noise=(0.1, 0.1, np.nan, 0.1)))
+    with pytest.raises(ValueError, match="positive definite"):
+        AssignedDetectionLikelihood("box", H=np.eye(4, 8), R=-np.eye(4))
+    # association links a plate's replicas: a graph without a plate is refused
+    g = FactorGraph([Variable("box", 8, labels=("x1", "y1", "x2", "y2", "a", "b", "c", "d"))],
+                    [GaussianPrior("box", mean=np.zeros(8), cov=1.0),
+                     DetectionAssociation("box")])
+    with pytest.raises(ValueError, match="declares no plate"):
+        Engine(g, 0)
+
+
+@pytest.mark.parametrize("box_state", ["xyxy", "xysr"])
+def test_camera_motion_moves_the_kalman_states(box_state):
+    """With the camera's image motion in the frame, a predict first moves each replica's
+    mean and covariance through it (``T m + c``, ``T P Tᵀ``): a person standing still
+    while the camera pans and zooms keeps zero velocity, where the filter without it
+    learns the pan as motion."""
+    A = np.array([[1.02, 0.0, -8.0], [0.0, 1.02, 3.0]])  # zoom 2 % and pan, per frame
+    box = np.array([300.0, 200.0, 40.0, 100.0])  # centre box in frame 1
+    vel = {}
+    for cmc in (True, False):
+        eng = Engine(sort.build_graph(sort.Params(box_state=box_state)), 0)
+        b = box.copy()
+        for t in range(1, 12):
+            ctx = _frame(t, np.r_[b[:2] - b[2:] / 2, b[2:]])
+            if cmc and t > 1:
+                ctx = FrameContext(t, detections=ctx.detections, camera_motion=A)
+            eng.step(ctx)
+            b = np.r_[A[:, :2] @ b[:2] + A[:, 2], b[2:] * 1.02]
+        assert eng.num_targets == 1
+        vel[cmc] = eng.beliefs["box"].mean[0, 4:]
+    assert np.abs(vel[True]).max() < 1e-6
+    assert np.abs(vel[False]).max() > 1.0
