@@ -83,6 +83,15 @@ def run_graph(graph, det, num_frames: int, seed: int = 0, trace: bool = False):
     return table, secs, peak
 
 
+#: the variants of the cores: command-line flags and Params fields
+VARIANTS = (
+    ("--vb-noise", {"vb_noise": True}),
+    ("--box-state xysr", {"box_state": "xysr"}),
+    ("--noise scale", {"noise": "scale"}),
+    ("--noise scale --vb-noise", {"noise": "scale", "vb_noise": True}),
+)
+
+
 def graphs(name: str, fps: float, det, variants: bool) -> list[tuple[str, object]]:
     """The toolkit's rows for a sequence: the cores and (``variants``) their variants."""
     from pgm.models import bytetrack, sort
@@ -93,9 +102,8 @@ def graphs(name: str, fps: float, det, variants: bool) -> list[tuple[str, object
         p = replace(module.Params(), fps=fps, score_map=smap)
         out.append((label, module.build_graph(p)))
         if variants:
-            out.append((f"{label} --vb-noise", module.build_graph(replace(p, vb_noise=True))))
-            out.append((f"{label} --box-state xysr",
-                        module.build_graph(replace(p, box_state="xysr"))))
+            for flags, kw in VARIANTS:
+                out.append((f"{label} {flags}", module.build_graph(replace(p, **kw))))
     return out
 
 

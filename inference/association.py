@@ -128,18 +128,19 @@ def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
 def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``(K, M)`` IoU of centre boxes ``a`` ``(K, 4)`` and ``b`` ``(M, 4)`` (0 where a box is
     not finite or has no area)."""
-    aw, ah, bw, bh = a[:, 2], a[:, 3], b[:, 2], b[:, 3]
-    w = (np.minimum.outer(a[:, 0] + aw / 2, b[:, 0] + bw / 2)
-         - np.maximum.outer(a[:, 0] - aw / 2, b[:, 0] - bw / 2))
-    h = (np.minimum.outer(a[:, 1] + ah / 2, b[:, 1] + bh / 2)
-         - np.maximum.outer(a[:, 1] - ah / 2, b[:, 1] - bh / 2))
-    inter = np.maximum(w, 0.0) * np.maximum(h, 0.0)
-    union = np.add.outer(aw * ah, bw * bh) - inter
+    ha, hb = a[:, 2:] * 0.5, b[:, 2:] * 0.5
+    wh = (np.minimum((a[:, :2] + ha)[:, None], (b[:, :2] + hb)[None])
+          - np.maximum((a[:, :2] - ha)[:, None], (b[:, :2] - hb)[None]))
+    np.maximum(wh, 0.0, out=wh)
+    inter = wh[..., 0] * wh[..., 1]
+    union = (a[:, 2] * a[:, 3])[:, None] + (b[:, 2] * b[:, 3])[None] - inter
+    ok = union > 0  # False for NaN too
+    if ok.all():
+        out = np.minimum(inter / union, 1.0)
+        if np.isfinite(out).all():
+            return out
     with np.errstate(invalid="ignore", divide="ignore"):
-        out = inter / union
-    ok = union > 0
-    if ok.all() and np.isfinite(out).all():
-        return np.minimum(out, 1.0)
+        out = inter / np.where(ok, union, 1.0)
     return np.where(ok & np.isfinite(out), np.clip(out, 0.0, 1.0), 0.0)
 
 
@@ -195,7 +196,8 @@ def predict_gaussians(engine: Engine, factor, frame: FrameContext) -> None:
         m = m.copy()
         m[m[:, s] + m[:, vs] <= 0, vs] = 0.0
     F = factor.F
-    engine.beliefs[var] = BatchedGaussian(m @ F.T, F @ P @ F.T + factor.Q)
+    Q = factor.noise_cov(m) if hasattr(factor, "noise_cov") else factor.Q  # scale-aware
+    engine.beliefs[var] = BatchedGaussian(m @ F.T, F @ P @ F.T + Q)
 
 
 @DEFAULT_RULES.register(DetectionAssociation, BatchedGaussian)
@@ -230,7 +232,8 @@ def update_assigned(engine: Engine, factor, frame: FrameContext) -> None:
     rows, z = got
     var = factor.variables[0]
     b: BatchedGaussian = engine.beliefs[var]
-    m, P = kalman_update_batch(b.mean[rows], b.cov[rows], factor.H, factor.R, z,
+    m0 = b.mean[rows]
+    m, P = kalman_update_batch(m0, b.cov[rows], factor.H, factor.noise_cov(m0), z,
                                factor.selects)
     mean, cov = b.mean.copy(), b.cov.copy()
     mean[rows], cov[rows] = m, P
@@ -267,16 +270,20 @@ def vb_assigned(engine: Engine, factor, frame: FrameContext) -> dict[str, Any] |
     alpha0 = np.stack([q.row(int(k)).alpha for k in rows])
     beta0 = np.stack([q.row(int(k)).beta for k in rows])
     m0, P0 = b.mean[rows], b.cov[rows]
+    # scale-aware noise: the noise belief is of the variance in units of the box's size
+    # along each component's axis (R = diag(r · size²)); residuals are measured so too
+    sizes = liks[0].scales(m0)
+    size2 = 1.0 if sizes is None else sizes ** 2
     alpha = alpha0 + 0.5
     beta = beta0.copy()
     r_hat = beta / alpha
     it = 0
     for it in range(1, factor.max_iter + 1):  # noqa: B007 - the count is reported
-        R = np.einsum("bk,kl->bkl", r_hat, np.eye(H.shape[0]))
+        R = np.einsum("bk,kl->bkl", r_hat * size2, np.eye(H.shape[0]))
         m, P = kalman_update_batch(m0, P0, H, R, z, liks[0].selects)
         resid = z - m @ H.T
         hph = np.einsum("kd,bde,ke->bk", H, P, H)
-        beta = beta0 + 0.5 * resid ** 2 + 0.5 * hph
+        beta = beta0 + 0.5 * resid ** 2 / size2 + 0.5 * hph / size2
         new_r = beta / alpha
         change = np.max(np.abs(new_r - r_hat) / r_hat)
         r_hat = new_r

@@ -287,6 +287,8 @@ def _realigned(values: dict, keep: np.ndarray, births: int) -> dict:
     """Per-replica diagnostics (arrays with a leading replica axis) after the replicas
     ``keep`` survived and ``births`` were added: survivors' rows, then empty rows (NaN,
     False or 0); replica indices (``degenerate``) renumbered; anything else as it was."""
+    if not values:
+        return {}
     new_index = np.cumsum(keep) - 1
     out = {}
     for key, a in values.items():

@@ -38,6 +38,8 @@ the plate and the conjugate :class:`~pgm.factors.multitarget.VBNoise` factor).
 
 References
 ----------
+.. [#aharon2022] N. Aharon, R. Orfaig and B.-Z. Bobrovsky, "BoT-SORT: robust associations
+   multi-pedestrian tracking", arXiv:2206.14651, 2022.
 .. [#bewley2016] A. Bewley, Z. Ge, L. Ott, F. Ramos and B. Upcroft, "Simple online and
    realtime tracking", Proc. IEEE ICIP, 2016. doi:10.1109/ICIP.2016.7533003
 """
@@ -55,11 +57,11 @@ from pgm.core.graph import FactorGraph
 from pgm.core.numerics import check_finite_param
 from pgm.core.plate import Lifecycle, Plate
 from pgm.core.variable import Variable
-from pgm.factors import LinearGaussianTransition
 from pgm.factors.association import (
     SCORE_MAPS,
     AssignedDetectionLikelihood,
     BoxPrior,
+    BoxTransition,
     DetectionAssociation,
     constant_velocity,
 )
@@ -73,6 +75,8 @@ __all__ = ["CONFIG", "Params", "build_graph", "lost_frames", "score_map_for", "v
 
 #: the box codes a SORT state may use
 BOX_STATES = ("xyxy", "xysr")
+#: the noise models: fixed pixels (the trackers package) or in units of the box's size
+NOISES = ("fixed", "scale")
 
 
 @dataclass(frozen=True)
@@ -86,6 +90,16 @@ class Params:
         aspect (the SORT paper).
     process_noise, measurement_noise, initial_cov : sequence of float, optional
         Diagonals of ``Q``, ``R`` and ``P0`` (default: the code's, module docstring).
+    noise : {"fixed", "scale"}
+        ``"fixed"``: the diagonals above, in pixels; ``"scale"``: scale-aware noise, each
+        std a fraction of the box's width or height along its axis (BoT-SORT's Kalman
+        filter [#aharon2022]): ``pos_std`` for the box's coordinates, ``vel_std`` for their
+        rates, ``meas_std`` for the detection, ``P0`` = (2 ``pos_std``, 10 ``vel_std``) —
+        one setting for people near and far, at 480 or 1080 lines (corner or centre
+        states only).
+    pos_std, vel_std, meas_std : float
+        The scale-aware stds (1/20, 1/160, 1/20: BoT-SORT's published values, not tuned
+        here).
     fps : float
         The video's frame rate (the lost-track buffer is in frames at 30 frames/s).
     lost_buffer : int
@@ -111,6 +125,10 @@ class Params:
     process_noise: tuple[float, ...] | None = None
     measurement_noise: tuple[float, ...] | None = None
     initial_cov: tuple[float, ...] | None = None
+    noise: str = "fixed"
+    pos_std: float = 1.0 / 20.0
+    vel_std: float = 1.0 / 160.0
+    meas_std: float = 1.0 / 20.0
     fps: float = 30.0
     lost_buffer: int = 30
     min_hits: int = 3
@@ -163,6 +181,12 @@ def score_map_for(scores: np.ndarray) -> str:
 def _check(p: Params) -> None:
     if p.box_state not in BOX_STATES:
         raise ValueError(f"box_state must be one of {BOX_STATES}, got {p.box_state!r}")
+    if p.noise not in NOISES:
+        raise ValueError(f"noise must be one of {NOISES}, got {p.noise!r}")
+    if p.noise == "scale" and p.box_state == "xysr":
+        raise ValueError("scale-aware noise needs the corner state (box_state='xyxy')")
+    for name in ("pos_std", "vel_std", "meas_std"):
+        check_finite_param(name, getattr(p, name), positive=True)
     if p.score_map not in SCORE_MAPS:
         raise ValueError(f"score_map must be one of {SCORE_MAPS}, got {p.score_map!r}")
     check_finite_param("fps", p.fps, positive=True)
@@ -186,19 +210,25 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
     reference = {"xyxy": [80.0, 50.0, 120.0, 150.0], "xysr": [100.0, 100.0, 4000.0, 0.4]}
     mean = np.zeros(len(labels))
     mean[:4] = reference[p.box_state]  # a 40 x 100 box at (100, 100); births re-centre it
+    scaled = p.noise == "scale"
+    rel_q = [p.pos_std] * 4 + [p.vel_std] * 4 if scaled else None
+    rel_p0 = [2 * p.pos_std] * 4 + [10 * p.vel_std] * 4 if scaled else None
+    rel_r = [p.meas_std] * 4 if scaled else None
     factors: list[Any] = [
-        BoxPrior("box", mean=mean, cov=np.diag(p0)),
-        LinearGaussianTransition("box", F=F, Q=np.diag(q)),
+        BoxPrior("box", mean=mean, cov=np.diag(p0), relative_std=rel_p0),
+        BoxTransition("box", F=F, Q=np.diag(q), relative_std=rel_q),
         DetectionAssociation("box", rounds=list(p.rounds), score_map=p.score_map,
                              name="association"),
-        AssignedDetectionLikelihood("box", H=H, R=np.diag(r), name="detection"),
+        AssignedDetectionLikelihood("box", H=H, R=np.diag(r), relative_std=rel_r,
+                                    name="detection"),
     ]
     beliefs = {"box": "gaussian"}
     plate_vars = ["box"]
-    if p.vb_noise:
+    if p.vb_noise:  # the variance of each measured component (relative with scale noise)
         variables.append(Variable("noise", 4, role="noise",
                                   labels=tuple(f"var_{c}" for c in labels[:4])))
-        factors += [InverseGammaPrior("noise", sigma=np.sqrt(r), alpha=p.vb_alpha0),
+        sigma = np.array(rel_r) if scaled else np.sqrt(r)
+        factors += [InverseGammaPrior("noise", sigma=sigma, alpha=p.vb_alpha0),
                     NoiseForgetting("noise", rho=p.vb_rho, alpha_min=2.0),
                     VBNoise("noise", "box", likelihood="detection", name="vb")]
         plate_vars.append("noise")
@@ -219,6 +249,9 @@ OPTIONS = (
     _config.Option("--box-state", "box_state", choices=BOX_STATES,
                    help="the state's box code: xyxy (corners, as the trackers package; "
                         "default) or xysr (centre, area, aspect: the SORT paper)"),
+    _config.Option("--noise", "noise", choices=NOISES,
+                   help="fixed (pixels, as the trackers package; default) or scale (each std a "
+                        "fraction of the box's size: BoT-SORT's scale-aware Kalman noise)"),
     _config.Option("--vb-noise", "vb_noise", flag_only=True,
                    help="seed 000's variational-Bayes measurement noise per target"),
 )

@@ -41,11 +41,11 @@ from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
 from pgm.core.variable import Variable
-from pgm.factors.gaussian import GaussianPrior, _as_cov
+from pgm.factors.gaussian import GaussianPrior, LinearGaussianTransition, _as_cov
 from pgm.factors.kinds import LikelihoodFactor
 
-__all__ = ["BoxPrior", "DetectionAssociation", "AssignedDetectionLikelihood", "SCORE_MAPS",
-           "map_scores", "constant_velocity"]
+__all__ = ["BoxPrior", "BoxTransition", "DetectionAssociation", "AssignedDetectionLikelihood",
+           "SCORE_MAPS", "map_scores", "constant_velocity", "axis_sizes", "X_LABELS"]
 
 #: how detection scores are brought to [0, 1] before the rounds' thresholds: ``"none"``
 #: (as given), ``"logistic"`` (``1 / (1 + e^{-s})``: one monotone map for a detector whose
@@ -71,6 +71,27 @@ def _box_labels(factor: Factor, variables: dict[str, Variable], var: str) -> str
     return coding
 
 
+#: the box labels read along the image's x axis (their noise scales with the box's width);
+#: the others of a box state along y (height)
+X_LABELS = frozenset({"x1", "x2", "cx", "w", "vx1", "vx2", "vcx", "vw"})
+
+
+def axis_sizes(labels, coding: str, x: np.ndarray) -> np.ndarray:
+    """``(..., d)``: for each state component of ``x`` ``(..., d)`` the size of its box
+    along the component's axis (width for ``x1, x2, cx, w`` and their rates, height for
+    the rest): what scale-aware noise is in units of."""
+    if coding == "xysr":
+        raise ValueError("scale-aware noise needs a box state of corners (xyxy) or centre and "
+                         "size (cxcywh), not area and aspect (xysr)")
+    cols = box_code_columns(tuple(labels))[1]
+    from pgm.core.boxes import decode_boxes
+
+    box = decode_boxes(x[..., cols], coding)
+    w, h = np.abs(box[..., 2:3]), np.abs(box[..., 3:4])
+    is_x = np.array([lab in X_LABELS for lab in labels])
+    return np.where(is_x, w, h)
+
+
 def constant_velocity(coding: str) -> tuple[list[str], np.ndarray, np.ndarray]:
     """Labels, transition ``F`` and measurement ``H`` of a constant-velocity box state in
     ``coding``: the four box columns and a rate for each (``xysr``: none for the aspect
@@ -88,12 +109,36 @@ def constant_velocity(coding: str) -> tuple[list[str], np.ndarray, np.ndarray]:
 
 class BoxPrior(GaussianPrior):
     """A Gaussian prior on a box state (any :data:`~pgm.core.boxes.BOX_CODINGS`), re-centred
-    on each new target's detection box with its rates set to zero; the covariance is kept
-    (``cov``: the initial uncertainty ``P0``)."""
+    on each new target's detection box with its rates set to zero. Its covariance is
+    ``cov`` (the initial uncertainty ``P0``) or, with ``relative_std`` (one std per state
+    component, in units of the box's width or height along the component's axis,
+    :func:`axis_sizes`), ``diag((relative_std · size)²)`` of each new target's box (the
+    scale-aware ``P0`` of BoT-SORT).
+    """
+
+    def __init__(self, variable: str, *, mean, cov=0.0, relative_std=None,
+                 name: str | None = None):
+        super().__init__(variable, mean=mean, cov=cov, name=name)
+        self.relative_std = None
+        if relative_std is not None:
+            r = np.asarray(relative_std, dtype=float).reshape(-1)
+            check_finite_param(f"{self.name}.relative_std", r, positive=True)
+            if r.size != self.mean_.size:
+                raise ValueError(f"factor {self.name!r}: relative_std needs {self.mean_.size} "
+                                 f"values, got {r.size}")
+            self.relative_std = r
+
+    def params(self) -> dict[str, Any]:
+        p = super().params()
+        if self.relative_std is not None:
+            p["relative_std"] = self.relative_std
+        return p
 
     def check(self, variables: dict[str, Variable]) -> None:
         super().check(variables)
-        _box_labels(self, variables, self.variables[0])
+        coding = _box_labels(self, variables, self.variables[0])
+        if self.relative_std is not None:
+            axis_sizes(variables[self.variables[0]].labels, coding, self.mean_)
 
     def born_at(self, values: dict[str, float], labels) -> BoxPrior:
         coding, cols = box_code_columns(tuple(labels or ()))
@@ -106,7 +151,10 @@ class BoxPrior(GaussianPrior):
                              f"got {sorted(values)} for labels {labels}")
         mean = np.zeros(self.mean_.shape)
         mean[cols] = encode_boxes(box, coding)
-        return self._with_mean(mean)
+        new = self._with_mean(mean)
+        if self.relative_std is not None:
+            new.cov = np.diag((self.relative_std * axis_sizes(labels, coding, mean)) ** 2)
+        return new
 
 
 class DetectionAssociation(Factor):
@@ -179,9 +227,15 @@ class AssignedDetectionLikelihood(LikelihoodFactor):
     """``z = H x + N(0, R)`` where ``z`` is the coded box (the state's coding) of the
     detection the ``assign`` stage gave this replica; a replica without one has no
     evidence in the frame. Exact Kalman rules (and the VB adaptive-noise rule) in
-    :mod:`pgm.inference.association`."""
+    :mod:`pgm.inference.association`.
 
-    def __init__(self, variable: str, *, H, R, name: str | None = None):
+    ``relative_std`` (one per measured component): ``R = diag((relative_std · size)²)``
+    with ``size`` the predicted box's width or height along each component's axis
+    (:func:`axis_sizes`) — scale-aware measurement noise, as BoT-SORT's; ``R`` is then
+    unused.
+    """
+
+    def __init__(self, variable: str, *, H, R, relative_std=None, name: str | None = None):
         super().__init__(variable, name=name)
         self.H = np.atleast_2d(np.asarray(H, dtype=float))
         check_finite_param(f"{self.name}.H", self.H)
@@ -191,17 +245,97 @@ class AssignedDetectionLikelihood(LikelihoodFactor):
         k, d = self.H.shape
         #: whether ``H = [I 0]`` reads the box columns (the Kalman rule then slices)
         self.selects = d >= k and bool(np.array_equal(self.H, np.eye(k, d)))
+        self.relative_std = None
+        if relative_std is not None:
+            r = np.asarray(relative_std, dtype=float).reshape(-1)
+            check_finite_param(f"{self.name}.relative_std", r, positive=True)
+            if r.size != k or not self.selects:
+                raise ValueError(f"factor {self.name!r}: relative_std needs {k} values and "
+                                 f"H = [I 0]")
+            self.relative_std = r
+        self._labels: tuple | None = None
+        self._coding: str | None = None
 
     def params(self) -> dict[str, Any]:
-        return {"H": self.H, "R": self.R}
+        p: dict[str, Any] = {"H": self.H, "R": self.R}
+        if self.relative_std is not None:
+            p["relative_std"] = self.relative_std
+        return p
 
     def check(self, variables: dict[str, Variable]) -> None:
         self._check_dim(variables, self.variables[0], self.H.shape[1], "H's column count")
         if self.H.shape[0] != 4:
             raise ValueError(f"factor {self.name!r}: H must map the state to a box (4 rows), "
                              f"got {self.H.shape}")
-        _box_labels(self, variables, self.variables[0])
+        self._coding = _box_labels(self, variables, self.variables[0])
+        self._labels = tuple(variables[self.variables[0]].labels)
+        if self.relative_std is not None:
+            axis_sizes(self._labels, self._coding, np.ones(self.H.shape[1]))
+
+    def scales(self, mean: np.ndarray) -> np.ndarray | None:
+        """``(B, k)`` the size each measured component's noise is in units of, at the
+        states ``mean`` ``(B, d)`` (None: fixed noise)."""
+        if self.relative_std is None:
+            return None
+        return axis_sizes(self._labels, self._coding, mean)[:, :self.H.shape[0]]
+
+    def noise_cov(self, mean: np.ndarray) -> np.ndarray:
+        """``R`` for each state of ``mean`` ``(B, d)``: ``(k, k)`` fixed, or ``(B, k, k)``."""
+        sizes = self.scales(mean)
+        if sizes is None:
+            return self.R
+        k = self.H.shape[0]
+        return np.einsum("bk,kl->bkl", (self.relative_std * sizes) ** 2, np.eye(k))
 
     def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         raise ValueError(f"factor {self.name!r}: the assigned detection exists only in a plate "
                          f"with a DetectionAssociation (exact Kalman replicas)")
+
+
+class BoxTransition(LinearGaussianTransition):
+    """Constant-velocity box dynamics ``x_t = F x_{t-1} + N(0, Q)`` whose noise is fixed
+    (``Q``) or, with ``relative_std`` (one std per state component), scale-aware:
+    ``Q = diag((relative_std · size)²)`` with ``size`` the box's width or height along
+    each component's axis at ``x_{t-1}`` (:func:`axis_sizes`; BoT-SORT's process noise).
+    """
+
+    def __init__(self, variable: str, *, F, Q, relative_std=None, name: str | None = None):
+        super().__init__(variable, F=F, Q=Q, name=name)
+        self.relative_std = None
+        if relative_std is not None:
+            r = np.asarray(relative_std, dtype=float).reshape(-1)
+            check_finite_param(f"{self.name}.relative_std", r, positive=True)
+            if r.size != self.F.shape[0]:
+                raise ValueError(f"factor {self.name!r}: relative_std needs {self.F.shape[0]} "
+                                 f"values, got {r.size}")
+            self.relative_std = r
+        self._labels: tuple | None = None
+        self._coding: str | None = None
+
+    def params(self) -> dict[str, Any]:
+        p = super().params()
+        if self.relative_std is not None:
+            p["relative_std"] = self.relative_std
+        return p
+
+    def check(self, variables: dict[str, Variable]) -> None:
+        super().check(variables)
+        self._coding = _box_labels(self, variables, self.variables[0])
+        self._labels = tuple(variables[self.variables[0]].labels)
+        if self.relative_std is not None:
+            axis_sizes(self._labels, self._coding, np.ones(self.F.shape[0]))
+
+    def noise_cov(self, mean: np.ndarray) -> np.ndarray:
+        """``Q`` at the states ``mean`` ``(B, d)``: ``(d, d)`` fixed, or ``(B, d, d)``."""
+        if self.relative_std is None:
+            return self.Q
+        sizes = axis_sizes(self._labels, self._coding, mean)
+        return np.einsum("bk,kl->bkl", (self.relative_std * sizes) ** 2,
+                         np.eye(self.F.shape[0]))
+
+    def sample(self, rng: np.random.Generator, *past: np.ndarray) -> np.ndarray:
+        if self.relative_std is None:
+            return super().sample(rng, *past)
+        x = past[0]
+        sd = self.relative_std * axis_sizes(self._labels, self._coding, x)
+        return x @ self.F.T + sd * rng.standard_normal(x.shape)

@@ -76,7 +76,16 @@ class GaussianPrior(PriorFactor):
         if self.cov.shape != (self.mean_.size, self.mean_.size):
             raise ValueError(f"factor {self.name!r}: cov shape {self.cov.shape} does not match "
                              f"mean of length {self.mean_.size}")
-        self._sqrt = _sqrt_psd(self.cov, f"factor {self.name!r}: cov")
+        self.__dict__["_sqrt_cache"] = (self.cov, _sqrt_psd(self.cov, f"factor {self.name!r}: cov"))
+
+    @property
+    def _sqrt(self) -> np.ndarray:
+        """``L`` with ``L Lᵀ = cov`` (recomputed only when ``cov`` was replaced, e.g. by a
+        plate birth's scale-aware covariance)."""
+        root = self.__dict__.get("_sqrt_cache")
+        if root is None or root[0] is not self.cov:
+            root = self.__dict__["_sqrt_cache"] = (self.cov, _sqrt_psd(self.cov, "cov"))
+        return root[1]
 
     def params(self) -> dict[str, Any]:
         return {"mean": self.mean_, "cov": self.cov}
