@@ -18,7 +18,17 @@ package), detections already loaded, no image decoding, one thread; the best of
 ``--repeats`` runs; the ratio is toolkit / package, both measured in this run. Peak
 memory of a toolkit run with ``tracemalloc``.
 
-``--variants``: also every variant of the cores (``--vb-noise``, ``--box-state xysr``).
+``--variants``: also every variant of the cores (``--vb-noise``, ``--box-state xysr``,
+``--noise scale``, and with camera-motion compensation: the camera's image motion
+estimated from the frames as ``pgm track`` does by default, ``--camera-motion auto``).
+
+``--misspecified``: seed 000's claim on the SORT core — ``sort --noise scale`` and
+``vb-sort`` with the detection noise (``meas_std``) set 0.1, 1 and 10 times its value.
+
+``--choose``: the default multi-target model chosen **leave one sequence out** among the
+variants (objective: mean of (MOTA + IDF1) / 2 over the other sequences), each held-out
+sequence scored with the variant chosen on the others, next to the best of the package's
+SORT, ByteTrack and OC-SORT on it.
 """
 
 from __future__ import annotations
@@ -49,9 +59,11 @@ def sequence(name: str):
     return det, gt, len(src), float(src.fps)
 
 
-def run_graph(graph, det, num_frames: int, seed: int = 0, trace: bool = False):
+def run_graph(graph, det, num_frames: int, seed: int = 0, trace: bool = False,
+              motion: dict | None = None):
     """Run ``graph`` on the detections of frames ``1..num_frames``; returns the tracks
-    table, the inference seconds and (``trace``) the peak traced memory in bytes."""
+    table, the inference seconds and (``trace``) the peak traced memory in bytes.
+    ``motion``: frame number → the camera's image motion (``camera_motions``)."""
     import tracemalloc
 
     from pgm.core.frame import FrameContext
@@ -60,7 +72,9 @@ def run_graph(graph, det, num_frames: int, seed: int = 0, trace: bool = False):
     from pgm.io.annotations import MotTable
 
     engine = Engine(graph, seed)
-    frames = [FrameContext(n, detections=det(n)) for n in range(1, num_frames + 1)]
+    motion = motion or {}
+    frames = [FrameContext(n, detections=det(n), camera_motion=motion.get(n))
+              for n in range(1, num_frames + 1)]
     rows_f, rows_i, rows_b, rows_c = [], [], [], []
     if trace:
         tracemalloc.start()
@@ -89,7 +103,101 @@ VARIANTS = (
     ("--box-state xysr", {"box_state": "xysr"}),
     ("--noise scale", {"noise": "scale"}),
     ("--noise scale --vb-noise", {"noise": "scale", "vb_noise": True}),
+    ("--report estimate", {"report": "estimate"}),
+    ("--box-state xysr --report estimate", {"box_state": "xysr", "report": "estimate"}),
+    ("--noise scale --report estimate", {"noise": "scale", "report": "estimate"}),
+    ("--noise scale --vb-noise --report estimate",
+     {"noise": "scale", "vb_noise": True, "report": "estimate"}),
 )
+
+
+def camera_motions(name: str, num_frames: int) -> dict[int, np.ndarray]:
+    """Frame number → the camera's image motion since the previous frame, estimated from
+    the frames as ``pgm track --camera-motion auto`` does (frames without significant
+    motion left out)."""
+    from pgm.io.video import open_source
+    from pgm.observation.camera_motion import CameraMotionEstimator
+
+    est = CameraMotionEstimator("auto")
+    out = {}
+    for k, (number, image) in enumerate(open_source(SHARED_DATA / name).frames()):
+        if k >= num_frames:
+            break
+        m = est(image)
+        if m is not None:
+            out[int(number)] = m
+    return out
+
+
+FACTORS = (0.1, 1.0, 10.0)
+
+
+def misspecified(seqs: list[str]) -> list[list]:
+    """``sort --noise scale`` and ``vb-sort`` with ``meas_std`` times each of
+    :data:`FACTORS`."""
+    from pgm.evaluation.mot import evaluate_mot
+    from pgm.models import sort, vb_sort
+
+    rows = []
+    for q in seqs:
+        det, gt, n, fps = sequence(q)
+        row = [q]
+        for f in FACTORS:
+            for module in (sort, vb_sort):
+                p = replace(module.Params(), fps=fps, noise="scale",
+                            score_map=sort.score_map_for(det.table.conf))
+                p = replace(p, meas_std=p.meas_std * f)
+                table, _, _ = run_graph(module.build_graph(p), det, n)
+                m = evaluate_mot(gt.until(n), table, num_frames=n)
+                row.append(f"{m['mota']:.3f} / {m['idf1']:.3f}")
+        rows.append(row)
+    return rows
+
+
+def choose(seqs: list[str], peer_best: dict[str, tuple[float, float]]) -> list[list]:
+    """The default chosen leave one sequence out among the cores × variants × camera-motion
+    compensation; one row per held-out sequence."""
+    from pgm.evaluation.mot import evaluate_mot
+    from pgm.models import bytetrack, sort
+
+    data = {q: sequence(q) for q in seqs}
+    motions = {q: camera_motions(q, data[q][2]) for q in seqs}
+    options = [("", {})] + list(VARIANTS)
+    score: dict[str, dict[str, dict]] = {}
+    for core, module in (("sort", sort), ("bytetrack", bytetrack)):
+        for flags, kw in options:
+            for cmc in (False, True):
+                label = " ".join(x for x in (core, flags, "(cmc)" if cmc else "") if x)
+                score[label] = {}
+                for q in seqs:
+                    det, gt, n, fps = data[q]
+                    p = replace(module.Params(), fps=fps, score_map=sort.score_map_for(
+                        det.table.conf), **kw)
+                    table, _, _ = run_graph(module.build_graph(p), det, n,
+                                            motion=motions[q] if cmc else None)
+                    score[label][q] = evaluate_mot(gt.until(n), table, num_frames=n)
+
+    def obj(label, qs):
+        return float(np.mean([(score[label][q]["mota"] + score[label][q]["idf1"]) / 2
+                              for q in qs]))
+
+    rows = []
+    for held in seqs + ["(all)"]:
+        train = [q for q in seqs if q != held]
+        best = max(score, key=lambda k: obj(k, train))
+        if held == "(all)":
+            rows.append(["(chosen on all four)", best, None, None, None, None,
+                         round(obj(best, seqs), 4)])
+            continue
+        m = score[best][held]
+        pm, pi = peer_best.get(held, (None, None))
+        rows.append([held, best, m["mota"], m["idf1"], pm, pi, round(obj(best, train), 4)])
+    ranking = sorted(score, key=lambda k: -obj(k, seqs))
+    print_table(["variant"] + [f"{q} MOTA/IDF1" for q in seqs] + ["mean obj"],
+                [[k] + [f"{score[k][q]['mota']:.3f}/{score[k][q]['idf1']:.3f}" for q in seqs]
+                 + [round(obj(k, seqs), 4)] for k in ranking],
+                title="every variant on every sequence (ranked by the mean objective)")
+    return rows
 
 
 def graphs(name: str, fps: float, det, variants: bool) -> list[tuple[str, object]]:
@@ -113,6 +221,10 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3, help="timing runs (best is kept)")
     ap.add_argument("--no-peers", action="store_true")
     ap.add_argument("--variants", action="store_true")
+    ap.add_argument("--misspecified", action="store_true",
+                    help="sort --noise scale against vb-sort with the noise 0.1/1/10 times")
+    ap.add_argument("--choose", action="store_true",
+                    help="choose the default among the variants leave one sequence out")
     args = ap.parse_args()
     single_thread()
     from _peers import SETUP_HINT, peer_python, run_mot_peers
@@ -159,6 +271,20 @@ def main() -> None:
         for name, m in peer.items():
             rows.append([q, f"trackers {name}", m["mota"], m["idf1"], m["hota"],
                          m["id_switches"], None, None])
+    if args.misspecified:
+        print_table(["sequence"] + [f"{f:g}x {m}" for f in FACTORS for m in ("sort", "vb-sort")],
+                    misspecified(seqs),
+                    title="MOTA / IDF1 with the detection noise mis-specified (sort --noise scale "
+                          "against vb-sort)")
+    if args.choose:
+        peer_best = {}
+        for q in seqs:
+            ms = [r for r in rows if r[0] == q and r[1].startswith("trackers ")]
+            if ms:
+                peer_best[q] = (max(r[2] for r in ms), max(r[3] for r in ms))
+        print_table(["held out", "chosen on the others", "MOTA", "IDF1", "best peer MOTA",
+                     "best peer IDF1", "train obj"], choose(seqs, peer_best),
+                    title="default multi-target variant, leave one sequence out")
     print_table(["sequence", "tracker", "MOTA", "IDF1", "HOTA", "IDSW", "ΔMOTA", "ΔIDF1"], rows,
                 title="SORT / ByteTrack as configs of the engine, against the trackers package "
                       "(Δ: toolkit − package, same detections and scorer)")

@@ -346,10 +346,10 @@ def step(engine: Engine, frame: FrameContext, record: StepRecord, lifecycle: boo
     boxes = (plate_boxes(engine.graph, reps.est) if reps.K and engine.plate_spec.boxed
              else np.zeros((reps.K, 4)))
     shown = reported(reps.tracks, lc.max_coast)
-    if lc.report == "detection":  # the matched detections' boxes, only where matched
+    if lc.report != "estimate":  # only where matched: the detection's box, or the estimate
         matched = np.array([t.matched_box is not None for t in reps.tracks], dtype=bool)
         shown &= matched
-        if matched.any():
+        if lc.report == "detection" and matched.any():
             boxes = boxes.copy()
             boxes[matched] = [t.matched_box for t in reps.tracks if t.matched_box is not None]
     info.update(

@@ -22,7 +22,7 @@ from .config import ModelConfig
 __all__ = ["BUILTIN", "model_names", "get_config", "get_model", "registry", "option_owners",
            "DEFAULT_SINGLE_OBJECT", "DEFAULT_MULTI_TARGET", "ENTRY_POINT_GROUP", "config",
            "ModelConfig", "bytetrack", "colour_pf", "gpdm", "linear_gaussian", "multi_pf",
-           "part_graph", "phd", "single_object", "sort", "vb_phd"]
+           "part_graph", "phd", "single_object", "sort", "vb_phd", "vb_sort"]
 
 #: the entry-point group where packages declare models
 ENTRY_POINT_GROUP = "pgm.models"
@@ -38,6 +38,7 @@ BUILTIN = {
     "phd": "pgm.models.phd:CONFIG",
     "single-object": "pgm.models.single_object:CONFIG",
     "sort": "pgm.models.sort:CONFIG",
+    "vb-sort": "pgm.models.vb_sort:CONFIG",
     "vb-phd": "pgm.models.vb_phd:CONFIG",
 }
 #: what ``pgm track`` runs on a single object when no ``--model`` is given

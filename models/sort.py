@@ -77,6 +77,8 @@ __all__ = ["CONFIG", "Params", "build_graph", "lost_frames", "score_map_for", "v
 BOX_STATES = ("xyxy", "xysr")
 #: the noise models: fixed pixels (the trackers package) or in units of the box's size
 NOISES = ("fixed", "scale")
+#: what a matched track reports: its detection's box, or the Kalman posterior mean
+REPORTS = ("detection", "estimate")
 
 
 @dataclass(frozen=True)
@@ -115,6 +117,9 @@ class Params:
         Score a detection needs to start a track (0.25).
     score_map : {"none", "logistic"}
         How scores reach [0, 1] before the thresholds (:func:`score_map_for`).
+    report : {"detection", "estimate"}
+        The box a matched track reports: its detection's (the ``trackers`` package) or the
+        Kalman posterior mean (the filtered box); either way only in frames with a match.
     vb_noise : bool
         Seed 000's adaptive measurement noise per target (``vb-sort``).
     vb_rho, vb_alpha0 : float
@@ -136,6 +141,7 @@ class Params:
     rounds: tuple[dict[str, float], ...] = field(default_factory=lambda: ({"iou": 0.3},))
     activation: float = 0.25
     score_map: str = "none"
+    report: str = "detection"
     vb_noise: bool = False
     vb_rho: float = 0.8
     vb_alpha0: float = 10.0
@@ -187,6 +193,8 @@ def _check(p: Params) -> None:
         raise ValueError("scale-aware noise needs the corner state (box_state='xyxy')")
     for name in ("pos_std", "vel_std", "meas_std"):
         check_finite_param(name, getattr(p, name), positive=True)
+    if p.report not in REPORTS:
+        raise ValueError(f"report must be one of {REPORTS}, got {p.report!r}")
     if p.score_map not in SCORE_MAPS:
         raise ValueError(f"score_map must be one of {SCORE_MAPS}, got {p.score_map!r}")
     check_finite_param("fps", p.fps, positive=True)
@@ -236,7 +244,7 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
                    max_lost=lost_frames(int(p.lost_buffer), p.fps), match_iou=0.0,
                    birth_iou=1.0, birth_min_score=float(p.activation), hit_log_odds=1.0,
                    miss_log_odds=1.0, confirm_on="streak" if p.consecutive else "hits",
-                   recover_hits=1, report="detection")
+                   recover_hits=1, report="matched" if p.report == "estimate" else "detection")
     engine = EngineSettings(num_particles=1, beliefs=beliefs)
     meta = {"output": "box", "engine": engine.to_dict(), "readout": "plate",
             "reference_box": [100.0, 100.0, 40.0, 100.0]}
@@ -252,6 +260,9 @@ OPTIONS = (
     _config.Option("--noise", "noise", choices=NOISES,
                    help="fixed (pixels, as the trackers package; default) or scale (each std a "
                         "fraction of the box's size: BoT-SORT's scale-aware Kalman noise)"),
+    _config.Option("--report", "report", choices=REPORTS,
+                   help="the box a matched track reports: detection (as the trackers package; "
+                        "default) or estimate (the Kalman posterior mean)"),
     _config.Option("--vb-noise", "vb_noise", flag_only=True,
                    help="seed 000's variational-Bayes measurement noise per target"),
 )

@@ -71,7 +71,8 @@ class Lifecycle:
     before a lost replica found again is reported (default ``confirm_hits``; 1 reports
     it at once, as SORT and ByteTrack do); ``report="detection"`` reports a replica only
     in the frames where a detection was assigned to it, with that detection's box (what
-    the ``trackers`` package writes), instead of its estimate; ``birth_iou = 1`` starts
+    the ``trackers`` package writes), instead of its estimate, and ``report="matched"``
+    with its estimate in those frames only; ``birth_iou = 1`` starts
     a replica on every free detection, however much it overlaps the others.
 
     Attributes
@@ -84,7 +85,7 @@ class Lifecycle:
     hit_log_odds, miss_log_odds : float
     confirm_on : {"hits", "streak"}
     recover_hits : int, optional
-    report : {"estimate", "detection"}
+    report : {"estimate", "detection", "matched"}
     """
 
     confirm_hits: int = 3
@@ -116,9 +117,9 @@ class Lifecycle:
                              f"{self.confirm_on!r}")
         if self.recover_hits is not None:
             _check_number("recover_hits", self.recover_hits, 1, integer=True)
-        if self.report not in ("estimate", "detection"):
-            raise ValueError(f"plate lifecycle: report must be 'estimate' or 'detection', got "
-                             f"{self.report!r}")
+        if self.report not in ("estimate", "detection", "matched"):
+            raise ValueError(f"plate lifecycle: report must be 'estimate', 'detection' or "
+                             f"'matched', got {self.report!r}")
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready settings (``-inf`` written as ``null``)."""
