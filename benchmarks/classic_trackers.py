@@ -1,10 +1,11 @@
-"""SORT and ByteTrack as model configs of the engine, against the ``trackers`` package.
+"""SORT, ByteTrack and OC-SORT as model configs of the engine, against the ``trackers`` package.
 
     python benchmarks/classic_trackers.py [--sequences A,B] [--repeats 3] [--no-peers]
                                           [--variants]
 
 On each shared MOT sequence (all frames, public detections, every row), the toolkit's
-``sort`` and ``bytetrack`` configs (:mod:`pgm.models.sort`, :mod:`pgm.models.bytetrack`:
+``sort``, ``bytetrack`` and ``ocsort`` configs (:mod:`pgm.models.sort`,
+:mod:`pgm.models.bytetrack`, :mod:`pgm.models.ocsort`:
 a plate of exact Kalman box states, data association as a factor) and the ``trackers``
 package's SORT, ByteTrack and OC-SORT (2.6.1, default settings, in their own virtualenv:
 ``bash benchmarks/peers/setup_env.sh``) are fed the same detections — scores mapped
@@ -18,9 +19,10 @@ package), detections already loaded, no image decoding, one thread; the best of
 ``--repeats`` runs; the ratio is toolkit / package, both measured in this run. Peak
 memory of a toolkit run with ``tracemalloc``.
 
-``--variants``: also every variant of the cores (``--vb-noise``, ``--box-state xysr``,
-``--noise scale``, and with camera-motion compensation: the camera's image motion
-estimated from the frames as ``pgm track`` does by default, ``--camera-motion auto``).
+``--variants``: also every variant of the cores (``--vb-noise``, ``--box-state``,
+``--noise scale``, ``--report estimate``; with ``--choose`` also with camera-motion
+compensation: the camera's image motion estimated from the frames as ``pgm track`` does by
+default, ``--camera-motion auto``).
 
 ``--misspecified``: seed 000's claim on the SORT core — ``sort --noise scale`` and
 ``vb-sort`` with the detection noise (``meas_std``) set 0.1, 1 and 10 times its value.
@@ -109,6 +111,26 @@ VARIANTS = (
     ("--noise scale --vb-noise --report estimate",
      {"noise": "scale", "vb_noise": True, "report": "estimate"}),
 )
+#: OC-SORT's state is the paper's (xysr) by default: its variants
+OCSORT_VARIANTS = (
+    ("--report estimate", {"report": "estimate"}),
+    ("--box-state xyxy", {"box_state": "xyxy"}),
+    ("--box-state xyxy --noise scale", {"box_state": "xyxy", "noise": "scale"}),
+    ("--box-state xyxy --noise scale --vb-noise",
+     {"box_state": "xyxy", "noise": "scale", "vb_noise": True}),
+    ("--box-state xyxy --noise scale --report estimate",
+     {"box_state": "xyxy", "noise": "scale", "report": "estimate"}),
+    ("--box-state xyxy --noise scale --vb-noise --report estimate",
+     {"box_state": "xyxy", "noise": "scale", "vb_noise": True, "report": "estimate"}),
+)
+
+
+def cores():
+    """The three cores and their variants: ``(label, module, variants)``."""
+    from pgm.models import bytetrack, ocsort, sort
+
+    return (("sort", sort, VARIANTS), ("bytetrack", bytetrack, VARIANTS),
+            ("ocsort", ocsort, OCSORT_VARIANTS))
 
 
 def camera_motions(name: str, num_frames: int) -> dict[int, np.ndarray]:
@@ -158,14 +180,13 @@ def choose(seqs: list[str], peer_best: dict[str, tuple[float, float]]) -> list[l
     """The default chosen leave one sequence out among the cores × variants × camera-motion
     compensation; one row per held-out sequence."""
     from pgm.evaluation.mot import evaluate_mot
-    from pgm.models import bytetrack, sort
+    from pgm.models import sort
 
     data = {q: sequence(q) for q in seqs}
     motions = {q: camera_motions(q, data[q][2]) for q in seqs}
-    options = [("", {})] + list(VARIANTS)
     score: dict[str, dict[str, dict]] = {}
-    for core, module in (("sort", sort), ("bytetrack", bytetrack)):
-        for flags, kw in options:
+    for core, module, variants in cores():
+        for flags, kw in [("", {})] + list(variants):
             for cmc in (False, True):
                 label = " ".join(x for x in (core, flags, "(cmc)" if cmc else "") if x)
                 score[label] = {}
@@ -202,15 +223,15 @@ def choose(seqs: list[str], peer_best: dict[str, tuple[float, float]]) -> list[l
 
 def graphs(name: str, fps: float, det, variants: bool) -> list[tuple[str, object]]:
     """The toolkit's rows for a sequence: the cores and (``variants``) their variants."""
-    from pgm.models import bytetrack, sort
+    from pgm.models import sort
 
     smap = sort.score_map_for(det.table.conf)
     out = []
-    for label, module in (("sort", sort), ("bytetrack", bytetrack)):
+    for label, module, options in cores():
         p = replace(module.Params(), fps=fps, score_map=smap)
         out.append((label, module.build_graph(p)))
         if variants:
-            for flags, kw in VARIANTS:
+            for flags, kw in options:
                 out.append((f"{label} {flags}", module.build_graph(replace(p, **kw))))
     return out
 

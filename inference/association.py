@@ -48,7 +48,8 @@ from pgm.factors.multitarget import VBNoise
 from .engine import Engine
 from .rules import DEFAULT_RULES
 
-__all__ = ["Assignment", "assign", "kalman_update_batch", "detection_boxes", "iou_matrix"]
+__all__ = ["Assignment", "assign", "kalman_update_batch", "detection_boxes", "iou_matrix",
+           "direction_consistency", "ObservationHistory"]
 
 
 @dataclass
@@ -95,34 +96,68 @@ def detection_boxes(frame: FrameContext) -> np.ndarray:
 
 
 def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
-           rounds: list[dict[str, float]]) -> Assignment:
+           rounds: list[dict[str, Any]], last: np.ndarray | None = None,
+           direction: np.ndarray | None = None, direction_weight: float = 0.0) -> Assignment:
     """Assign detections ``boxes`` (centre, ``(M, 4)``) with mapped ``scores`` to predicted
     boxes ``pred`` ``(K, 4)`` in ``rounds`` (:class:`~pgm.factors.association.
-    DetectionAssociation`): in each, the Hungarian assignment maximising IoU between
-    the replicas still free and the round's detections; pairs below the gate are no
-    match."""
+    DetectionAssociation`): in each, the Hungarian assignment between the replicas and
+    the detections still free maximising the IoU (with the replicas' ``last`` observed
+    boxes ``(K, 4)`` for a round ``"against": "last"``; plus ``direction_weight`` ×
+    ``direction`` ``(K, M)`` for a round with ``"direction"``); pairs below the round's
+    IoU gate are no match."""
     from scipy.optimize import linear_sum_assignment
 
     K, M = len(pred), len(boxes)  # noqa: N806
     iou = iou_matrix(pred, boxes) if K and M else np.zeros((K, M))
     free = np.ones(K, dtype=bool)
+    unused = np.ones(M, dtype=bool)
     rows: list[np.ndarray] = []
     cols: list[np.ndarray] = []
     made: list[np.ndarray] = []
     for i, r in enumerate(rounds):
         ks = np.flatnonzero(free)
-        js = np.flatnonzero((scores >= r["min_score"]) & (scores < r["max_score"]))
+        js = np.flatnonzero(unused & (scores >= r["min_score"]) & (scores < r["max_score"]))
         if not len(ks) or not len(js):
             continue
-        sub = iou if len(ks) == K and len(js) == M else iou[np.ix_(ks, js)]
-        a, b = linear_sum_assignment(sub, maximize=True)
-        ok = sub[a, b] >= r["iou"]
+        if r["against"] == "last":
+            if last is None:
+                raise ValueError("a round against the last observations needs them")
+            gate = iou_matrix(last[ks], boxes[js])
+        else:
+            gate = iou if len(ks) == K and len(js) == M else iou[np.ix_(ks, js)]
+        cost = gate
+        if r["direction"] and direction is not None and direction_weight:
+            cost = gate + direction_weight * direction[np.ix_(ks, js)]
+        a, b = linear_sum_assignment(cost, maximize=True)
+        ok = gate[a, b] >= r["iou"]
         rows.append(ks[a[ok]])
         cols.append(js[b[ok]])
         made.append(np.full(int(ok.sum()), i))
         free[ks[a[ok]]] = False
+        unused[js[b[ok]]] = False
     cat = lambda xs: np.concatenate(xs) if xs else np.zeros(0, dtype=int)  # noqa: E731
     return Assignment(cat(rows), cat(cols), boxes, scores, iou, cat(made))
+
+
+def _centres(b: np.ndarray) -> np.ndarray:
+    return b[..., :2]
+
+
+def direction_consistency(velocity: np.ndarray, known: np.ndarray, reference: np.ndarray,
+                          boxes: np.ndarray, scores: np.ndarray) -> np.ndarray:
+    """OC-SORT's momentum term ``(K, M)``: for replica ``k`` moving in the unit direction
+    ``velocity[k]`` (``(dy, dx)``; ``known[k]`` false: no direction yet, term 0) and
+    detection ``j``, ``(π/2 − |angle|)/π`` between that direction and the one from the
+    replica's ``reference`` box (its observation ``delta_t`` frames back) to the
+    detection, times the detection's score (in float32, as the ``trackers`` package)."""
+    d = _centres(boxes)[None, :, :] - _centres(reference)[:, None, :]
+    norm = np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2) + 1e-6
+    dx, dy = d[..., 0] / norm, d[..., 1] / norm
+    cos = np.clip(velocity[:, 1:2] * dx + velocity[:, 0:1] * dy, -1.0, 1.0)
+    cost = (np.pi / 2.0 - np.abs(np.arccos(cos))) / np.pi
+    cost = (known[:, None] * cost).astype(np.float32)
+    cost *= scores[None, :]
+    return cost
 
 
 def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -202,16 +237,71 @@ def predict_gaussians(engine: Engine, factor, frame: FrameContext) -> None:
 
 @DEFAULT_RULES.register(DetectionAssociation, BatchedGaussian)
 def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, Any]:
-    """The ``assign`` stage: ``engine.assignment`` for this frame."""
+    """The ``assign`` stage: ``engine.assignment`` for this frame (and, for momentum and
+    recovery rounds, each replica's observation history in ``engine.replicas.aux``)."""
     var = factor.variables[0]
     pred = state_boxes(engine.graph.variables[var].labels, engine.beliefs[var].mean)
-    a = assign(pred, detection_boxes(frame), factor.scores(frame), factor.rounds)
+    boxes, scores = detection_boxes(frame), factor.scores(frame)
+    if not factor.keeps_observations:
+        a = assign(pred, boxes, scores, factor.rounds)
+    else:
+        reps = engine.replicas
+        histories = [aux.setdefault("observations", ObservationHistory(factor.delta_t))
+                     for aux in reps.aux]
+        for h in histories:
+            h.age += 1
+        last = np.array([t.state for t in reps.tracks], dtype=float).reshape(-1, 4)
+        direction = None
+        if any(r["direction"] for r in factor.rounds) and len(pred) and len(boxes):
+            vel = np.array([h.velocity if h.velocity is not None else (0.0, 0.0)
+                            for h in histories], dtype=float)
+            known = np.array([h.velocity is not None for h in histories], dtype=float)
+            ref = np.array([h.previous(h.age) if h.previous(h.age) is not None else last[k]
+                            for k, h in enumerate(histories)], dtype=float)
+            direction = direction_consistency(vel, known, ref, boxes, scores)
+        a = assign(pred, boxes, scores, factor.rounds, last=last, direction=direction,
+                   direction_weight=factor.direction_weight)
+        for k, j in zip(a.rows, a.cols, strict=True):
+            histories[k].observe(boxes[j])
     engine.assignment = a
     # per replica, the index of its detection (NaN: none), a float so that replicas born
     # later in the frame read NaN too
     matched = np.full(len(pred), np.nan)
     matched[a.rows] = a.cols
     return {"matched": matched}
+
+
+class ObservationHistory:
+    """A replica's recent detections (centre boxes), by age in frames, and its unit
+    direction of motion ``(dy, dx)`` from the observation ``delta_t`` frames back to the
+    newest (OC-SORT's momentum; None until two observations)."""
+
+    def __init__(self, delta_t: int):
+        self.delta_t = int(delta_t)
+        self.age = 0
+        self.boxes: dict[int, np.ndarray] = {}
+        self.velocity: np.ndarray | None = None
+
+    def previous(self, age: int) -> np.ndarray | None:
+        """The observation ``delta_t`` frames before ``age`` (or the closest after it in
+        that window, else the newest; None without any)."""
+        if not self.boxes:
+            return None
+        for back in range(self.delta_t, 0, -1):
+            if age - back in self.boxes:
+                return self.boxes[age - back]
+        return self.boxes[max(self.boxes)]
+
+    def observe(self, box: np.ndarray) -> None:
+        """Record this frame's detection ``box`` and the direction of motion to it."""
+        prev = self.previous(self.age)
+        if prev is not None:
+            d = box[:2] - prev[:2]
+            norm = np.sqrt(d[0] ** 2 + d[1] ** 2) + 1e-6
+            self.velocity = np.array([d[1], d[0]]) / norm
+        self.boxes[self.age] = np.asarray(box, dtype=float).copy()
+        for key in [key for key in self.boxes if key < self.age - self.delta_t]:
+            del self.boxes[key]
 
 
 def _assigned(engine: Engine, factor) -> tuple[np.ndarray, np.ndarray] | None:
@@ -232,13 +322,72 @@ def update_assigned(engine: Engine, factor, frame: FrameContext) -> None:
     rows, z = got
     var = factor.variables[0]
     b: BatchedGaussian = engine.beliefs[var]
-    m0 = b.mean[rows]
-    m, P = kalman_update_batch(m0, b.cov[rows], factor.H, factor.noise_cov(m0), z,
-                               factor.selects)
+    m0, P0 = b.mean[rows], b.cov[rows]
+    info = None
+    if factor.reupdate:  # OC-SORT's re-update of replicas found again after a gap
+        m0, P0, info = _reupdate(engine, factor, rows, m0, P0)
+    m, P = kalman_update_batch(m0, P0, factor.H, factor.noise_cov(m0), z, factor.selects)
     mean, cov = b.mean.copy(), b.cov.copy()
     mean[rows], cov[rows] = m, P
     engine.beliefs[var] = BatchedGaussian(mean, cov)
-    return None
+    if factor.reupdate:  # each replica's last posterior, where a later gap starts from
+        for i, k in enumerate(rows):
+            engine.replicas.aux[int(k)]["posterior"] = (m[i].copy(), P[i].copy())
+    return info
+
+
+def _predict_one(factor, labels, m: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One replica's predict by the transition ``factor`` (the area clamp of
+    :func:`predict_gaussians` included)."""
+    m = m.copy()
+    if box_coding(labels) == "xysr" and "vs" in labels:
+        s, vs = labels.index("s"), labels.index("vs")
+        if m[s] + m[vs] <= 0:
+            m[vs] = 0.0
+    Q = factor.noise_cov(m[None])[0] if hasattr(factor, "noise_cov") and \
+        getattr(factor, "relative_std", None) is not None else factor.Q
+    return factor.F @ m, factor.F @ P @ factor.F.T + Q
+
+
+def _reupdate(engine: Engine, factor, rows: np.ndarray, m0: np.ndarray, P0: np.ndarray):
+    """Observation-centric re-update (OC-SORT): a replica matched after ``g − 1`` frames
+    without a detection restarts from its prediction one frame after its last detection
+    and is updated along ``g`` virtual detections interpolated between that detection and
+    this frame's (box centre and size, or corners), with a predict between them; the real
+    update follows."""
+    var = factor.variables[0]
+    labels = engine.graph.variables[var].labels
+    coding = box_coding(labels)
+    trans = engine.graph.factors_of(var, "transition")
+    a: Assignment = engine.assignment
+    det = dict(zip(a.rows.tolist(), a.cols.tolist(), strict=True))
+    m0, P0 = m0.copy(), P0.copy()
+    redone = []
+    for i, k in enumerate(rows):
+        k = int(k)
+        track = engine.replicas.tracks[k]
+        if track.misses < 1 or not trans:
+            continue
+        post = engine.replicas.aux[k].get("posterior")
+        if post is None:  # not updated since its birth: its prior is its last posterior
+            prior = engine.replicas.graphs[k].factors_of(var, "prior")[0]
+            post = (prior.mean(), prior.cov)
+        gap = track.misses + 1
+        m, P = _predict_one(trans[0], labels, *post)
+        last, new = np.asarray(track.state, dtype=float), a.boxes[det[k]]
+        if coding == "xyxy":
+            last, new = encode_boxes(last, "xyxy"), encode_boxes(new, "xyxy")
+        for step in range(gap):
+            box = last + (step + 1) * (new - last) / gap
+            z = box if coding == "xyxy" else encode_boxes(box, coding)
+            mm, PP = kalman_update_batch(m[None], P[None], factor.H,
+                                         factor.noise_cov(m[None]), z[None], factor.selects)
+            m, P = mm[0], PP[0]
+            if step < gap - 1:
+                m, P = _predict_one(trans[0], labels, m, P)
+        m0[i], P0[i] = m, P
+        redone.append(k)
+    return m0, P0, ({"reupdated": np.array(redone)} if redone else None)
 
 
 @DEFAULT_RULES.register(VBNoise, BatchedGaussian)

@@ -250,6 +250,9 @@ def add(engine: Engine, boxes: np.ndarray | None, frame: FrameContext,
     if m == 0:
         return []
     tracks = [Track(s) for s in states]
+    if not engine.plate.lifecycle.birth_counts:  # matches are counted after the birth
+        for t in tracks:
+            t.hits = t.streak = 0
     if confirmed:
         for t in tracks:
             t.track_id = spec.next_id
@@ -420,7 +423,14 @@ def associate(engine: Engine, frame: FrameContext, record: StepRecord) -> None:
     keep = update_tracks(reps.tracks, rows, confirm_hits=lc.confirm_hits,
                          max_coast=lc.max_coast, max_lost=lc.max_lost,
                          hit_log_odds=lc.hit_log_odds, miss_log_odds=lc.miss_log_odds,
-                         recover_hits=lc.recover_hits)
+                         recover_hits=lc.recover_hits, tentative_lost=lc.tentative_lost)
+    if engine.t <= lc.warmup_frames:  # the video's first frames: matched means confirmed
+        for k in rows:
+            t = reps.tracks[k]
+            t.recovering = False
+            if t.track_id is None:
+                t.track_id = spec.next_id
+                spec.next_id += 1
     spec.next_id = confirm_tracks([t for t, k in zip(reps.tracks, keep, strict=True) if k],
                                   lc.confirm_hits, spec.next_id, on=lc.confirm_on)
     used = set(cols.tolist())

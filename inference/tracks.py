@@ -107,12 +107,13 @@ def match(cost: np.ndarray, valid: np.ndarray, lost: np.ndarray | list[bool]
 
 def update_tracks(tracks: list[Track], matched: np.ndarray, *, confirm_hits: int,
                   max_coast: int, max_lost: int, hit_log_odds: float,
-                  miss_log_odds: float, recover_hits: int | None = None) -> np.ndarray:
+                  miss_log_odds: float, recover_hits: int | None = None,
+                  tentative_lost: int = 0) -> np.ndarray:
     """One frame of the life cycle for ``tracks`` given the ``matched`` track indices: a
     hit (a lost track re-attached is *recovering*: reported again after
     ``recover_hits`` hits in a row, default ``confirm_hits``) or a miss for each; returns
-    the mask of tracks kept (a tentative track ends at its first miss, a confirmed one
-    after ``max_lost``)."""
+    the mask of tracks kept (a tentative track ends after ``tentative_lost`` misses in a
+    row, by default at its first, a confirmed one after ``max_lost``)."""
     hit = set(np.asarray(matched, dtype=int).tolist())
     keep = np.ones(len(tracks), dtype=bool)
     recover = confirm_hits if recover_hits is None else recover_hits
@@ -123,7 +124,7 @@ def update_tracks(tracks: list[Track], matched: np.ndarray, *, confirm_hits: int
             t.hit(recover, hit_log_odds)
         else:
             t.miss(miss_log_odds)
-            keep[k] = t.track_id is not None and t.misses <= max_lost
+            keep[k] = t.misses <= (max_lost if t.track_id is not None else tentative_lost)
     return keep
 
 

@@ -21,7 +21,7 @@ from .config import ModelConfig
 
 __all__ = ["BUILTIN", "model_names", "get_config", "get_model", "registry", "option_owners",
            "DEFAULT_SINGLE_OBJECT", "DEFAULT_MULTI_TARGET", "ENTRY_POINT_GROUP", "config",
-           "ModelConfig", "bytetrack", "colour_pf", "gpdm", "linear_gaussian", "multi_pf",
+           "ModelConfig", "bytetrack", "colour_pf", "gpdm", "linear_gaussian", "multi_pf", "ocsort",
            "part_graph", "phd", "single_object", "sort", "vb_phd", "vb_sort"]
 
 #: the entry-point group where packages declare models
@@ -34,6 +34,7 @@ BUILTIN = {
     "gpdm": "pgm.models.gpdm:CONFIG",
     "linear-gaussian": "pgm.models.linear_gaussian:CONFIG",
     "multi-pf": "pgm.models.multi_pf:CONFIG",
+    "ocsort": "pgm.models.ocsort:CONFIG",
     "part-graph": "pgm.models.part_graph:CONFIG",
     "phd": "pgm.models.phd:CONFIG",
     "single-object": "pgm.models.single_object:CONFIG",
@@ -46,7 +47,7 @@ DEFAULT_SINGLE_OBJECT = "single-object"
 #: what ``pgm track`` runs on a video with detections when no ``--model`` is given
 DEFAULT_MULTI_TARGET = "vb-phd"
 
-_SUBMODULES = ("colour_pf", "gpdm", "linear_gaussian", "multi_pf", "part_graph", "phd",
+_SUBMODULES = ("colour_pf", "gpdm", "linear_gaussian", "multi_pf", "ocsort", "part_graph", "phd",
                "single_object", "vb_phd")
 
 

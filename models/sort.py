@@ -117,6 +117,22 @@ class Params:
         Score a detection needs to start a track (0.25).
     score_map : {"none", "logistic"}
         How scores reach [0, 1] before the thresholds (:func:`score_map_for`).
+    recover_hits : int
+        Matches in a row before a track found again after a miss is reported (1; OC-SORT:
+        ``min_hits``).
+    keep_tentative : bool
+        Keep a tentative track through misses as long as a confirmed one (OC-SORT)
+        instead of ending it at its first.
+    birth_counts : bool
+        Whether the detection that starts a track counts as its first match towards
+        ``min_hits`` (SORT, ByteTrack) or not (OC-SORT: three matches after it).
+    warmup : bool
+        In the video's first ``min_hits + 1`` frames a matched track is confirmed at once
+        (OC-SORT).
+    direction_weight, delta_t : float, int
+        The momentum term of rounds with ``"direction"`` (OC-SORT: 0.2, 3).
+    reupdate : bool
+        OC-SORT's observation-centric re-update of tracks found again.
     report : {"detection", "estimate"}
         The box a matched track reports: its detection's (the ``trackers`` package) or the
         Kalman posterior mean (the filtered box); either way only in frames with a match.
@@ -141,6 +157,13 @@ class Params:
     rounds: tuple[dict[str, float], ...] = field(default_factory=lambda: ({"iou": 0.3},))
     activation: float = 0.25
     score_map: str = "none"
+    recover_hits: int = 1
+    keep_tentative: bool = False
+    birth_counts: bool = True
+    warmup: bool = False
+    direction_weight: float = 0.2
+    delta_t: int = 3
+    reupdate: bool = False
     report: str = "detection"
     vb_noise: bool = False
     vb_rho: float = 0.8
@@ -226,9 +249,10 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
         BoxPrior("box", mean=mean, cov=np.diag(p0), relative_std=rel_p0),
         BoxTransition("box", F=F, Q=np.diag(q), relative_std=rel_q),
         DetectionAssociation("box", rounds=list(p.rounds), score_map=p.score_map,
+                             direction_weight=p.direction_weight, delta_t=int(p.delta_t),
                              name="association"),
         AssignedDetectionLikelihood("box", H=H, R=np.diag(r), relative_std=rel_r,
-                                    name="detection"),
+                                    reupdate=p.reupdate, name="detection"),
     ]
     beliefs = {"box": "gaussian"}
     plate_vars = ["box"]
@@ -240,11 +264,16 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
                     NoiseForgetting("noise", rho=p.vb_rho, alpha_min=2.0),
                     VBNoise("noise", "box", likelihood="detection", name="vb")]
         plate_vars.append("noise")
-    lc = Lifecycle(confirm_hits=int(p.min_hits), max_coast=0,
-                   max_lost=lost_frames(int(p.lost_buffer), p.fps), match_iou=0.0,
-                   birth_iou=1.0, birth_min_score=float(p.activation), hit_log_odds=1.0,
-                   miss_log_odds=1.0, confirm_on="streak" if p.consecutive else "hits",
-                   recover_hits=1, report="matched" if p.report == "estimate" else "detection")
+    max_lost = lost_frames(int(p.lost_buffer), p.fps)
+    lc = Lifecycle(confirm_hits=int(p.min_hits), max_coast=0, max_lost=max_lost,
+                   birth_counts=bool(p.birth_counts),
+                   match_iou=0.0, birth_iou=1.0, birth_min_score=float(p.activation),
+                   hit_log_odds=1.0, miss_log_odds=1.0,
+                   confirm_on="streak" if p.consecutive else "hits",
+                   recover_hits=int(p.recover_hits),
+                   report="matched" if p.report == "estimate" else "detection",
+                   tentative_lost=max_lost if p.keep_tentative else 0,
+                   warmup_frames=int(p.min_hits) if p.warmup else 0)
     engine = EngineSettings(num_particles=1, beliefs=beliefs)
     meta = {"output": "box", "engine": engine.to_dict(), "readout": "plate",
             "reference_box": [100.0, 100.0, 40.0, 100.0]}

@@ -54,24 +54,25 @@ MOT_SEQUENCES = ("PETS09-S2L1", "TUD-Campus", "TUD-Stadtmitte", "MOT16-11")
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", MOT_SEQUENCES)
-def test_sort_and_bytetrack_configs_match_the_trackers_package(shared_data, tmp_path, name):
-    """The engine's ``sort`` and ``bytetrack`` model configs (a plate of exact Kalman box
-    states, data association as a factor) reproduce the ``trackers`` package's SORT and
-    ByteTrack on every shared MOT sequence: MOTA and IDF1 within 0.005, same detections
-    (all rows, scores through the logistic where the sequence's leave [0, 1]), same
-    scorer."""
+def test_sort_bytetrack_and_ocsort_configs_match_the_trackers_package(shared_data, tmp_path,
+                                                                      name):
+    """The engine's ``sort``, ``bytetrack`` and ``ocsort`` model configs (a plate of exact
+    Kalman box states, data association as a factor) reproduce the ``trackers`` package's
+    SORT, ByteTrack and OC-SORT on every shared MOT sequence: MOTA and IDF1 within 0.005,
+    same detections (all rows, scores through the logistic where the sequence's leave
+    [0, 1]), same scorer."""
     from classic_trackers import run_graph, sequence
 
     from pgm.evaluation.mot import evaluate_mot
-    from pgm.models import bytetrack, sort
+    from pgm.models import bytetrack, ocsort, sort
 
     if not (shared_data / name).is_dir():
         pytest.skip(f"{name} is not in ../shared/data")
     det, gt, n, fps = sequence(name)
-    peers = run_mot_peers(shared_data / name, last_frame=n, trackers=("sort", "bytetrack"),
-                          workdir=tmp_path)
+    peers = run_mot_peers(shared_data / name, last_frame=n,
+                          trackers=("sort", "bytetrack", "ocsort"), workdir=tmp_path)
     smap = sort.score_map_for(det.table.conf)
-    for label, module in (("sort", sort), ("bytetrack", bytetrack)):
+    for label, module in (("sort", sort), ("bytetrack", bytetrack), ("ocsort", ocsort)):
         assert "error" not in peers[label], peers[label]
         ref = evaluate_mot(gt.until(n), peers[label]["table"].until(n), num_frames=n)
         graph = module.build_graph(module.Params(fps=fps, score_map=smap))

@@ -86,6 +86,15 @@ class Lifecycle:
     confirm_on : {"hits", "streak"}
     recover_hits : int, optional
     report : {"estimate", "detection", "matched"}
+    tentative_lost : int
+        Frames a tentative replica survives without a match (0: its first miss ends it;
+        OC-SORT keeps it as long as a confirmed one).
+    birth_counts : bool
+        Whether the detection a replica is born on counts as its first match towards
+        ``confirm_hits`` (False: OC-SORT's count, which starts after it).
+    warmup_frames : int
+        During the video's first ``warmup_frames + 1`` frames a matched replica is
+        confirmed (and reported) at once (SORT's and OC-SORT's start-up rule).
     """
 
     confirm_hits: int = 3
@@ -99,6 +108,9 @@ class Lifecycle:
     confirm_on: str = "hits"
     recover_hits: int | None = None
     report: str = "estimate"
+    tentative_lost: int = 0
+    warmup_frames: int = 0
+    birth_counts: bool = True
 
     def __post_init__(self) -> None:
         _check_number("confirm_hits", self.confirm_hits, 1, integer=True)
@@ -117,6 +129,11 @@ class Lifecycle:
                              f"{self.confirm_on!r}")
         if self.recover_hits is not None:
             _check_number("recover_hits", self.recover_hits, 1, integer=True)
+        _check_number("tentative_lost", self.tentative_lost, 0, integer=True)
+        _check_number("warmup_frames", self.warmup_frames, 0, integer=True)
+        if not isinstance(self.birth_counts, bool):
+            raise ValueError(f"plate lifecycle: birth_counts must be a bool, got "
+                             f"{self.birth_counts!r}")
         if self.report not in ("estimate", "detection", "matched"):
             raise ValueError(f"plate lifecycle: report must be 'estimate', 'detection' or "
                              f"'matched', got {self.report!r}")

@@ -163,40 +163,60 @@ class DetectionAssociation(Factor):
 
     Each round assigns the detections whose (mapped) score lies in
     ``[min_score, max_score)`` to the replicas no earlier round matched, by the
-    Hungarian algorithm maximising the IoU between each replica's predicted box and the
+    Hungarian algorithm maximising the IoU between each replica's box and the
     detection's (``scipy.optimize.linear_sum_assignment``); a pair below the round's
-    ``iou`` gate is no match.
+    ``iou`` gate is no match. A replica's box is its prediction, or with ``"against":
+    "last"`` the last detection it was given (OC-SORT's observation-centric recovery); a
+    round with ``"direction": true`` adds OC-SORT's momentum term to what is maximised:
+    ``direction_weight`` × score × the agreement, ``(π/2 − |angle|)/π``, between the
+    replica's direction of motion over its last ``delta_t`` observations and the
+    direction from its observation ``delta_t`` frames back to the detection (the IoU
+    alone is gated).
 
     Parameters
     ----------
     variable : str
         The plate's box state.
     rounds : list of dict
-        ``{"iou": gate, "min_score": ..., "max_score": ...}`` per round (scores default
-        to all). SORT: ``[{"iou": 0.3}]``; ByteTrack:
-        ``[{"iou": 0.1, "min_score": 0.6}, {"iou": 0.1, "max_score": 0.6}]``.
+        ``{"iou": gate, "min_score": ..., "max_score": ..., "against": "prediction" |
+        "last", "direction": bool}`` per round (scores default to all). SORT:
+        ``[{"iou": 0.3}]``; ByteTrack: ``[{"iou": 0.1, "min_score": 0.6}, {"iou": 0.1,
+        "max_score": 0.6}]``; OC-SORT: ``[{"iou": 0.3, "min_score": 0.6, "direction":
+        true}, {"iou": 0.3, "min_score": 0.6, "against": "last"}]``.
     score_map : {"none", "logistic"}
         Map applied to the detection scores first (:data:`SCORE_MAPS`); the mapped scores
         are also what the plate's ``birth_min_score`` compares.
+    direction_weight : float
+        Weight of the momentum term (OC-SORT: 0.2).
+    delta_t : int
+        Observations back for the direction of motion (OC-SORT: 3).
     """
 
     kind = "association"
+    _KEYS = frozenset({"iou", "min_score", "max_score", "against", "direction"})
 
-    def __init__(self, variable: str, *, rounds: list[dict[str, float]] | None = None,
-                 score_map: str = "none", name: str | None = None):
+    def __init__(self, variable: str, *, rounds: list[dict[str, Any]] | None = None,
+                 score_map: str = "none", direction_weight: float = 0.2, delta_t: int = 3,
+                 name: str | None = None):
         super().__init__(variable, name=name)
         if score_map not in SCORE_MAPS:
             raise ValueError(f"factor {self.name!r}: unknown score_map {score_map!r} (choose "
                              f"from {SCORE_MAPS})")
         self.score_map = score_map
+        self.direction_weight = float(check_finite_param(f"{self.name}.direction_weight",
+                                                         direction_weight, nonneg=True))
+        if isinstance(delta_t, bool) or int(delta_t) != delta_t or delta_t < 1:
+            raise ValueError(f"factor {self.name!r}: delta_t must be a positive integer, got "
+                             f"{delta_t!r}")
+        self.delta_t = int(delta_t)
         rounds = [{"iou": 0.3}] if rounds is None else rounds
         if not isinstance(rounds, (list, tuple)) or not rounds:
             raise ValueError(f"factor {self.name!r}: rounds must be a non-empty list of dicts")
-        self.rounds: list[dict[str, float]] = []
+        self.rounds: list[dict[str, Any]] = []
         for r in rounds:
-            if not isinstance(r, dict) or set(r) - {"iou", "min_score", "max_score"}:
+            if not isinstance(r, dict) or set(r) - self._KEYS:
                 raise ValueError(f"factor {self.name!r}: a round is a dict of iou, min_score, "
-                                 f"max_score; got {r!r}")
+                                 f"max_score, against, direction; got {r!r}")
             iou = float(r.get("iou", 0.3))
             lo = float(r.get("min_score", -math.inf) if r.get("min_score") is not None
                        else -math.inf)
@@ -205,14 +225,34 @@ class DetectionAssociation(Factor):
             if not 0.0 <= iou <= 1.0 or math.isnan(lo) or math.isnan(hi) or lo >= hi:
                 raise ValueError(f"factor {self.name!r}: round {r!r} needs an iou gate in "
                                  f"[0, 1] and min_score < max_score")
-            self.rounds.append({"iou": iou, "min_score": lo, "max_score": hi})
+            against = r.get("against", "prediction")
+            if against not in ("prediction", "last"):
+                raise ValueError(f"factor {self.name!r}: a round's 'against' is 'prediction' "
+                                 f"or 'last', got {against!r}")
+            self.rounds.append({"iou": iou, "min_score": lo, "max_score": hi,
+                                "against": against, "direction": bool(r.get("direction"))})
+
+    @property
+    def keeps_observations(self) -> bool:
+        """Whether a round needs each replica's past detections (momentum, recovery)."""
+        return any(r["direction"] or r["against"] == "last" for r in self.rounds)
 
     def params(self) -> dict[str, Any]:
         def finite(v):
-            return None if math.isinf(v) else v
+            return None if isinstance(v, float) and math.isinf(v) else v
 
-        return {"rounds": [{k: finite(v) for k, v in r.items()} for r in self.rounds],
-                "score_map": self.score_map}
+        rounds = []
+        for r in self.rounds:
+            d = {k: finite(v) for k, v in r.items() if k in ("iou", "min_score", "max_score")}
+            if r["against"] != "prediction":
+                d["against"] = r["against"]
+            if r["direction"]:
+                d["direction"] = True
+            rounds.append(d)
+        p: dict[str, Any] = {"rounds": rounds, "score_map": self.score_map}
+        if any(r["direction"] for r in self.rounds):
+            p.update(direction_weight=self.direction_weight, delta_t=self.delta_t)
+        return p
 
     def check(self, variables: dict[str, Variable]) -> None:
         _box_labels(self, variables, self.variables[0])
@@ -232,11 +272,16 @@ class AssignedDetectionLikelihood(LikelihoodFactor):
     ``relative_std`` (one per measured component): ``R = diag((relative_std · size)²)``
     with ``size`` the predicted box's width or height along each component's axis
     (:func:`axis_sizes`) — scale-aware measurement noise, as BoT-SORT's; ``R`` is then
-    unused.
+    unused. ``reupdate``: OC-SORT's observation-centric re-update — a replica matched
+    again after frames without a detection is first re-filtered along a straight line of
+    virtual detections from its last one to this one, so that the drift of the
+    prediction through the gap does not stay in its velocity.
     """
 
-    def __init__(self, variable: str, *, H, R, relative_std=None, name: str | None = None):
+    def __init__(self, variable: str, *, H, R, relative_std=None, reupdate: bool = False,
+                 name: str | None = None):
         super().__init__(variable, name=name)
+        self.reupdate = bool(reupdate)
         self.H = np.atleast_2d(np.asarray(H, dtype=float))
         check_finite_param(f"{self.name}.H", self.H)
         self.R = _as_cov(R, self.H.shape[0], f"{self.name}.R")
@@ -260,6 +305,8 @@ class AssignedDetectionLikelihood(LikelihoodFactor):
         p: dict[str, Any] = {"H": self.H, "R": self.R}
         if self.relative_std is not None:
             p["relative_std"] = self.relative_std
+        if self.reupdate:
+            p["reupdate"] = True
         return p
 
     def check(self, variables: dict[str, Variable]) -> None:
