@@ -62,10 +62,11 @@ def sequence(name: str):
 
 
 def run_graph(graph, det, num_frames: int, seed: int = 0, trace: bool = False,
-              motion: dict | None = None):
+              motion: dict | None = None, images=None):
     """Run ``graph`` on the detections of frames ``1..num_frames``; returns the tracks
     table, the inference seconds and (``trace``) the peak traced memory in bytes.
-    ``motion``: frame number → the camera's image motion (``camera_motions``)."""
+    ``motion``: frame number → the camera's image motion (``camera_motions``);
+    ``images``: a frame source whose images the frames carry (appearance)."""
     import tracemalloc
 
     from pgm.core.frame import FrameContext
@@ -75,8 +76,13 @@ def run_graph(graph, det, num_frames: int, seed: int = 0, trace: bool = False,
 
     engine = Engine(graph, seed)
     motion = motion or {}
-    frames = [FrameContext(n, detections=det(n), camera_motion=motion.get(n))
-              for n in range(1, num_frames + 1)]
+    if images is None:
+        frames = [FrameContext(n, detections=det(n), camera_motion=motion.get(n))
+                  for n in range(1, num_frames + 1)]
+    else:  # decoded as they are needed (a 1080p sequence would not fit in memory)
+        frames = (FrameContext(int(n), image, detections=det(int(n)),
+                               camera_motion=motion.get(int(n)))
+                  for k, (n, image) in enumerate(images.frames()) if k < num_frames)
     rows_f, rows_i, rows_b, rows_c = [], [], [], []
     if trace:
         tracemalloc.start()

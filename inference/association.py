@@ -97,14 +97,17 @@ def detection_boxes(frame: FrameContext) -> np.ndarray:
 
 def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
            rounds: list[dict[str, Any]], last: np.ndarray | None = None,
-           direction: np.ndarray | None = None, direction_weight: float = 0.0) -> Assignment:
+           direction: np.ndarray | None = None, direction_weight: float = 0.0,
+           appearance: np.ndarray | None = None, appearance_weight: float = 0.0
+           ) -> Assignment:
     """Assign detections ``boxes`` (centre, ``(M, 4)``) with mapped ``scores`` to predicted
     boxes ``pred`` ``(K, 4)`` in ``rounds`` (:class:`~pgm.factors.association.
     DetectionAssociation`): in each, the Hungarian assignment between the replicas and
     the detections still free maximising the IoU (with the replicas' ``last`` observed
     boxes ``(K, 4)`` for a round ``"against": "last"``; plus ``direction_weight`` ×
-    ``direction`` ``(K, M)`` for a round with ``"direction"``); pairs below the round's
-    IoU gate are no match."""
+    ``direction`` ``(K, M)`` for a round with ``"direction"``, and ``appearance_weight`` ×
+    ``appearance`` ``(K, M)`` for one with ``"appearance"``); pairs below the round's IoU
+    gate are no match."""
     from scipy.optimize import linear_sum_assignment
 
     K, M = len(pred), len(boxes)  # noqa: N806
@@ -128,6 +131,8 @@ def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
         cost = gate
         if r["direction"] and direction is not None and direction_weight:
             cost = gate + direction_weight * direction[np.ix_(ks, js)]
+        if r.get("appearance") and appearance is not None and appearance_weight:
+            cost = cost + appearance_weight * appearance[np.ix_(ks, js)]
         a, b = linear_sum_assignment(cost, maximize=True)
         ok = gate[a, b] >= r["iou"]
         rows.append(ks[a[ok]])
@@ -242,8 +247,11 @@ def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, 
     var = factor.variables[0]
     pred = state_boxes(engine.graph.variables[var].labels, engine.beliefs[var].mean)
     boxes, scores = detection_boxes(frame), factor.scores(frame)
+    looks = _appearance(engine, factor, frame, boxes)
+    extra = {} if looks is None else {"appearance": looks,
+                                      "appearance_weight": factor.appearance_weight}
     if not factor.keeps_observations:
-        a = assign(pred, boxes, scores, factor.rounds)
+        a = assign(pred, boxes, scores, factor.rounds, **extra)
     else:
         reps = engine.replicas
         histories = [aux.setdefault("observations", ObservationHistory(factor.delta_t))
@@ -260,15 +268,44 @@ def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, 
                             for k, h in enumerate(histories)], dtype=float)
             direction = direction_consistency(vel, known, ref, boxes, scores)
         a = assign(pred, boxes, scores, factor.rounds, last=last, direction=direction,
-                   direction_weight=factor.direction_weight)
+                   direction_weight=factor.direction_weight, **extra)
         for k, j in zip(a.rows, a.cols, strict=True):
             histories[k].observe(boxes[j])
+    if factor.appearance is not None and frame.image is not None:  # learn from the match
+        for k, j in zip(a.rows, a.cols, strict=True):
+            aux = engine.replicas.aux[int(k)]
+            models = aux.get("appearance")
+            if models is None:
+                models = aux["appearance"] = factor.appearance_model()
+            for m in models:
+                m.learn(frame, boxes[j])
     engine.assignment = a
     # per replica, the index of its detection (NaN: none), a float so that replicas born
     # later in the frame read NaN too
     matched = np.full(len(pred), np.nan)
     matched[a.rows] = a.cols
     return {"matched": matched}
+
+
+def _appearance(engine: Engine, factor, frame: FrameContext, boxes: np.ndarray
+                ) -> np.ndarray | None:
+    """``(K, M)`` similarity of each replica's appearance model with each detection
+    (``exp(log-likelihood / λ)`` per cue, multiplied over cues; 0 for a replica without a
+    model yet), or None (no appearance, no image, no detections)."""
+    if factor.appearance is None or frame.image is None or not len(boxes):
+        return None
+    aux = engine.replicas.aux
+    out = np.zeros((len(aux), len(boxes)))
+    for k, a in enumerate(aux):
+        models = a.get("appearance")
+        if models is None:
+            continue
+        ll = np.zeros(len(boxes))
+        for m in models:
+            ll = ll + np.asarray(m.log_likelihood(boxes, frame), dtype=float) / \
+                getattr(m, "lam", 1.0)
+        out[k] = np.exp(ll)
+    return out
 
 
 class ObservationHistory:

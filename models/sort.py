@@ -133,6 +133,13 @@ class Params:
         The momentum term of rounds with ``"direction"`` (OC-SORT: 0.2, 3).
     reupdate : bool
         OC-SORT's observation-centric re-update of tracks found again.
+    appearance : str, optional
+        Appearance cues for association and re-identification (``"colour"``, ``"cf"``,
+        ...): one model per track learned from its detections, its similarity with each
+        detection added to the association's score with ``appearance_weight`` (the
+        toolkit's appearance factors; :class:`~pgm.factors.association.DetectionAssociation`).
+    appearance_weight : float
+        Its weight against the IoU (0.5).
     report : {"detection", "estimate"}
         The box a matched track reports: its detection's (the ``trackers`` package) or the
         Kalman posterior mean (the filtered box); either way only in frames with a match.
@@ -164,6 +171,8 @@ class Params:
     direction_weight: float = 0.2
     delta_t: int = 3
     reupdate: bool = False
+    appearance: str | None = None
+    appearance_weight: float = 0.5
     report: str = "detection"
     vb_noise: bool = False
     vb_rho: float = 0.8
@@ -248,9 +257,12 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
     factors: list[Any] = [
         BoxPrior("box", mean=mean, cov=np.diag(p0), relative_std=rel_p0),
         BoxTransition("box", F=F, Q=np.diag(q), relative_std=rel_q),
-        DetectionAssociation("box", rounds=list(p.rounds), score_map=p.score_map,
-                             direction_weight=p.direction_weight, delta_t=int(p.delta_t),
-                             name="association"),
+        DetectionAssociation("box", rounds=[dict(r, appearance=True)
+                                            if p.appearance and r.get("against", "prediction")
+                                            == "prediction" else r for r in p.rounds],
+                             score_map=p.score_map, direction_weight=p.direction_weight,
+                             delta_t=int(p.delta_t), appearance=p.appearance,
+                             appearance_weight=p.appearance_weight, name="association"),
         AssignedDetectionLikelihood("box", H=H, R=np.diag(r), relative_std=rel_r,
                                     reupdate=p.reupdate, name="detection"),
     ]
@@ -292,6 +304,12 @@ OPTIONS = (
     _config.Option("--report", "report", choices=REPORTS,
                    help="the box a matched track reports: detection (as the trackers package; "
                         "default) or estimate (the Kalman posterior mean)"),
+    _config.Option("--appearance", "appearance", metavar="CUE[+CUE...]",
+                   help="appearance cues for association and re-identification, e.g. colour "
+                        "or fragments (one model per track; default: none, IoU only)"),
+    _config.Option("--appearance-weight", "appearance_weight",
+                   type=_config.finite_float("--appearance-weight"),
+                   help="weight of the appearance similarity against the IoU (default 0.5)"),
     _config.Option("--vb-noise", "vb_noise", flag_only=True,
                    help="seed 000's variational-Bayes measurement noise per target"),
 )

@@ -190,15 +190,34 @@ class DetectionAssociation(Factor):
         Weight of the momentum term (OC-SORT: 0.2).
     delta_t : int
         Observations back for the direction of motion (OC-SORT: 3).
+    appearance : str, optional
+        Appearance for association and re-identification: the toolkit's appearance cues
+        (``"colour"``, ``"fragments"``, ``"cf"``, ...; :mod:`pgm.observation.appearance.cues`),
+        one model per replica learned from each detection it is given; a round with
+        ``"appearance": true`` adds ``appearance_weight`` × the similarity of each
+        replica's model with each detection (``exp(log-likelihood / λ)``: for colour the
+        Bhattacharyya coefficient ρ as ``e^{ρ − 1}``) to what it maximises. Frames without
+        an image have no appearance term.
+    appearance_weight : float
+        Its weight (against an IoU in [0, 1]).
     """
 
     kind = "association"
-    _KEYS = frozenset({"iou", "min_score", "max_score", "against", "direction"})
+    _KEYS = frozenset({"iou", "min_score", "max_score", "against", "direction", "appearance"})
 
     def __init__(self, variable: str, *, rounds: list[dict[str, Any]] | None = None,
                  score_map: str = "none", direction_weight: float = 0.2, delta_t: int = 3,
+                 appearance: str | None = None, appearance_weight: float = 0.5,
                  name: str | None = None):
         super().__init__(variable, name=name)
+        self.appearance = None
+        if appearance is not None:
+            from pgm.observation.appearance.cues import appearance_cues
+
+            appearance_cues(appearance)  # a ValueError naming a bad cue
+            self.appearance = str(appearance)
+        self.appearance_weight = float(check_finite_param(f"{self.name}.appearance_weight",
+                                                          appearance_weight, nonneg=True))
         if score_map not in SCORE_MAPS:
             raise ValueError(f"factor {self.name!r}: unknown score_map {score_map!r} (choose "
                              f"from {SCORE_MAPS})")
@@ -230,7 +249,8 @@ class DetectionAssociation(Factor):
                 raise ValueError(f"factor {self.name!r}: a round's 'against' is 'prediction' "
                                  f"or 'last', got {against!r}")
             self.rounds.append({"iou": iou, "min_score": lo, "max_score": hi,
-                                "against": against, "direction": bool(r.get("direction"))})
+                                "against": against, "direction": bool(r.get("direction")),
+                                "appearance": bool(r.get("appearance"))})
 
     @property
     def keeps_observations(self) -> bool:
@@ -248,11 +268,28 @@ class DetectionAssociation(Factor):
                 d["against"] = r["against"]
             if r["direction"]:
                 d["direction"] = True
+            if r["appearance"]:
+                d["appearance"] = True
             rounds.append(d)
         p: dict[str, Any] = {"rounds": rounds, "score_map": self.score_map}
         if any(r["direction"] for r in self.rounds):
             p.update(direction_weight=self.direction_weight, delta_t=self.delta_t)
+        if self.appearance is not None:
+            p.update(appearance=self.appearance, appearance_weight=self.appearance_weight)
         return p
+
+    def appearance_model(self):
+        """A new per-replica appearance model (the cues' factors on a ``(cx, cy, w, h)``
+        box), or None without ``appearance``."""
+        if self.appearance is None:
+            return None
+        from types import SimpleNamespace
+
+        from pgm.observation.appearance.cues import appearance_cues, cue_factor
+
+        shared = SimpleNamespace(lam=20.0, layout="perez", kernel="uniform")
+        return [cue_factor(cue, "box", shared, options=opts)
+                for cue, opts in appearance_cues(self.appearance)]
 
     def check(self, variables: dict[str, Variable]) -> None:
         _box_labels(self, variables, self.variables[0])
