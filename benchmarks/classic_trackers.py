@@ -20,17 +20,19 @@ package), detections already loaded, no image decoding, one thread; the best of
 memory of a toolkit run with ``tracemalloc``.
 
 ``--variants``: also every variant of the cores (``--vb-noise``, ``--box-state``,
-``--noise scale``, ``--report estimate``; with ``--choose`` also with camera-motion
-compensation: the camera's image motion estimated from the frames as ``pgm track`` does by
-default, ``--camera-motion auto``).
+``--noise scale``, ``--report estimate``).
 
 ``--misspecified``: seed 000's claim on the SORT core — ``sort --noise scale`` and
 ``vb-sort`` with the detection noise (``meas_std``) set 0.1, 1 and 10 times its value.
 
 ``--choose``: the default multi-target model chosen **leave one sequence out** among the
-variants (objective: mean of (MOTA + IDF1) / 2 over the other sequences), each held-out
-sequence scored with the variant chosen on the others, next to the best of the package's
-SORT, ByteTrack and OC-SORT on it.
+variants and the appearance variants (colour or fragments models per track, weight 0.5
+or 1, on top of ``--report estimate``; these read the decoded frames), each run as ``pgm
+track`` runs it: the camera's motion estimated from the frames and compensated where the
+camera moves (``--camera-motion auto``; the parity rows have none, as the package).
+Objective: the mean of (MOTA + IDF1) / 2 over the other sequences; each held-out sequence
+is scored with the variant chosen on the others, next to the best of the package's SORT,
+ByteTrack and OC-SORT on it.
 """
 
 from __future__ import annotations
@@ -131,6 +133,13 @@ OCSORT_VARIANTS = (
 )
 
 
+#: appearance variants (on top of --report estimate), which read the frames' images
+APPEARANCE_VARIANTS = tuple(
+    (f"--report estimate --appearance {cue} --appearance-weight {w:g}",
+     {"report": "estimate", "appearance": cue, "appearance_weight": w})
+    for cue in ("colour", "fragments") for w in (0.5, 1.0))
+
+
 def cores():
     """The three cores and their variants: ``(label, module, variants)``."""
     from pgm.models import bytetrack, ocsort, sort
@@ -183,26 +192,32 @@ def misspecified(seqs: list[str]) -> list[list]:
 
 
 def choose(seqs: list[str], peer_best: dict[str, tuple[float, float]]) -> list[list]:
-    """The default chosen leave one sequence out among the cores × variants × camera-motion
-    compensation; one row per held-out sequence."""
+    """The default chosen leave one sequence out among the cores × variants, each run as
+    ``pgm track`` runs it (the camera's motion compensated where the camera moves); one
+    row per held-out sequence."""
     from pgm.evaluation.mot import evaluate_mot
     from pgm.models import sort
 
     data = {q: sequence(q) for q in seqs}
     motions = {q: camera_motions(q, data[q][2]) for q in seqs}
+    from pgm.io.video import open_source
+
     score: dict[str, dict[str, dict]] = {}
     for core, module, variants in cores():
-        for flags, kw in [("", {})] + list(variants):
-            for cmc in (False, True):
-                label = " ".join(x for x in (core, flags, "(cmc)" if cmc else "") if x)
-                score[label] = {}
-                for q in seqs:
-                    det, gt, n, fps = data[q]
-                    p = replace(module.Params(), fps=fps, score_map=sort.score_map_for(
-                        det.table.conf), **kw)
-                    table, _, _ = run_graph(module.build_graph(p), det, n,
-                                            motion=motions[q] if cmc else None)
-                    score[label][q] = evaluate_mot(gt.until(n), table, num_frames=n)
+        for flags, kw in [("", {})] + list(variants) + list(APPEARANCE_VARIANTS):
+            label = " ".join(x for x in (core, flags) if x)
+            score[label] = {}
+            for q in seqs:
+                det, gt, n, fps = data[q]
+                p = replace(module.Params(), fps=fps, score_map=sort.score_map_for(
+                    det.table.conf), **kw)
+                images = open_source(SHARED_DATA / q) if kw.get("appearance") else None
+                table, _, _ = run_graph(module.build_graph(p), det, n, motion=motions[q],
+                                        images=images)
+                score[label][q] = evaluate_mot(gt.until(n), table, num_frames=n)
+            print(f"  {label}: " + ", ".join(f"{score[label][q]['mota']:.3f}/"
+                                             f"{score[label][q]['idf1']:.3f}" for q in seqs),
+                  flush=True)
 
     def obj(label, qs):
         return float(np.mean([(score[label][q]["mota"] + score[label][q]["idf1"]) / 2

@@ -21,7 +21,7 @@ from .config import ModelConfig
 
 __all__ = ["BUILTIN", "model_names", "get_config", "get_model", "registry", "option_owners",
            "DEFAULT_SINGLE_OBJECT", "DEFAULT_MULTI_TARGET", "ENTRY_POINT_GROUP", "config",
-           "ModelConfig", "bytetrack", "colour_pf", "gpdm", "linear_gaussian", "multi_pf", "ocsort",
+           "ModelConfig", "bytetrack", "colour_pf", "gpdm", "linear_gaussian", "multi_pf", "ocsort", "ocsort_colour",
            "part_graph", "phd", "single_object", "sort", "vb_phd", "vb_sort"]
 
 #: the entry-point group where packages declare models
@@ -35,6 +35,7 @@ BUILTIN = {
     "linear-gaussian": "pgm.models.linear_gaussian:CONFIG",
     "multi-pf": "pgm.models.multi_pf:CONFIG",
     "ocsort": "pgm.models.ocsort:CONFIG",
+    "ocsort-colour": "pgm.models.ocsort_colour:CONFIG",
     "part-graph": "pgm.models.part_graph:CONFIG",
     "phd": "pgm.models.phd:CONFIG",
     "single-object": "pgm.models.single_object:CONFIG",
@@ -45,9 +46,9 @@ BUILTIN = {
 #: what ``pgm track`` runs on a single object when no ``--model`` is given
 DEFAULT_SINGLE_OBJECT = "single-object"
 #: what ``pgm track`` runs on a video with detections when no ``--model`` is given
-DEFAULT_MULTI_TARGET = "vb-phd"
+DEFAULT_MULTI_TARGET = "ocsort-colour"
 
-_SUBMODULES = ("colour_pf", "gpdm", "linear_gaussian", "multi_pf", "ocsort", "part_graph", "phd",
+_SUBMODULES = ("colour_pf", "gpdm", "linear_gaussian", "multi_pf", "ocsort", "ocsort_colour", "part_graph", "phd",
                "single_object", "vb_phd")
 
 

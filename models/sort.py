@@ -71,7 +71,7 @@ from pgm.inference.settings import EngineSettings
 from . import config as _config
 
 __all__ = ["CONFIG", "Params", "build_graph", "lost_frames", "score_map_for", "video_build",
-           "OPTIONS"]
+           "OPTIONS", "appearance_factors"]
 
 #: the box codes a SORT state may use
 BOX_STATES = ("xyxy", "xysr")
@@ -199,6 +199,21 @@ def _noise(p: Params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return out[0], out[1], out[2]
 
 
+def appearance_factors(appearance: str | None) -> list | None:
+    """The appearance factors of a cue string (``"colour"``, ``"fragments+gradient"``, ...;
+    :mod:`pgm.observation.appearance.cues`) on a ``(cx, cy, w, h)`` box, with the
+    toolkit's shared colour settings (λ 20, Pérez bins, uniform kernel); None for none."""
+    if not appearance:
+        return None
+    from types import SimpleNamespace
+
+    from pgm.observation.appearance.cues import appearance_cues, cue_factor
+
+    shared = SimpleNamespace(lam=20.0, layout="perez", kernel="uniform")
+    return [cue_factor(cue, "box", shared, name=f"appearance:{cue}:{k}", options=opts)
+            for k, (cue, opts) in enumerate(appearance_cues(appearance))]
+
+
 def lost_frames(lost_buffer: int, fps: float) -> int:
     """Frames a confirmed track survives without a match: ``lost_buffer`` frames at 30
     frames/s at the video's rate (``max(1, ceil(fps / 30 · lost_buffer))``; 0 stays 0)."""
@@ -261,7 +276,7 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
                                             if p.appearance and r.get("against", "prediction")
                                             == "prediction" else r for r in p.rounds],
                              score_map=p.score_map, direction_weight=p.direction_weight,
-                             delta_t=int(p.delta_t), appearance=p.appearance,
+                             delta_t=int(p.delta_t), appearance=appearance_factors(p.appearance),
                              appearance_weight=p.appearance_weight, name="association"),
         AssignedDetectionLikelihood("box", H=H, R=np.diag(r), relative_std=rel_r,
                                     reupdate=p.reupdate, name="detection"),

@@ -81,3 +81,32 @@ def test_sort_bytetrack_and_ocsort_configs_match_the_trackers_package(shared_dat
         for metric in ("mota", "idf1"):
             assert abs(ours[metric] - ref[metric]) <= 0.005, (label, metric, ours[metric],
                                                               ref[metric])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", MOT_SEQUENCES)
+def test_the_default_multi_target_model_is_at_or_above_every_peer(shared_data, tmp_path, name):
+    """``pgm track`` on a MOTChallenge folder runs the multi-target default (chosen leave
+    one sequence out by ``benchmarks/classic_trackers.py --choose``); on every shared MOT
+    sequence its MOTA and IDF1 are at or above the best of the ``trackers`` package's SORT,
+    ByteTrack and OC-SORT on the same detections."""
+    from classic_trackers import camera_motions, run_graph, sequence
+
+    from pgm.evaluation.mot import evaluate_mot
+    from pgm.models import DEFAULT_MULTI_TARGET, get_config
+    from pgm.models.config import VideoInfo
+
+    if not (shared_data / name).is_dir():
+        pytest.skip(f"{name} is not in ../shared/data")
+    det, gt, n, fps = sequence(name)
+    src = open_source(shared_data / name)
+    graph = get_config(DEFAULT_MULTI_TARGET).graph_for(
+        {}, VideoInfo(*src.size, fps=fps, score_range=det.score_range))
+    table, _, _ = run_graph(graph, det, n, motion=camera_motions(name, n),
+                            images=open_source(shared_data / name))
+    ours = evaluate_mot(gt.until(n), table, num_frames=n)
+    peers = run_mot_peers(shared_data / name, last_frame=n, workdir=tmp_path)
+    for metric in ("mota", "idf1"):
+        best = max(evaluate_mot(gt.until(n), r["table"].until(n), num_frames=n)[metric]
+                   for r in peers.values())
+        assert ours[metric] >= best, (metric, ours[metric], best)

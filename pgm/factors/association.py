@@ -31,6 +31,7 @@ matching again.
 
 from __future__ import annotations
 
+import copy
 import math
 from typing import Any
 
@@ -190,14 +191,16 @@ class DetectionAssociation(Factor):
         Weight of the momentum term (OC-SORT: 0.2).
     delta_t : int
         Observations back for the direction of motion (OC-SORT: 3).
-    appearance : str, optional
-        Appearance for association and re-identification: the toolkit's appearance cues
-        (``"colour"``, ``"fragments"``, ``"cf"``, ...; :mod:`pgm.observation.appearance.cues`),
-        one model per replica learned from each detection it is given; a round with
-        ``"appearance": true`` adds ``appearance_weight`` × the similarity of each
-        replica's model with each detection (``exp(log-likelihood / λ)``: for colour the
-        Bhattacharyya coefficient ρ as ``e^{ρ − 1}``) to what it maximises. Frames without
-        an image have no appearance term.
+    appearance : list of likelihood factors, optional
+        Appearance for association and re-identification: appearance likelihood factors
+        on a ``(cx, cy, w, h)`` box (the toolkit's cues, e.g. ``cue_factor("colour", ...)``
+        of :mod:`pgm.observation.appearance.cues`, or your own with ``learn`` and
+        ``log_likelihood``), copied per replica and learned from each detection it is
+        given; a round with ``"appearance": true`` adds ``appearance_weight`` × the
+        similarity of each replica's model with each detection (``exp(log-likelihood /
+        λ)``, multiplied over the factors: for colour the Bhattacharyya coefficient ρ as
+        ``e^{ρ − 1}``) to what it maximises. Frames without an image have no appearance
+        term. Saved as the factors' declarations.
     appearance_weight : float
         Its weight (against an IoU in [0, 1]).
     """
@@ -207,15 +210,20 @@ class DetectionAssociation(Factor):
 
     def __init__(self, variable: str, *, rounds: list[dict[str, Any]] | None = None,
                  score_map: str = "none", direction_weight: float = 0.2, delta_t: int = 3,
-                 appearance: str | None = None, appearance_weight: float = 0.5,
+                 appearance: list | None = None, appearance_weight: float = 0.5,
                  name: str | None = None):
         super().__init__(variable, name=name)
-        self.appearance = None
+        self.appearance: list | None = None
         if appearance is not None:
-            from pgm.observation.appearance.cues import appearance_cues
+            from pgm.core.factor import factor_from_dict
 
-            appearance_cues(appearance)  # a ValueError naming a bad cue
-            self.appearance = str(appearance)
+            items = [factor_from_dict(a) if isinstance(a, dict) else a for a in appearance]
+            for a in items:
+                if not (isinstance(a, LikelihoodFactor) and hasattr(a, "learn")):
+                    raise ValueError(f"factor {self.name!r}: appearance takes likelihood factors "
+                                     f"that learn a model from a box (learn, log_likelihood), "
+                                     f"got {type(a).__name__}")
+            self.appearance = items or None
         self.appearance_weight = float(check_finite_param(f"{self.name}.appearance_weight",
                                                           appearance_weight, nonneg=True))
         if score_map not in SCORE_MAPS:
@@ -275,21 +283,16 @@ class DetectionAssociation(Factor):
         if any(r["direction"] for r in self.rounds):
             p.update(direction_weight=self.direction_weight, delta_t=self.delta_t)
         if self.appearance is not None:
-            p.update(appearance=self.appearance, appearance_weight=self.appearance_weight)
+            p.update(appearance=[a.to_dict() for a in self.appearance],
+                     appearance_weight=self.appearance_weight)
         return p
 
-    def appearance_model(self):
-        """A new per-replica appearance model (the cues' factors on a ``(cx, cy, w, h)``
-        box), or None without ``appearance``."""
+    def appearance_model(self) -> list | None:
+        """A new replica's appearance model: copies of the ``appearance`` factors (None
+        without)."""
         if self.appearance is None:
             return None
-        from types import SimpleNamespace
-
-        from pgm.observation.appearance.cues import appearance_cues, cue_factor
-
-        shared = SimpleNamespace(lam=20.0, layout="perez", kernel="uniform")
-        return [cue_factor(cue, "box", shared, options=opts)
-                for cue, opts in appearance_cues(self.appearance)]
+        return [copy.deepcopy(a) for a in self.appearance]
 
     def check(self, variables: dict[str, Variable]) -> None:
         _box_labels(self, variables, self.variables[0])

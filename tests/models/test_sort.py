@@ -320,3 +320,35 @@ def test_ocsort_recovery_reupdate_and_life_cycle():
     eng.step(_frame(6, box))
     eng.step(_frame(7, np.zeros((0, 4))))
     assert eng.num_targets == 1 and eng.tracks[0].track_id is None
+
+
+def test_appearance_enters_the_association():
+    """The appearance similarity is added to what a round maximises (the IoU gate stays):
+    two replicas whose predictions overlap two detections almost equally are given the
+    detection that looks like them; a replica's model is learned from the detections it is
+    given, in frames with an image."""
+    from pgm.inference.association import assign
+
+    pred = np.array([[100.0, 100.0, 40.0, 100.0], [110.0, 100.0, 40.0, 100.0]])
+    boxes = pred[::-1].copy()  # each detection sits on the other replica's prediction
+    rounds = [{"iou": 0.3, "min_score": -np.inf, "max_score": np.inf, "against": "prediction",
+               "direction": False, "appearance": True}]
+    looks = np.array([[1.0, 0.37], [0.37, 1.0]])  # replica k looks like detection k
+    plain = assign(pred, boxes, np.ones(2), rounds)
+    seen = assign(pred, boxes, np.ones(2), rounds, appearance=looks, appearance_weight=1.0)
+    assert plain.cols[np.argsort(plain.rows)].tolist() == [1, 0]  # IoU 1 against 0.6
+    assert seen.cols[np.argsort(seen.rows)].tolist() == [0, 1]  # 0.6 + 1 against 1 + 0.37
+    far = assign(pred, boxes + [300.0, 0, 0, 0], np.ones(2), rounds, appearance=looks,
+                 appearance_weight=1.0)
+    assert len(far.rows) == 0  # appearance alone never passes the IoU gate
+
+    from pgm.models import ocsort_colour
+
+    eng = Engine(ocsort_colour.build_graph(ocsort_colour.Params(fps=30.0)), 0)
+    image = np.zeros((240, 320, 3), np.uint8)
+    image[50:150, 100:140] = (0, 0, 255)
+    for t in range(1, 4):
+        ctx = _frame(t, [100.0, 50.0, 40.0, 100.0])
+        eng.step(FrameContext(t, image, detections=ctx.detections))
+    models = eng.replicas.aux[0]["appearance"]
+    assert len(models) == 1 and models[0].template is not None

@@ -122,8 +122,13 @@ def test_the_model_is_found_whatever_the_order_of_the_options(tmp_path, capsys):
     seq = tmp_path / "seq"
     (seq / "det").mkdir(parents=True)
     (seq / "det" / "det.txt").write_text("1,-1,1,1,5,5,1\n")
-    assert model_config_for(["track", str(seq), "--help"]).name == "vb-phd"
-    assert model_config_for(["track", "--scores", "off", str(seq), "--out", "o"]).name == "vb-phd"
+    from pgm.models import DEFAULT_MULTI_TARGET
+
+    assert model_config_for(["track", str(seq), "--help"]).name == DEFAULT_MULTI_TARGET
+    assert model_config_for(["track", "--appearance-weight", "0.5", str(seq), "--out",
+                             "o"]).name == DEFAULT_MULTI_TARGET
+    assert model_config_for(["track", "--scores", "off", str(seq), "--model", "vb-phd",
+                             "--out", "o"]).name == "vb-phd"
     assert model_config_for(["track", "--parts", "2", str(seq), "--model", "part-graph",
                              "--out", "o"]).name == "part-graph"
     assert model_config_for(["graph", "--parts", "2", "multi-pf", "--out", "g"]).name == \
