@@ -21,8 +21,9 @@ from .config import ModelConfig
 
 __all__ = ["BUILTIN", "model_names", "get_config", "get_model", "registry", "option_owners",
            "DEFAULT_SINGLE_OBJECT", "DEFAULT_MULTI_TARGET", "ENTRY_POINT_GROUP", "config",
-           "ModelConfig", "bytetrack", "colour_pf", "gpdm", "linear_gaussian", "multi_pf", "ocsort", "ocsort_colour",
-           "part_graph", "phd", "single_object", "sort", "vb_phd", "vb_sort"]
+           "ModelConfig", "bytetrack", "colour_pf", "gpdm", "linear_gaussian", "multi_pf",
+           "ocsort", "ocsort_colour", "part_graph", "phd", "single_object", "sort", "vb_phd",
+           "vb_sort"]
 
 #: the entry-point group where packages declare models
 ENTRY_POINT_GROUP = "pgm.models"
@@ -48,8 +49,8 @@ DEFAULT_SINGLE_OBJECT = "single-object"
 #: what ``pgm track`` runs on a video with detections when no ``--model`` is given
 DEFAULT_MULTI_TARGET = "ocsort-colour"
 
-_SUBMODULES = ("colour_pf", "gpdm", "linear_gaussian", "multi_pf", "ocsort", "ocsort_colour", "part_graph", "phd",
-               "single_object", "vb_phd")
+_SUBMODULES = ("bytetrack", "colour_pf", "gpdm", "linear_gaussian", "multi_pf", "ocsort",
+               "ocsort_colour", "part_graph", "phd", "single_object", "sort", "vb_phd", "vb_sort")
 
 
 def __getattr__(name: str) -> Any:
