@@ -25,6 +25,12 @@ memory of a toolkit run with ``tracemalloc``.
 ``--misspecified``: seed 000's claim on the SORT core — ``sort --noise scale`` and
 ``vb-sort`` with the detection noise (``meas_std``) set 0.1, 1 and 10 times its value.
 
+``--motions``: seed 003's idea on the cores — the box state as particles moved by constant
+velocity (``cv``), velocity averaged over three frames (``cv3``) or a GPDM learned on the
+*other* sequences' ground-truth trajectories (``gpdm``, ``benchmarks/plate_trackers.py``'s
+``train_gpdm``), next to the Kalman core, for ``sort`` and ``ocsort --report estimate``
+(camera motion compensated as ``pgm track`` does).
+
 ``--choose``: the default multi-target model chosen **leave one sequence out** among the
 variants and the appearance variants (colour or fragments models per track, weight 0.5
 or 1, on top of ``--report estimate``; these read the decoded frames), each run as ``pgm
@@ -191,6 +197,37 @@ def misspecified(seqs: list[str]) -> list[list]:
     return rows
 
 
+def motions(seqs: list[str]) -> list[list]:
+    """``sort`` and ``ocsort --report estimate`` with each motion model; the GPDM of each
+    sequence learned on the other sequences' ground truth."""
+    import tempfile
+
+    from plate_trackers import train_gpdm
+
+    from pgm.evaluation.mot import evaluate_mot
+    from pgm.models import ocsort, sort
+
+    tmp = Path(tempfile.mkdtemp())
+    rows = []
+    for q in seqs:
+        det, gt, n, fps = sequence(q)
+        cam = camera_motions(q, n)
+        model = train_gpdm([s for s in SEQUENCES if s != q and (SHARED_DATA / s).is_dir()],
+                           tmp / f"gpdm-without-{q}.npz")
+        for core, module, kw in (("sort", sort, {}), ("ocsort --report estimate", ocsort,
+                                                      {"report": "estimate"})):
+            row = [q, core]
+            for motion in ("kalman", "cv", "cv3", "gpdm"):
+                p = replace(module.Params(), fps=fps, motion=motion, gpdm=str(model),
+                            score_map=sort.score_map_for(det.table.conf), **kw)
+                table, secs, _ = run_graph(module.build_graph(p), det, n, motion=cam)
+                m = evaluate_mot(gt.until(n), table, num_frames=n)
+                row.append(f"{m['mota']:.3f} / {m['idf1']:.3f} ({n / secs:.0f})")
+            rows.append(row)
+            print("  " + " | ".join(row), flush=True)
+    return rows
+
+
 def choose(seqs: list[str], peer_best: dict[str, tuple[float, float]]) -> list[list]:
     """The default chosen leave one sequence out among the cores × variants, each run as
     ``pgm track`` runs it (the camera's motion compensated where the camera moves); one
@@ -265,6 +302,9 @@ def main() -> None:
     ap.add_argument("--variants", action="store_true")
     ap.add_argument("--misspecified", action="store_true",
                     help="sort --noise scale against vb-sort with the noise 0.1/1/10 times")
+    ap.add_argument("--motions", action="store_true",
+                    help="the cores with particle motion models (cv, cv3, a GPDM learned on "
+                         "the other sequences) against their Kalman filter")
     ap.add_argument("--choose", action="store_true",
                     help="choose the default among the variants leave one sequence out")
     args = ap.parse_args()
@@ -313,6 +353,10 @@ def main() -> None:
         for name, m in peer.items():
             rows.append([q, f"trackers {name}", m["mota"], m["idf1"], m["hota"],
                          m["id_switches"], None, None])
+    if args.motions:
+        print_table(["sequence", "core", "kalman", "cv", "cv3", "gpdm"], motions(seqs),
+                    title="MOTA / IDF1 (frames per second) with the learned or averaged motion "
+                          "models of seed 003 in place of the Kalman filter's constant velocity")
     if args.misspecified:
         print_table(["sequence"] + [f"{f:g}x {m}" for f in FACTORS for m in ("sort", "vb-sort")],
                     misspecified(seqs),

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from pgm.core.batched import BatchedGaussian, Replicated
+from pgm.core.batched import BatchedGaussian, BatchedParticles, Replicated
 from pgm.core.boxes import box_coding, encode_boxes, state_boxes
 from pgm.core.expfam import InverseGamma
 from pgm.core.frame import FrameContext
@@ -240,12 +240,21 @@ def predict_gaussians(engine: Engine, factor, frame: FrameContext) -> None:
     engine.beliefs[var] = BatchedGaussian(m @ F.T, F @ P @ F.T + Q)
 
 
+def _means(belief) -> np.ndarray:
+    """``(K, d)`` the replicas' means (a Gaussian batch's, or weighted particle means)."""
+    m = belief.mean
+    return m() if callable(m) else m
+
+
+@DEFAULT_RULES.register(DetectionAssociation, BatchedParticles)
 @DEFAULT_RULES.register(DetectionAssociation, BatchedGaussian)
 def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, Any]:
     """The ``assign`` stage: ``engine.assignment`` for this frame (and, for momentum and
-    recovery rounds, each replica's observation history in ``engine.replicas.aux``)."""
+    recovery rounds, each replica's observation history in ``engine.replicas.aux``). The
+    replicas' predicted boxes are their means: a Kalman replica's, or a particle
+    replica's weighted mean."""
     var = factor.variables[0]
-    pred = state_boxes(engine.graph.variables[var].labels, engine.beliefs[var].mean)
+    pred = state_boxes(engine.graph.variables[var].labels, _means(engine.beliefs[var]))
     boxes, scores = detection_boxes(frame), factor.scores(frame)
     looks = _appearance(engine, factor, frame, boxes)
     extra = {} if looks is None else {"appearance": looks,
@@ -371,6 +380,30 @@ def update_assigned(engine: Engine, factor, frame: FrameContext) -> None:
         for i, k in enumerate(rows):
             engine.replicas.aux[int(k)]["posterior"] = (m[i].copy(), P[i].copy())
     return info
+
+
+@DEFAULT_RULES.register(AssignedDetectionLikelihood, BatchedParticles)
+def weight_assigned(engine: Engine, factor, frame: FrameContext) -> np.ndarray:
+    """``(K, N)`` log-likelihood increments of particle replicas: ``log N(z_k; H x, R)``
+    at each particle of a replica given detection ``z_k`` (its noise scale-aware at the
+    replica's mean where the factor says so), 0 for a replica given none."""
+    var = factor.variables[0]
+    b: BatchedParticles = engine.beliefs[var]
+    out = np.zeros(b.log_weights.shape)
+    got = _assigned(engine, factor)
+    if got is None:
+        return out
+    rows, z = got
+    x = b.x[rows]  # (B, N, d)
+    r = z[:, None, :] - x @ factor.H.T  # (B, N, k)
+    R = factor.noise_cov(_means(b)[rows])
+    R = np.broadcast_to(R, (len(rows),) + R.shape[-2:])
+    L = np.linalg.cholesky(R)  # (B, k, k)
+    u = np.linalg.solve(L[:, None, :, :], r[..., None])[..., 0]  # (B, N, k)
+    k = factor.H.shape[0]
+    logdet = 2.0 * np.log(np.diagonal(L, axis1=1, axis2=2)).sum(axis=1)  # (B,)
+    out[rows] = -0.5 * (u ** 2).sum(-1) - 0.5 * (logdet[:, None] + k * np.log(2 * np.pi))
+    return out
 
 
 def _predict_one(factor, labels, m: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

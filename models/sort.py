@@ -77,6 +77,8 @@ __all__ = ["CONFIG", "Params", "build_graph", "lost_frames", "score_map_for", "v
 BOX_STATES = ("xyxy", "xysr")
 #: the noise models: fixed pixels (the trackers package) or in units of the box's size
 NOISES = ("fixed", "scale")
+#: the motion models: the exact Kalman filter, or particles moved by cv, cv3 or a GPDM
+MOTIONS = ("kalman", "cv", "cv3", "gpdm")
 #: what a matched track reports: its detection's box, or the Kalman posterior mean
 REPORTS = ("detection", "estimate")
 
@@ -90,6 +92,18 @@ class Params:
     box_state : {"xyxy", "xysr"}
         The box code of the state: corners (the ``trackers`` package) or centre, area,
         aspect (the SORT paper).
+    motion : {"kalman", "cv", "cv3", "gpdm"}
+        ``"kalman"``: the exact Kalman box state (the classic trackers). The others make
+        the box state particles (``num_particles`` per target; centre and size, noise
+        scale-aware) moved by a learned or averaged motion model in place of the constant
+        velocity — seed 003's idea on these cores: ``"cv"`` (constant velocity, the
+        baseline), ``"cv3"`` (velocity averaged over three frames) or ``"gpdm"`` (the
+        GPDM chain of ``gpdm``, a file written by ``pgm learn gpdm``), with the noise of
+        :class:`pgm.models.gpdm.Params` (``pos_noise``, ``scale_noise`` per √s).
+    gpdm : str, optional
+        The GPDM file for ``motion="gpdm"``.
+    num_particles : int
+        Particles per target of the particle motions (100).
     process_noise, measurement_noise, initial_cov : sequence of float, optional
         Diagonals of ``Q``, ``R`` and ``P0`` (default: the code's, module docstring).
     noise : {"fixed", "scale"}
@@ -150,6 +164,11 @@ class Params:
     """
 
     box_state: str = "xyxy"
+    motion: str = "kalman"
+    gpdm: str | None = None
+    num_particles: int = 100
+    pos_noise: float = 0.185
+    scale_noise: float = 0.05
     process_noise: tuple[float, ...] | None = None
     measurement_noise: tuple[float, ...] | None = None
     initial_cov: tuple[float, ...] | None = None
@@ -234,6 +253,13 @@ def score_map_for(scores: np.ndarray) -> str:
 def _check(p: Params) -> None:
     if p.box_state not in BOX_STATES:
         raise ValueError(f"box_state must be one of {BOX_STATES}, got {p.box_state!r}")
+    if p.motion not in MOTIONS:
+        raise ValueError(f"motion must be one of {MOTIONS}, got {p.motion!r}")
+    if p.motion == "gpdm" and not p.gpdm:
+        raise ValueError("motion 'gpdm' needs a learned GPDM file (pgm learn gpdm; --gpdm FILE)")
+    if isinstance(p.num_particles, bool) or int(p.num_particles) != p.num_particles or \
+            p.num_particles < 1:
+        raise ValueError(f"num_particles must be a positive integer, got {p.num_particles!r}")
     if p.noise not in NOISES:
         raise ValueError(f"noise must be one of {NOISES}, got {p.noise!r}")
     if p.noise == "scale" and p.box_state == "xysr":
@@ -265,6 +291,8 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
     reference = {"xyxy": [80.0, 50.0, 120.0, 150.0], "xysr": [100.0, 100.0, 4000.0, 0.4]}
     mean = np.zeros(len(labels))
     mean[:4] = reference[p.box_state]  # a 40 x 100 box at (100, 100); births re-centre it
+    if p.motion != "kalman":
+        return _particle_graph(p, name)
     scaled = p.noise == "scale"
     rel_q = [p.pos_std] * 4 + [p.vel_std] * 4 if scaled else None
     rel_p0 = [2 * p.pos_std] * 4 + [10 * p.vel_std] * 4 if scaled else None
@@ -272,12 +300,7 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
     factors: list[Any] = [
         BoxPrior("box", mean=mean, cov=np.diag(p0), relative_std=rel_p0),
         BoxTransition("box", F=F, Q=np.diag(q), relative_std=rel_q),
-        DetectionAssociation("box", rounds=[dict(r, appearance=True)
-                                            if p.appearance and r.get("against", "prediction")
-                                            == "prediction" else r for r in p.rounds],
-                             score_map=p.score_map, direction_weight=p.direction_weight,
-                             delta_t=int(p.delta_t), appearance=appearance_factors(p.appearance),
-                             appearance_weight=p.appearance_weight, name="association"),
+        _association(p),
         AssignedDetectionLikelihood("box", H=H, R=np.diag(r), relative_std=rel_r,
                                     reupdate=p.reupdate, name="detection"),
     ]
@@ -291,21 +314,74 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
                     NoiseForgetting("noise", rho=p.vb_rho, alpha_min=2.0),
                     VBNoise("noise", "box", likelihood="detection", name="vb")]
         plate_vars.append("noise")
-    max_lost = lost_frames(int(p.lost_buffer), p.fps)
-    lc = Lifecycle(confirm_hits=int(p.min_hits), max_coast=0, max_lost=max_lost,
-                   birth_counts=bool(p.birth_counts),
-                   match_iou=0.0, birth_iou=1.0, birth_min_score=float(p.activation),
-                   hit_log_odds=1.0, miss_log_odds=1.0,
-                   confirm_on="streak" if p.consecutive else "hits",
-                   recover_hits=int(p.recover_hits),
-                   report="matched" if p.report == "estimate" else "detection",
-                   tentative_lost=max_lost if p.keep_tentative else 0,
-                   warmup_frames=int(p.min_hits) if p.warmup else 0)
+    lc = _lifecycle(p)
     engine = EngineSettings(num_particles=1, beliefs=beliefs)
     meta = {"output": "box", "engine": engine.to_dict(), "readout": "plate",
             "reference_box": [100.0, 100.0, 40.0, 100.0]}
     return FactorGraph(variables, factors, name=name, meta=meta,
                        plates=[Plate("target", tuple(plate_vars), lifecycle=lc)])
+
+
+def _lifecycle(p: Params) -> Lifecycle:
+    """The plate's life cycle of ``p`` (SORT's, ByteTrack's or OC-SORT's)."""
+    max_lost = lost_frames(int(p.lost_buffer), p.fps)
+    return Lifecycle(confirm_hits=int(p.min_hits), max_coast=0, max_lost=max_lost,
+                     birth_counts=bool(p.birth_counts), match_iou=0.0, birth_iou=1.0,
+                     birth_min_score=float(p.activation), hit_log_odds=1.0, miss_log_odds=1.0,
+                     confirm_on="streak" if p.consecutive else "hits",
+                     recover_hits=int(p.recover_hits),
+                     report="matched" if p.report == "estimate" else "detection",
+                     tentative_lost=max_lost if p.keep_tentative else 0,
+                     warmup_frames=int(p.min_hits) if p.warmup else 0)
+
+
+def _association(p: Params) -> DetectionAssociation:
+    return DetectionAssociation(
+        "box", rounds=[dict(r, appearance=True) if p.appearance and r.get(
+            "against", "prediction") == "prediction" else r for r in p.rounds],
+        score_map=p.score_map, direction_weight=p.direction_weight, delta_t=int(p.delta_t),
+        appearance=appearance_factors(p.appearance), appearance_weight=p.appearance_weight,
+        name="association")
+
+
+def _particle_graph(p: Params, name: str) -> FactorGraph:
+    """The cores with a particle box state (centre, size; and the GPDM's latent) moved by
+    ``p.motion``: the association and the life cycle as the Kalman cores', the assigned
+    detection's likelihood scale-aware (``meas_std`` of the box's size)."""
+    from pgm.factors import AveragedVelocityTransition, GaussianPrior
+
+    box = np.array([100.0, 100.0, 40.0, 100.0])
+    if p.motion == "gpdm":
+        from pathlib import Path
+
+        from pgm.dynamics.factors import GPDMPrior, GPDMTransition
+        from pgm.dynamics.gpdm import load_gpdm
+
+        path = str(Path(p.gpdm).resolve())
+        q = load_gpdm(path).latent_dim
+        labels = ("cx", "cy", "w", "h") + tuple(f"z{k}" for k in range(q))
+        motion = [GPDMPrior("box", model=path, mean=box),
+                  GPDMTransition("box", model=path, fps=p.fps)]
+    else:
+        labels = ("cx", "cy", "w", "h")
+        per_frame = 1.0 / np.sqrt(p.fps)
+        pos = p.pos_noise * per_frame
+        motion = [GaussianPrior("box", mean=box, cov=0.0),
+                  AveragedVelocityTransition("box", noise_std=[pos, pos, 0.0, 0.0],
+                                             window=1 if p.motion == "cv" else 3,
+                                             scale_noise=p.scale_noise * per_frame,
+                                             relative=True)]
+    H = np.eye(4, len(labels))
+    factors = motion + [
+        _association(p),
+        AssignedDetectionLikelihood("box", H=H, R=np.eye(4), relative_std=[p.meas_std] * 4,
+                                    name="detection")]
+    engine = EngineSettings(num_particles=int(p.num_particles))
+    meta = {"output": "box", "engine": engine.to_dict(), "readout": "plate",
+            "reference_box": box.tolist(), "motion": p.motion}
+    return FactorGraph([Variable("box", len(labels), role="state", labels=labels)], factors,
+                       name=name, meta=meta,
+                       plates=[Plate("target", ("box",), lifecycle=_lifecycle(p))])
 
 
 #: the options of SORT and ByteTrack on the command line
@@ -325,6 +401,11 @@ OPTIONS = (
     _config.Option("--appearance-weight", "appearance_weight",
                    type=_config.finite_float("--appearance-weight"),
                    help="weight of the appearance similarity against the IoU (default 0.5)"),
+    _config.Option("--motion", "motion", choices=MOTIONS,
+                   help="kalman (the exact Kalman box state; default) or particles moved by cv, "
+                        "cv3 (velocity averaged over three frames) or gpdm (--gpdm FILE)"),
+    _config.Option("--gpdm", "gpdm", metavar="FILE.npz",
+                   help="the learned GPDM of --motion gpdm (pgm learn gpdm)"),
     _config.Option("--vb-noise", "vb_noise", flag_only=True,
                    help="seed 000's variational-Bayes measurement noise per target"),
 )
@@ -338,6 +419,8 @@ def video_build(config: _config.ModelConfig, values: dict[str, Any],
     kw: dict[str, Any] = {o.field: values[o.dest] for o in config.options
                           if o.field is not None and values.get(o.dest) not in (None, False)}
     kw["fps"] = float(video.fps)
+    if video.particles is not None:
+        kw["num_particles"] = int(video.particles)
     if video.score_range is not None:
         kw["score_map"] = score_map_for(np.asarray(video.score_range))
     return config.module.build_graph(replace(params, **kw), name=config.name)

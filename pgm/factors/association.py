@@ -376,7 +376,7 @@ class AssignedDetectionLikelihood(LikelihoodFactor):
 
     def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         raise ValueError(f"factor {self.name!r}: the assigned detection exists only in a plate "
-                         f"with a DetectionAssociation (exact Kalman replicas)")
+                         f"with a DetectionAssociation (its rules read the frame's assignment)")
 
 
 class BoxTransition(LinearGaussianTransition):

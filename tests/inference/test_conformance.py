@@ -87,10 +87,11 @@ def _plate(n_parts):
                                                 lifecycle=Lifecycle(confirm_hits=1)))
 
 
-def _sort(vb_noise: bool):
+def _sort(vb_noise: bool, motion: str = "kalman"):
     from pgm.models import sort
 
-    return sort.build_graph(sort.Params(min_hits=1, vb_noise=vb_noise))
+    return sort.build_graph(sort.Params(min_hits=1, vb_noise=vb_noise, motion=motion,
+                                        num_particles=50))
 
 
 CASES = {
@@ -107,6 +108,7 @@ CASES = {
     # exact Kalman replicas with data association (SORT; seed 000's VB noise per target)
     "sort": (lambda: _sort(vb_noise=False), _plate_frames, {}),
     "vb-sort": (lambda: _sort(vb_noise=True), _plate_frames, {}),
+    "sort-particles": (lambda: _sort(vb_noise=False, motion="cv3"), _plate_frames, {}),
     "plate-parts": (lambda: _plate(2), _plate_frames, {}),
     "vb-phd": (lambda: _phd(vb_phd), _set_frames, {}),
 }

@@ -352,3 +352,27 @@ def test_appearance_enters_the_association():
         eng.step(FrameContext(t, image, detections=ctx.detections))
     models = eng.replicas.aux[0]["appearance"]
     assert len(models) == 1 and models[0].template is not None
+
+
+@pytest.mark.parametrize("motion", ["cv", "cv3"])
+def test_particle_motion_models_drive_the_same_core(motion):
+    """``motion="cv"|"cv3"|"gpdm"``: the box state is particles moved by the motion model
+    (seed 003's idea on the classic cores); association (on the particles' mean) and the
+    assigned detection's likelihood (a weight per particle) are the same factors. One
+    person walking is one identity throughout, and the particles' mean follows the truth
+    within a few pixels."""
+    g = sort.build_graph(sort.Params(fps=30.0, motion=motion, num_particles=200))
+    assert g.variables["box"].labels == ("cx", "cy", "w", "h")
+    eng = Engine(g, 0)
+    boxes = _walk(40, sigma=1.0)
+    ids = set()
+    for t, b in enumerate(boxes):
+        rec = eng.step(_frame(t + 1, b))
+        info = rec.info["target"]
+        ids |= set(info["ids"][info["reported"]].tolist())
+    assert eng.num_targets == 1 and ids == {eng.tracks[0].track_id}
+    est = eng.beliefs["box"].mean()[0]
+    truth = boxes[-1, :2] + boxes[-1, 2:] / 2
+    assert np.abs(est[:2] - truth).max() < 5.0
+    with pytest.raises(ValueError, match="GPDM file"):
+        sort.build_graph(sort.Params(motion="gpdm"))
