@@ -150,7 +150,7 @@ class _ReplicaView:
         reps = engine.replicas
         self.replica = k
         self.graph = reps.graphs[k]
-        self.rng = reps.rngs[k]
+        self.rng = reps.generators()[k]
         self.aux = reps.aux[k]
         self.rows = {v: b.row(k) for v, b in engine.beliefs.items()}
         self.beliefs = dict(self.rows)
@@ -249,10 +249,11 @@ def predict_batched(engine: Engine, factor, frame: FrameContext) -> None:
         past = [warp_states(h, labels, frame.camera_motion) for h in past]
     if _local(engine, factor.name):  # a transition that learns per target: one call each
         new = np.concatenate([np.asarray(reps.graphs[k].factors[factor.name].sample(
-            reps.rngs[k], flat[k * n:(k + 1) * n], *(h[k * n:(k + 1) * n] for h in past)),
+            reps.generators()[k], flat[k * n:(k + 1) * n],
+            *(h[k * n:(k + 1) * n] for h in past)),
             dtype=float) for k in range(K)])
     else:
-        rng = ReplicaRNG(reps.rngs, n, owner=f"transition {factor.name!r}")
+        rng = ReplicaRNG(reps.generators(), n, owner=f"transition {factor.name!r}")
         new = np.asarray(factor.sample(rng, flat, *past), dtype=float)
     if new.shape != flat.shape:
         raise ValueError(f"factor {factor.name!r}: sample() returned shape {new.shape}, "
@@ -364,9 +365,9 @@ def coupling_batched(engine: Engine, factor, frame: FrameContext, src: str, dst:
     flat = b.x.reshape(K * n, d)
     if _local(engine, factor.name):
         x_msg = np.concatenate([np.asarray(reps.graphs[k].factors[factor.name].propagate(
-            reps.rngs[k], flat[k * n:(k + 1) * n], src)) for k in range(K)])
+            reps.generators()[k], flat[k * n:(k + 1) * n], src)) for k in range(K)])
     else:
-        x_msg = np.asarray(factor.propagate(ReplicaRNG(reps.rngs, n,
+        x_msg = np.asarray(factor.propagate(ReplicaRNG(reps.generators(), n,
                                                        owner=f"coupling {factor.name!r}"),
                                             flat, src), dtype=float)
     d_dst = engine.beliefs[dst].dim
@@ -429,7 +430,8 @@ def resample_batched(engine: Engine, variable: str, frame: FrameContext) -> dict
     else:
         rows = np.array([k for k in range(b.K)
                          if ess_triggered(float(ess[k]), b.num, engine.ess_threshold)], int)
-    engine.beliefs[variable] = b.resample_rows(engine.replicas.rngs, engine.resampler, n, rows)
+    engine.beliefs[variable] = b.resample_rows(engine.replicas.generators(), engine.resampler, n,
+                                               rows)
     return {"resampled": np.isin(np.arange(b.K), rows), "ess": ess}
 
 def _clusters(rects: np.ndarray) -> list[list[int]]:

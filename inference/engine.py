@@ -212,6 +212,9 @@ class Engine:
         #: per-variable state that rules keep across frames (PHD tracks, extraction, ...)
         self.aux: dict[str, dict[str, Any]] = {}
         self._learners = [f for f in self.graph.factors.values() if f.learns]
+        #: likelihoods that learn something from the first frame (a template)
+        self._initializers = [f.name for f in self.graph.factors_by_kind("likelihood")
+                              if type(f).initialize is not LikelihoodFactor.initialize]
         self._proposals = bool(self.graph.factors_by_kind("proposal"))
         self._groups_cache: dict[tuple, list[tuple[list[Factor], list[Rule], bool]]] = {}
         self._rule_cache: dict[tuple, Rule] = {}
@@ -404,9 +407,12 @@ class Engine:
     def _stage_prior(self, items, frame, record) -> None:
         for name in items:
             self._apply_factor(name, frame, record)
+        if not self._initializers:
+            return
         graphs = [self.graph] if self.replicas is None else self.replicas.graphs
         for g in graphs:  # templates learned at the prior mean (each replica its own)
-            for f in g.factors_by_kind("likelihood"):
+            for name in self._initializers:
+                f = g.factors[name]
                 priors = g.factors_of(f.variables[0], "prior")
                 if priors:
                     f.initialize(frame, priors[0].mean())

@@ -99,26 +99,38 @@ class Replicas:
     keep across frames (``aux``) and its latest estimates ``est`` (variable →
     ``(K, d)``)."""
 
-    rngs: list[np.random.Generator] = field(default_factory=list)
+    rngs: list[np.random.Generator | None] = field(default_factory=list)
     graphs: list[FactorGraph] = field(default_factory=list)
     tracks: list[Track] = field(default_factory=list)
     aux: list[dict] = field(default_factory=list)
     est: dict[str, np.ndarray] = field(default_factory=dict)
+    #: where a replica born without a generator (None in ``rngs``: a plate of exact
+    #: Gaussian beliefs draws nothing) gets one, spawned when first asked for
+    parent: np.random.Generator | None = None
 
     @property
     def K(self) -> int:  # noqa: N802 - the plate's size is called K
         return len(self.rngs)
 
+    def generators(self) -> list[np.random.Generator]:
+        """Every replica's generator (those not made yet spawned now from ``parent``)."""
+        missing = [k for k, g in enumerate(self.rngs) if g is None]
+        if missing:
+            for k, g in zip(missing, self.parent.spawn(len(missing)), strict=True):
+                self.rngs[k] = g
+        return self.rngs
+
     def select(self, idx: np.ndarray) -> Replicas:
         pick = lambda xs: [xs[i] for i in idx]  # noqa: E731
         return Replicas(pick(self.rngs), pick(self.graphs), pick(self.tracks), pick(self.aux),
-                        {v: a[idx] for v, a in self.est.items()})
+                        {v: a[idx] for v, a in self.est.items()}, self.parent)
 
     def join(self, other: Replicas) -> Replicas:
         est = {v: np.concatenate([self.est[v], other.est[v]]) if v in self.est else other.est[v]
                for v in other.est}
         return Replicas(self.rngs + other.rngs, self.graphs + other.graphs,
-                        self.tracks + other.tracks, self.aux + other.aux, est)
+                        self.tracks + other.tracks, self.aux + other.aux, est,
+                        self.parent or other.parent)
 
 
 @dataclass
@@ -133,6 +145,7 @@ class PlateSpec:
     reference_box: np.ndarray | None
     prior_boxes: dict[str, np.ndarray]
     next_id: int = 1
+    lazy_rngs: bool = False
 
 
 def setup(engine: Engine) -> None:
@@ -164,8 +177,12 @@ def setup(engine: Engine) -> None:
                                   [f.name for f in g.factors.values() if f.learns], boxed,
                                   reference, {v: state_boxes(g.variables[v].labels, m)
                                               for v, m in means.items()})
-    engine.replicas = Replicas()
+    engine.replicas = Replicas(parent=engine.rng)
     engine.beliefs = _empty_beliefs(engine)
+    # a plate whose beliefs are all exact (Gaussian, noise) draws no random numbers: its
+    # replicas get their generators only if a rule asks (Replicas.generators)
+    engine.plate_spec.lazy_rngs = all(
+        engine.belief_type(v) is not BatchedParticles for v in g.variables)
 
 
 def _has_box(graph: FactorGraph, variable: str) -> bool:
@@ -244,7 +261,9 @@ def add(engine: Engine, boxes: np.ndarray | None, frame: FrameContext,
         m = len(boxes)
         values = [_part_values(engine, b) for b in boxes]
         states = [b.copy() for b in boxes]
-    rngs = list(engine.rng.spawn(m) if rngs is None else rngs)
+    if rngs is None:
+        rngs = [None] * m if spec.lazy_rngs else engine.rng.spawn(m)
+    rngs = list(rngs)
     if len(rngs) != m:
         raise ValueError(f"{m} replicas but {len(rngs)} generators")
     if m == 0:
@@ -258,7 +277,7 @@ def add(engine: Engine, boxes: np.ndarray | None, frame: FrameContext,
             t.track_id = spec.next_id
             spec.next_id += 1
     newborn = Replicas(rngs, [_replica_graph(engine, v) for v in values], tracks,
-                       [{} for _ in range(m)])
+                       [{} for _ in range(m)], parent=engine.rng)
     saved = (engine.beliefs, engine.replicas, engine.evidence, engine.messages,
              engine.assignment)
     # newborns: their own first frame (no detection was assigned to them)

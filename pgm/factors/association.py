@@ -151,7 +151,11 @@ class BoxPrior(GaussianPrior):
             raise ValueError(f"prior {self.name!r}: needs a box (cx, cy, w, h) and a box state, "
                              f"got {sorted(values)} for labels {labels}")
         mean = np.zeros(self.mean_.shape)
-        mean[cols] = encode_boxes(box, coding)
+        if coding == "xyxy":  # inline: a plate's births call this once per new target
+            cx, cy, hw, hh = box[0], box[1], box[2] / 2.0, box[3] / 2.0
+            mean[cols] = (cx - hw, cy - hh, cx + hw, cy + hh)
+        else:
+            mean[cols] = encode_boxes(box, coding)
         new = self._with_mean(mean)
         if self.relative_std is not None:
             new.cov = np.diag((self.relative_std * axis_sizes(labels, coding, mean)) ** 2)
