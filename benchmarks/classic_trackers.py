@@ -124,6 +124,8 @@ VARIANTS = (
     ("--noise scale --report estimate", {"noise": "scale", "report": "estimate"}),
     ("--noise scale --vb-noise --report estimate",
      {"noise": "scale", "vb_noise": True, "report": "estimate"}),
+    ("--noise scale --report estimate --occlusion-gate 3",
+     {"noise": "scale", "report": "estimate", "occlusion_gate": 3.0}),
 )
 #: OC-SORT's state is the paper's (xysr) by default: its variants
 OCSORT_VARIANTS = (
@@ -136,6 +138,8 @@ OCSORT_VARIANTS = (
      {"box_state": "xyxy", "noise": "scale", "report": "estimate"}),
     ("--box-state xyxy --noise scale --vb-noise --report estimate",
      {"box_state": "xyxy", "noise": "scale", "vb_noise": True, "report": "estimate"}),
+    ("--box-state xyxy --noise scale --report estimate --occlusion-gate 3",
+     {"box_state": "xyxy", "noise": "scale", "report": "estimate", "occlusion_gate": 3.0}),
 )
 
 

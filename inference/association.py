@@ -372,7 +372,12 @@ def update_assigned(engine: Engine, factor, frame: FrameContext) -> None:
     info = None
     if factor.reupdate:  # OC-SORT's re-update of replicas found again after a gap
         m0, P0, info = _reupdate(engine, factor, rows, m0, P0)
-    m, P = kalman_update_batch(m0, P0, factor.H, factor.noise_cov(m0), z, factor.selects)
+    R = factor.noise_cov(m0)
+    if factor.occlusion_gate is not None:  # hidden edges carry no information
+        R, hidden = _hide_edges(m0, P0, R, z, factor.occlusion_gate)
+        if hidden.any():
+            info = dict(info or {}, hidden_edges=int(hidden.sum()))
+    m, P = kalman_update_batch(m0, P0, factor.H, R, z, factor.selects)
     mean, cov = b.mean.copy(), b.cov.copy()
     mean[rows], cov[rows] = m, P
     engine.beliefs[var] = BatchedGaussian(mean, cov)
@@ -404,6 +409,31 @@ def weight_assigned(engine: Engine, factor, frame: FrameContext) -> np.ndarray:
     logdet = 2.0 * np.log(np.diagonal(L, axis1=1, axis2=2)).sum(axis=1)  # (B,)
     out[rows] = -0.5 * (u ** 2).sum(-1) - 0.5 * (logdet[:, None] + k * np.log(2 * np.pi))
     return out
+
+
+#: which way an edge of a corner box moves when it is hidden: x1 and y1 inwards is up,
+#: x2 and y2 inwards is down
+_INWARDS = np.array([1.0, 1.0, -1.0, -1.0])
+
+
+def _hide_edges(m: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray, gate: float
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """``R`` with the rows of hidden edges made uninformative (variance 1e12), and the mask
+    ``(B, 4)`` of those edges: an edge of detection ``z`` (corners) inside the predicted
+    box ``m[:, :4]`` by more than ``gate`` innovation standard deviations. At most two
+    edges (one per axis) are hidden, so a detection always updates its box."""
+    R = np.broadcast_to(R, (len(m),) + R.shape[-2:]).copy()
+    S = np.diagonal(P[:, :4, :4], axis1=1, axis2=2) + np.diagonal(R, axis1=1, axis2=2)
+    inside = _INWARDS * (z - m[:, :4]) / np.sqrt(S)  # > 0: the edge moved into the box
+    hidden = inside > gate
+    for a, b in ((0, 2), (1, 3)):  # never both edges of one axis: keep the less inside
+        both = hidden[:, a] & hidden[:, b]
+        keep_a = inside[:, a] <= inside[:, b]
+        hidden[both & keep_a, a] = False
+        hidden[both & ~keep_a, b] = False
+    idx = np.nonzero(hidden)
+    R[idx[0], idx[1], idx[1]] = 1e12
+    return R, hidden
 
 
 def _predict_one(factor, labels, m: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -147,6 +147,10 @@ class Params:
         The momentum term of rounds with ``"direction"`` (OC-SORT: 0.2, 3).
     reupdate : bool
         OC-SORT's observation-centric re-update of tracks found again.
+    occlusion_gate : float, optional
+        Seed 002's part idea on the box (corner states): an edge of a detection lying
+        inside the predicted box by more than this many σ is taken as hidden and does not
+        update the target's box (:class:`~pgm.factors.association.AssignedDetectionLikelihood`).
     appearance : str, optional
         Appearance cues for association and re-identification (``"colour"``, ``"cf"``,
         ...): one model per track learned from its detections, its similarity with each
@@ -190,6 +194,7 @@ class Params:
     direction_weight: float = 0.2
     delta_t: int = 3
     reupdate: bool = False
+    occlusion_gate: float | None = None
     appearance: str | None = None
     appearance_weight: float = 0.5
     report: str = "detection"
@@ -302,7 +307,8 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
         BoxTransition("box", F=F, Q=np.diag(q), relative_std=rel_q),
         _association(p),
         AssignedDetectionLikelihood("box", H=H, R=np.diag(r), relative_std=rel_r,
-                                    reupdate=p.reupdate, name="detection"),
+                                    reupdate=p.reupdate, occlusion_gate=p.occlusion_gate,
+                                    name="detection"),
     ]
     beliefs = {"box": "gaussian"}
     plate_vars = ["box"]
@@ -406,6 +412,10 @@ OPTIONS = (
                         "cv3 (velocity averaged over three frames) or gpdm (--gpdm FILE)"),
     _config.Option("--gpdm", "gpdm", metavar="FILE.npz",
                    help="the learned GPDM of --motion gpdm (pgm learn gpdm)"),
+    _config.Option("--occlusion-gate", "occlusion_gate",
+                   type=_config.finite_float("--occlusion-gate"), metavar="SIGMA",
+                   help="edges of a detection inside the predicted box by more than SIGMA "
+                        "innovation stds are taken as hidden (corner states; default: off)"),
     _config.Option("--vb-noise", "vb_noise", flag_only=True,
                    help="seed 000's variational-Bayes measurement noise per target"),
 )

@@ -319,13 +319,21 @@ class AssignedDetectionLikelihood(LikelihoodFactor):
     unused. ``reupdate``: OC-SORT's observation-centric re-update — a replica matched
     again after frames without a detection is first re-filtered along a straight line of
     virtual detections from its last one to this one, so that the drift of the
-    prediction through the gap does not stay in its velocity.
+    prediction through the gap does not stay in its velocity. ``occlusion_gate`` (σ, a
+    corner state only): the part-graph idea of seed 002 on a box — a box is made of its
+    edges, and a detection of a half-hidden person sees only some of them: an edge of the
+    detection that lies *inside* the predicted box by more than ``occlusion_gate``
+    innovation standard deviations is taken as hidden (its row carries no information),
+    so the target's box keeps its predicted extent there and is updated by the edges
+    that are seen.
     """
 
     def __init__(self, variable: str, *, H, R, relative_std=None, reupdate: bool = False,
-                 name: str | None = None):
+                 occlusion_gate: float | None = None, name: str | None = None):
         super().__init__(variable, name=name)
         self.reupdate = bool(reupdate)
+        self.occlusion_gate = None if occlusion_gate is None else float(check_finite_param(
+            f"{self.name}.occlusion_gate", occlusion_gate, positive=True))
         self.H = np.atleast_2d(np.asarray(H, dtype=float))
         check_finite_param(f"{self.name}.H", self.H)
         self.R = _as_cov(R, self.H.shape[0], f"{self.name}.R")
@@ -351,6 +359,8 @@ class AssignedDetectionLikelihood(LikelihoodFactor):
             p["relative_std"] = self.relative_std
         if self.reupdate:
             p["reupdate"] = True
+        if self.occlusion_gate is not None:
+            p["occlusion_gate"] = self.occlusion_gate
         return p
 
     def check(self, variables: dict[str, Variable]) -> None:
@@ -362,6 +372,9 @@ class AssignedDetectionLikelihood(LikelihoodFactor):
         self._labels = tuple(variables[self.variables[0]].labels)
         if self.relative_std is not None:
             axis_sizes(self._labels, self._coding, np.ones(self.H.shape[1]))
+        if self.occlusion_gate is not None and (self._coding != "xyxy" or not self.selects):
+            raise ValueError(f"factor {self.name!r}: occlusion_gate needs a corner state "
+                             f"(x1, y1, x2, y2 first) read by H = [I 0]")
 
     def scales(self, mean: np.ndarray) -> np.ndarray | None:
         """``(B, k)`` the size each measured component's noise is in units of, at the

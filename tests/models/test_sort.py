@@ -376,3 +376,30 @@ def test_particle_motion_models_drive_the_same_core(motion):
     assert np.abs(est[:2] - truth).max() < 5.0
     with pytest.raises(ValueError, match="GPDM file"):
         sort.build_graph(sort.Params(motion="gpdm"))
+
+
+def test_occlusion_gate_keeps_the_hidden_edges():
+    """The part idea on a box: while a person's legs are hidden, the detector's box covers
+    only the upper 60 %; with the occlusion gate that shortened bottom edge is taken as
+    hidden and the target keeps its height (the edges seen still update it), without it
+    the box shrinks to the visible part. (The hidden edge's uncertainty grows each frame
+    it is not updated, so after a few frames the detection's edge passes the gate: here
+    the fourth.)"""
+    boxes = _walk(30, sigma=0.5)
+    hidden = slice(15, 18)
+    short = boxes.copy()
+    short[hidden, 3] *= 0.6
+    heights = {}
+    for gate in (None, 3.0):
+        p = sort.Params(fps=30.0, noise="scale", report="estimate", occlusion_gate=gate)
+        eng = Engine(sort.build_graph(p), 0)
+        for t, b in enumerate(short[:hidden.stop]):
+            rec = eng.step(_frame(t + 1, b))
+        heights[gate] = rec.info["target"]["boxes"][0, 3]
+        if gate is not None:
+            assert rec.info["detection"]["hidden_edges"] == 1
+    true_h = boxes[hidden.stop - 1, 3]
+    assert abs(heights[3.0] - true_h) < 0.1 * true_h
+    assert heights[None] < 0.8 * true_h
+    with pytest.raises(ValueError, match="corner state"):
+        sort.build_graph(sort.Params(box_state="xysr", occlusion_gate=3.0))
