@@ -11,7 +11,7 @@ cores, each one setting:
   detection (``exp(ρ − 1)``, weight 1) to the IoU and OC-SORT's momentum term, so that
   people who cross keep their identities.
 
-It was chosen leave one sequence out among 37 variants of the SORT, ByteTrack and
+It was chosen leave one sequence out among 40 variants of the SORT, ByteTrack and
 OC-SORT cores (``python benchmarks/classic_trackers.py --choose``): every fold picks it,
 and on every held-out sequence it is at or above the best of the ``trackers`` package's
 SORT, ByteTrack and OC-SORT in MOTA and IDF1 (numbers in ``docs/results.md``). It needs the
