@@ -129,8 +129,9 @@ class Params:
         SORT: one, IoU ≥ 0.3).
     activation : float
         Score a detection needs to start a track (0.25).
-    score_map : {"none", "logistic"}
-        How scores reach [0, 1] before the thresholds (:func:`score_map_for`).
+    score_map : {"none", "logistic", "constant"}
+        How scores reach [0, 1] before the thresholds (:func:`score_map_for`; for a video,
+        ``"constant"`` when the detector's scores have no known scale).
     recover_hits : int
         Matches in a row before a track found again after a miss is reported (1; OC-SORT:
         ``min_hits``).
@@ -431,8 +432,11 @@ def video_build(config: _config.ModelConfig, values: dict[str, Any],
     kw["fps"] = float(video.fps)
     if video.particles is not None:
         kw["num_particles"] = int(video.particles)
-    if video.score_range is not None:
-        kw["score_map"] = score_map_for(np.asarray(video.score_range))
+    # detections from a file have scores whose scale the file tells (score_map_for); a
+    # detector without one (background subtraction: fill fractions) says nothing of
+    # confidence, so its detections are all taken as confident
+    kw["score_map"] = ("constant" if video.score_range is None
+                       else score_map_for(np.asarray(video.score_range)))
     return config.module.build_graph(replace(params, **kw), name=config.name)
 
 

@@ -50,8 +50,11 @@ __all__ = ["BoxPrior", "BoxTransition", "DetectionAssociation", "AssignedDetecti
 
 #: how detection scores are brought to [0, 1] before the rounds' thresholds: ``"none"``
 #: (as given), ``"logistic"`` (``1 / (1 + e^{-s})``: one monotone map for a detector whose
-#: scores are margins or unbounded, as MOT15's and MOT16's public ones are)
-SCORE_MAPS = ("none", "logistic")
+#: scores are margins or unbounded, as MOT15's and MOT16's public ones are), ``"constant"``
+#: (every detection 1: a detector whose scores say nothing of confidence, such as
+#: background subtraction's fill fractions — as the ``trackers`` package treats
+#: detections without scores)
+SCORE_MAPS = ("none", "logistic", "constant")
 
 
 def map_scores(scores: np.ndarray, score_map: str) -> np.ndarray:
@@ -61,6 +64,8 @@ def map_scores(scores: np.ndarray, score_map: str) -> np.ndarray:
         return s
     if score_map == "logistic":
         return 0.5 * (1.0 + np.tanh(0.5 * s))  # the logistic, without overflow
+    if score_map == "constant":
+        return np.ones_like(s)
     raise ValueError(f"unknown score map {score_map!r} (choose from {SCORE_MAPS})")
 
 

@@ -403,3 +403,19 @@ def test_occlusion_gate_keeps_the_hidden_edges():
     assert heights[None] < 0.8 * true_h
     with pytest.raises(ValueError, match="corner state"):
         sort.build_graph(sort.Params(box_state="xysr", occlusion_gate=3.0))
+
+
+def test_the_score_map_follows_what_is_known_of_the_detector():
+    """Built for a video, the SORT family reads the detector's score range: scores in
+    [0, 1] are used as they are, scores outside through the logistic, and a detector
+    without a score scale (background subtraction's fill fractions) has every detection
+    taken as confident."""
+    from pgm.models import ocsort_colour
+    from pgm.models.config import VideoInfo
+
+    config = ocsort_colour.CONFIG
+    for score_range, expected in (((0.1, 0.95), "none"), ((-2.0, 1.5), "logistic"),
+                                  ((3.0, 140.0), "logistic"), (None, "constant")):
+        g = config.graph_for({}, VideoInfo(fps=25.0, score_range=score_range))
+        assert g.factors["association"].score_map == expected
+    np.testing.assert_array_equal(map_scores(np.array([0.1, 0.4]), "constant"), [1.0, 1.0])
