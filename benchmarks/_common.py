@@ -3,10 +3,21 @@
 from __future__ import annotations
 
 import os
+import sys
 import tracemalloc
 from pathlib import Path
 
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+
+
+def shared_sequences(chosen: str | None, default: tuple[str, ...]) -> list[str]:
+    """The sequences to run: ``chosen`` (comma-separated) or ``default``, those present
+    under ``../shared/data``; exits with a message when none is."""
+    names = chosen.split(",") if chosen else list(default)
+    seqs = [q for q in names if (SHARED_DATA / q).is_dir()]
+    if not seqs:
+        sys.exit(f"none of {names} under {SHARED_DATA}")
+    return seqs
 
 
 def single_thread() -> None:

@@ -52,7 +52,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import SHARED_DATA, print_table, single_thread  # noqa: E402
+from _common import SHARED_DATA, print_table, shared_sequences, single_thread  # noqa: E402
 
 SEQUENCES = ("PETS09-S2L1", "TUD-Campus", "TUD-Stadtmitte", "MOT16-11")
 
@@ -317,10 +317,7 @@ def main() -> None:
 
     from pgm.evaluation.mot import evaluate_mot
 
-    seqs = [q for q in (args.sequences.split(",") if args.sequences else SEQUENCES)
-            if (SHARED_DATA / q).is_dir()]
-    if not seqs:
-        sys.exit(f"no shared MOT sequence under {SHARED_DATA}")
+    seqs = shared_sequences(args.sequences, SEQUENCES)
     peers_ok = not args.no_peers and peer_python() is not None
     if not args.no_peers and not peers_ok:
         print(SETUP_HINT, file=sys.stderr)

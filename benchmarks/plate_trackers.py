@@ -34,7 +34,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from _common import SHARED_DATA, print_table, single_thread
+from _common import SHARED_DATA, print_table, shared_sequences, single_thread
 
 SEQUENCES = ("PETS09-S2L1", "TUD-Campus", "TUD-Stadtmitte", "MOT16-11")
 GRID = {"detection_strength": (200.0, 2000.0, 20000.0), "exclusion": (0.0, 10.0),
@@ -127,10 +127,7 @@ def main() -> None:
     single_thread()
     from pgm.models import gpdm, multi_pf, vb_phd
 
-    seqs = [q for q in (args.sequences.split(",") if args.sequences else SEQUENCES)
-            if (SHARED_DATA / q).is_dir()]
-    if not seqs:
-        sys.exit(f"no shared MOT sequence under {SHARED_DATA}")
+    seqs = shared_sequences(args.sequences, SEQUENCES)
     if args.choose:
         print_table(["held out", "chosen on the others", "MOTA", "IDF1", "train obj"],
                     choose(seqs, 0), title="multi-pf defaults, leave one sequence out "

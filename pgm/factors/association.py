@@ -98,6 +98,17 @@ def axis_sizes(labels, coding: str, x: np.ndarray) -> np.ndarray:
     return np.where(is_x, w, h)
 
 
+def _relative_std(factor: Factor, value, n: int) -> np.ndarray | None:
+    """A factor's ``relative_std``: ``n`` positive finite stds, or None."""
+    if value is None:
+        return None
+    r = np.asarray(value, dtype=float).reshape(-1)
+    check_finite_param(f"{factor.name}.relative_std", r, positive=True)
+    if r.size != n:
+        raise ValueError(f"factor {factor.name!r}: relative_std needs {n} values, got {r.size}")
+    return r
+
+
 def constant_velocity(coding: str) -> tuple[list[str], np.ndarray, np.ndarray]:
     """Labels, transition ``F`` and measurement ``H`` of a constant-velocity box state in
     ``coding``: the four box columns and a rate for each (``xysr``: none for the aspect
@@ -125,14 +136,7 @@ class BoxPrior(GaussianPrior):
     def __init__(self, variable: str, *, mean, cov=0.0, relative_std=None,
                  name: str | None = None):
         super().__init__(variable, mean=mean, cov=cov, name=name)
-        self.relative_std = None
-        if relative_std is not None:
-            r = np.asarray(relative_std, dtype=float).reshape(-1)
-            check_finite_param(f"{self.name}.relative_std", r, positive=True)
-            if r.size != self.mean_.size:
-                raise ValueError(f"factor {self.name!r}: relative_std needs {self.mean_.size} "
-                                 f"values, got {r.size}")
-            self.relative_std = r
+        self.relative_std = _relative_std(self, relative_std, self.mean_.size)
 
     def params(self) -> dict[str, Any]:
         p = super().params()
@@ -347,14 +351,9 @@ class AssignedDetectionLikelihood(LikelihoodFactor):
         k, d = self.H.shape
         #: whether ``H = [I 0]`` reads the box columns (the Kalman rule then slices)
         self.selects = d >= k and bool(np.array_equal(self.H, np.eye(k, d)))
-        self.relative_std = None
-        if relative_std is not None:
-            r = np.asarray(relative_std, dtype=float).reshape(-1)
-            check_finite_param(f"{self.name}.relative_std", r, positive=True)
-            if r.size != k or not self.selects:
-                raise ValueError(f"factor {self.name!r}: relative_std needs {k} values and "
-                                 f"H = [I 0]")
-            self.relative_std = r
+        self.relative_std = _relative_std(self, relative_std, k)
+        if self.relative_std is not None and not self.selects:
+            raise ValueError(f"factor {self.name!r}: relative_std needs H = [I 0]")
         self._labels: tuple | None = None
         self._coding: str | None = None
 
@@ -410,14 +409,7 @@ class BoxTransition(LinearGaussianTransition):
 
     def __init__(self, variable: str, *, F, Q, relative_std=None, name: str | None = None):
         super().__init__(variable, F=F, Q=Q, name=name)
-        self.relative_std = None
-        if relative_std is not None:
-            r = np.asarray(relative_std, dtype=float).reshape(-1)
-            check_finite_param(f"{self.name}.relative_std", r, positive=True)
-            if r.size != self.F.shape[0]:
-                raise ValueError(f"factor {self.name!r}: relative_std needs {self.F.shape[0]} "
-                                 f"values, got {r.size}")
-            self.relative_std = r
+        self.relative_std = _relative_std(self, relative_std, self.F.shape[0])
         self._labels: tuple | None = None
         self._coding: str | None = None
 
