@@ -138,3 +138,22 @@ def test_mot_sequences_no_peers_prints_only_the_toolkit_rows(shared_data):
     assert [r[1] for r in rows] == ["PHD", "VB-PHD"]
     assert all(-1.0 <= float(r[2]) <= 1.0 and 0.0 <= float(r[3]) <= 1.0 for r in rows)
     assert not any(p in out for p in ("SORT", "ByteTrack", "OC-SORT"))
+
+
+@pytest.mark.slow
+def test_classic_trackers_benchmark_prints_the_cores_and_their_speed(shared_data):
+    """``benchmarks/classic_trackers.py`` on one sequence without the peers: a row per core
+    (sort, bytetrack, ocsort) with finite MOTA and IDF1, and a speed row per core."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, str(root / "benchmarks" / "classic_trackers.py"),
+                          "--sequences", "TUD-Campus", "--repeats", "1", "--no-peers"],
+                         capture_output=True, text=True, check=True).stdout
+    rows = [line.split() for line in out.splitlines() if line.strip().startswith("TUD-Campus")]
+    scores = [r for r in rows if len(r) == 8]
+    speed = [r for r in rows if len(r) == 7]
+    assert [r[1] for r in scores] == ["sort", "bytetrack", "ocsort"]
+    assert all(-1.0 <= float(r[2]) <= 1.0 and 0.0 <= float(r[3]) <= 1.0 for r in scores)
+    assert [r[1] for r in speed] == ["sort", "bytetrack", "ocsort"]
+    assert all(float(r[3]) > 0 for r in speed)
