@@ -165,7 +165,10 @@ class Params:
     vb_noise : bool
         Seed 000's adaptive measurement noise per target (``vb-sort``).
     vb_rho, vb_alpha0 : float
-        Its forgetting factor and prior shape (the prior's mean is ``R``).
+        Its forgetting factor and prior shape (the prior's mean is ``R``). ``ρ = 0.99``: a
+        detector's noise is a property of the detector, steady over a track's life (seed
+        000's 0.8 forgets a shared noise that drifts; per track it makes each track's gain
+        follow its last few residuals: PETS09-S2L1 IDF1 0.399 against 0.454).
     """
 
     box_state: str = "xyxy"
@@ -200,7 +203,7 @@ class Params:
     appearance_weight: float = 0.5
     report: str = "detection"
     vb_noise: bool = False
-    vb_rho: float = 0.8
+    vb_rho: float = 0.99
     vb_alpha0: float = 10.0
 
 
