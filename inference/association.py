@@ -112,6 +112,14 @@ def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
 
     K, M = len(pred), len(boxes)  # noqa: N806
     iou = iou_matrix(pred, boxes) if K and M else np.zeros((K, M))
+    if len(rounds) == 1 and rounds[0]["against"] == "prediction" and K and M and \
+            appearance is None and not rounds[0]["direction"] and \
+            rounds[0]["min_score"] == -np.inf and rounds[0]["max_score"] == np.inf:
+        # SORT's one round over every detection: the assignment, gated (the loop below
+        # gives the same, with more bookkeeping)
+        a, b = linear_sum_assignment(iou, maximize=True)
+        ok = iou[a, b] >= rounds[0]["iou"]
+        return Assignment(a[ok], b[ok], boxes, scores, iou, np.zeros(int(ok.sum()), dtype=int))
     free = np.ones(K, dtype=bool)
     unused = np.ones(M, dtype=bool)
     rows: list[np.ndarray] = []

@@ -13,8 +13,9 @@ BoT-SORT's values; the belief is of the variance in those units). With the ``tra
 package's pixel noise (``Q = 0.01``, ``R = 0.1``) learning ``R`` hurts: the learned
 detection scatter (several px²) against a process noise that small makes the filter lag
 behind walking people (``benchmarks/classic_trackers.py --variants``: ``sort --vb-noise``
-loses 0.06–0.12 MOTA), because SORT's tiny ``R`` is what keeps its gain high. Learning
-``R`` is sound only against a process noise of the right size.
+loses up to 0.08 MOTA), because SORT's tiny ``R`` is what keeps its gain high. Learning
+``R`` is sound only against a process noise of the right size. The noise is forgotten
+slowly (ρ = 0.99): a detector's scatter is steady over a track's life.
 
 >>> g = build_graph(Params())
 >>> sorted(g.variables), g.factors["vb"].kind
