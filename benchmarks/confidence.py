@@ -21,7 +21,12 @@ mapped through a logistic (:func:`pgm.core.readout.confidence`). This script
    reliability diagram, expected calibration error (ECE, 10 bins) and Brier score,
    against the shipped coefficients and against a constant (the other groups' hit rate, weighted
    as the fit is: what a tracker with no confidence signal can do);
-3. prints the logistic fitted on all groups (what ``single_object.CONFIDENCE`` ships).
+3. prints the logistic fitted on all groups (what ``single_object.CONFIDENCE`` ships);
+4. the **lost signal** (``pgm track --lost-below P``: a frame whose confidence is below
+   ``P`` is reported as lost): for each threshold of ``--lost``, its precision (the share
+   of flagged frames where the box overlaps the truth by less than half) and recall (the
+   share of such frames flagged), with the held-out confidences and with the shipped
+   ones, every video weighted equally.
 
 The fit weights every group (video) equally (``--weighting videos``, the default): the
 unit a calibration must transfer to is a video a user has not shown us, and with
@@ -33,7 +38,7 @@ frame of a video drawn at random: what a user can expect before running theirs) 
 with every frame weighted equally.
 
     python benchmarks/confidence.py [--seeds 2] [--persons 6] [--person-sequences A,B]
-                                    [--weighting videos|frames]
+                                    [--weighting videos|frames] [--lost 0.1,0.2,0.3,0.5]
 """
 
 from __future__ import annotations
@@ -56,7 +61,7 @@ from sklearn.metrics import roc_auc_score  # noqa: E402
 from pgm.app.runner import output_target  # noqa: E402
 from pgm.core.frame import FrameContext  # noqa: E402
 from pgm.core.readout import posterior_spread  # noqa: E402
-from pgm.evaluation.calibration import reliability, video_weights  # noqa: E402
+from pgm.evaluation.calibration import lost_signal, reliability, video_weights  # noqa: E402
 from pgm.evaluation.single_object import single_object_metrics  # noqa: E402
 from pgm.inference import Engine  # noqa: E402
 from pgm.models import single_object  # noqa: E402
@@ -119,6 +124,8 @@ def main() -> None:
                          + ",".join(PERSON_SEQUENCES) + ")")
     ap.add_argument("--weighting", choices=("videos", "frames"), default="videos",
                     help="fit with every group weighted equally (default) or every frame")
+    ap.add_argument("--lost", default="0.1,0.2,0.3,0.5",
+                    help="thresholds of the lost signal's table (comma-separated)")
     args = ap.parse_args()
     groups = sequences(args.persons, persons_from=[s for s in args.person_sequences.split(",")
                                                     if s])
@@ -133,6 +140,7 @@ def main() -> None:
         return xs, ys, (video_weights(labels) if args.weighting == "videos" else None)
 
     rows, pooled_c, pooled_y, pooled_const, eces, per_video = [], [], [], [], [], {}
+    pooled_shipped = []
     for held, (x, y, shipped) in data.items():
         xs, ys, ws = training([n for n in data if n != held])
         a, b, k = fit(xs, ys, ws)
@@ -145,6 +153,7 @@ def main() -> None:
                            for b in reliability(c, y, n_bins=5)["bins"]}
         pooled_c.append(c)
         pooled_y.append(y)
+        pooled_shipped.append(shipped)
         pooled_const.append(np.full(len(y), np.average(ys, weights=ws)))
         auroc = f"{roc_auc_score(y, c):.2f}" if 0 < y.mean() < 1 else "-"
         rows.append([held, len(y), f"{y.mean():.3f}", f"{c.mean():.3f}", auroc, f"{r['ece']:.3f}",
@@ -176,6 +185,21 @@ def main() -> None:
                     title=f"Reliability diagram, held-out predictions pooled, {how}: "
                           f"ECE {r['ece']:.3f}, Brier {r['brier']:.3f} (constant: ECE "
                           f"{r_const['ece']:.3f}, Brier {r_const['brier']:.3f})")
+    lost_rows = []
+    vw = video_weights(video_of)
+    shipped_all = np.concatenate(pooled_shipped)
+    for t in (float(v) for v in args.lost.split(",") if v):
+        held_out = lost_signal(c, y, t, weights=vw)
+        ship = lost_signal(shipped_all, y, t, weights=vw)
+        fmt = lambda v: "-" if v is None else f"{v:.3f}"  # noqa: E731
+        lost_rows.append([f"{t:.2f}", held_out["flagged"], held_out["lost"],
+                          fmt(held_out["precision"]), fmt(held_out["recall"]),
+                          ship["flagged"], fmt(ship["precision"]), fmt(ship["recall"])])
+    print_table(["lost below", "flagged", "lost frames", "precision", "recall",
+                 "flagged (shipped)", "precision (shipped)", "recall (shipped)"], lost_rows,
+                title="The lost signal (confidence below the threshold) against the frames "
+                      "where the box overlaps the truth by less than half; held-out and "
+                      "shipped confidences, every video weighted equally")
     xs, ys, ws = training(list(data))
     a, b, k = fit(xs, ys, ws)
     r = reliability(sigmoid(a + xs @ np.array([b, k])), ys, weights=video_weights(video_of))

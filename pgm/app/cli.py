@@ -52,6 +52,7 @@ from .cli_args import (
     _Parser,
     _path,
     _positive_int,
+    _probability,
     _record_options,
     load_model_file,
     parse_box,
@@ -128,6 +129,12 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
     t.add_argument("--detector", default=None,
                    help="multi-target models: 'public' (the sequence's det/det.txt, default), "
                         "'public:MIN_SCORE' or 'mog2' (background subtraction)")
+    t.add_argument("--lost-below", type=_probability("--lost-below"), default=None,
+                   metavar="P",
+                   help="single object: frames whose calibrated confidence is below P are "
+                        "written to tracks.txt as empty (the target reported lost), and "
+                        "metrics.json says how well that flags the frames where the box "
+                        "misses the target (default: every frame written)")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.add_argument("--memory-limit", default=None, metavar="SIZE",
                    help="refuse a run whose estimated memory exceeds SIZE (e.g. 8G); "

@@ -247,7 +247,8 @@ def cmd_track(args) -> int:
                    num_particles=args.particles, write_video=not args.no_video,
                    show_particles=args.show_particles, progress=not args.quiet,
                    max_frames=args.max_frames, camera_motion=args.camera_motion or "off",
-                   memory_limit_bytes=_memory_limit(args), record=_record_option(args))
+                   memory_limit_bytes=_memory_limit(args), record=_record_option(args),
+                   lost_below=args.lost_below)
     print(f"tracked {len(result.frames)} frames at {result.fps:.1f} frames/s "
           f"(inference only) -> {Path(args.out) / 'tracks.txt'}")
     if result.metrics is not None:

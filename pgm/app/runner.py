@@ -25,7 +25,7 @@ from pgm.core.errors import InputError, Interrupted, user_message
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
 from pgm.core.readout import readout
-from pgm.evaluation.calibration import confidence_outcomes, reliability
+from pgm.evaluation.calibration import confidence_outcomes, lost_signal, reliability
 from pgm.evaluation.single_object import single_object_metrics
 from pgm.inference.engine import Engine, StepRecord
 from pgm.io.annotated_video import AnnotatedVideoWriter
@@ -172,7 +172,8 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
           engine_kwargs: dict[str, Any] | None = None, camera_motion: str = "off",
           on_frame: Callable[[StepRecord], None] | None = None,
           memory_limit_bytes: float | None = None,
-          record: bool | RecordSettings | dict | None = None) -> TrackResult:
+          record: bool | RecordSettings | dict | None = None,
+          lost_below: float | None = None) -> TrackResult:
     """Track one object through ``source`` with the tracker ``graph``.
 
     Parameters
@@ -207,6 +208,14 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
         Record what the viewer (``pgm view``) shows into ``out_dir/record``
         (:mod:`pgm.app.record`; ``True``: the default bounds); needs ``out_dir``. Off by
         default; recording draws no random number, so the results are the same.
+    lost_below : float, optional
+        The lost signal: a frame whose calibrated confidence (the probability that the box
+        overlaps the target by half; a model that declares one) is below it is written
+        to ``tracks.txt`` as empty — the target is reported lost or out of view — and,
+        with ground truth, ``metrics.json`` gets ``"lost"``: the frames flagged, and the
+        signal's precision and recall against the frames where the box overlaps the
+        truth by less than half (:func:`pgm.evaluation.calibration.lost_signal`). The
+        other metrics score every frame's box, flagged or not. Default: off.
 
     Notes
     -----
@@ -222,6 +231,14 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
                                       or num_particles < 1):
         raise InputError(f"number of particles must be a positive integer, got {num_particles}")
     check_api_arguments(source, graph, gt, max_frames, (SingleTrack,))
+    if lost_below is not None:
+        lost_below = float(lost_below)
+        if not 0.0 <= lost_below <= 1.0:  # also false for NaN
+            raise InputError(f"the lost threshold must be a probability in [0, 1], got "
+                             f"{lost_below!r}")
+        if "confidence" not in graph.meta:
+            raise InputError(f"model {graph.name!r} declares no calibrated confidence: it has "
+                             f"no lost signal (the single-object default has one)")
     rec_settings = _record_settings(record, out_dir)
     if isinstance(gt, (str, Path)):
         gt = load_single_gt(gt)
@@ -276,7 +293,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
             scores_done.append(score)
             if keep_records:
                 records.append(record)
-            if writer is not None:
+            if writer is not None and (lost_below is None or score >= lost_below):
                 writer.write(number, [1], box[None], [score])
             if video is not None:
                 video.write(_annotated_frame(engine, record, image, box,
@@ -307,6 +324,13 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
                if gt is not None else None)
     if metrics is not None and "confidence" in engine.graph.meta:
         metrics["confidence"] = confidence_metrics(metrics, frames_arr, scores_arr)
+        if lost_below is not None:
+            c, hit = confidence_outcomes(frames_arr, scores_arr, metrics["frames"],
+                                         metrics["ious"])
+            metrics["lost"] = lost_signal(c, hit, lost_below)
+    if out is not None and lost_below is not None:
+        run["lost_below"] = lost_below
+        run["frames_reported_lost"] = int(np.sum(scores_arr < lost_below))
     result = TrackResult(frames_arr, boxes_arr, metrics, seconds, out, records, scores_arr)
     if out is not None:
         run.update({"frames": len(frames_done), "last_frame": int(frames_arr[-1]),

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["reliability", "video_weights", "confidence_outcomes"]
+__all__ = ["reliability", "video_weights", "confidence_outcomes", "lost_signal"]
 
 
 def confidence_outcomes(frames: Any, confidence: Any, scored_frames: Any, ious: Any
@@ -102,3 +102,33 @@ def reliability(confidence: Any, outcome: Any, n_bins: int = 10,
                      "share": share, "confidence": mc, "hit_rate": hr})
     return {"n": int(c.size), "ece": float(ece), "brier": float(w @ (c - y) ** 2),
             "mean_confidence": float(w @ c), "hit_rate": float(w @ y), "bins": bins}
+
+
+def lost_signal(confidence: Any, hit: Any, threshold: float,
+                weights: Any = None) -> dict[str, Any]:
+    """How well ``confidence < threshold`` flags the frames where the tracker has lost its
+    target (``hit`` false: its box overlaps the truth by less than half).
+
+    Returns ``threshold``; ``flagged`` and ``lost`` (frame counts); ``precision`` (the
+    share of flagged frames that are lost) and ``recall`` (the share of lost frames that
+    are flagged), each weighted by ``weights`` (e.g. :func:`video_weights`) and ``None``
+    where undefined (nothing flagged, nothing lost).
+
+    >>> r = lost_signal([0.9, 0.2, 0.1, 0.8], [True, False, True, False], 0.5)
+    >>> r["precision"], r["recall"]
+    (0.5, 0.5)
+    """
+    c = np.asarray(confidence, dtype=float).reshape(-1)
+    lost = ~np.asarray(hit, dtype=bool).reshape(-1)
+    if c.shape != lost.shape:
+        raise ValueError(f"{c.size} confidences but {lost.size} outcomes")
+    t = float(threshold)
+    if not 0.0 <= t <= 1.0:
+        raise ValueError(f"the lost threshold must be in [0, 1], got {threshold!r}")
+    w = np.ones(c.size) if weights is None else np.asarray(weights, dtype=float).reshape(-1)
+    flagged = c < t
+    both = float(np.sum(w[flagged & lost]))
+    wf, wl = float(np.sum(w[flagged])), float(np.sum(w[lost]))
+    return {"threshold": t, "flagged": int(flagged.sum()), "lost": int(lost.sum()),
+            "precision": both / wf if wf > 0 else None,
+            "recall": both / wl if wl > 0 else None}

@@ -57,3 +57,32 @@ def test_models_without_a_confidence_report_one_and_bad_declarations_are_refused
                 {"factor": name, "intercept": 0}, "x"):
         with pytest.raises(ValueError, match="confidence"):
             check_confidence_spec(bad, factors)
+
+
+def test_the_lost_signal_leaves_hidden_frames_empty_and_scores_itself(tmp_path, capsys):
+    """``lost_below``: the frames whose confidence is under the threshold (the object
+    hidden) are left out of tracks.txt, and metrics.json says how well that flags the
+    frames where the box misses the object; a model without a confidence, or a threshold
+    outside [0, 1], is a one-line error."""
+    from pgm.app.runner import InputError
+
+    frames, gt = hidden_object_frames()
+    graph = single_object.build_graph(single_object.Params(init_box=(110.0, 100, 40, 56)))
+    res = track(frames, graph, rng=np.random.default_rng(0), out_dir=tmp_path, gt=gt,
+                write_video=False, progress=False, lost_below=0.5)
+    table = load_mot(tmp_path / "tracks.txt", kind="det")
+    np.testing.assert_array_equal(table.frames, res.frames[res.scores >= 0.5])
+    assert 0 < len(table) < len(frames)
+    assert all(f <= 13 for f in table.frames)  # the hidden frames (13-18) are empty
+    lost = json.loads((tmp_path / "metrics.json").read_text())["lost"]
+    assert lost["threshold"] == 0.5 and lost["flagged"] == int(np.sum(res.scores < 0.5))
+    missed = np.asarray(res.metrics["ious"]) < 0.5
+    if missed.any():
+        assert 0 <= lost["recall"] <= 1
+    run = json.loads((tmp_path / "run.json").read_text())
+    assert run["lost_below"] == 0.5 and run["frames_reported_lost"] == lost["flagged"]
+    with pytest.raises(InputError, match="lost threshold"):
+        track(frames, graph, rng=0, progress=False, lost_below=1.5)
+    plain = colour_pf.build_graph(colour_pf.Params(init_box=(110.0, 100, 40, 56)))
+    with pytest.raises(InputError, match="no calibrated confidence"):
+        track(frames, plain, rng=0, progress=False, lost_below=0.5)
