@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from pgm.core.batched import BatchedGaussian, BatchedParticles, Replicated
+from pgm.core.batched import BatchedGaussian, BatchedInverseGamma, BatchedParticles
 from pgm.core.boxes import box_coding, encode_boxes, state_boxes
 from pgm.core.expfam import InverseGamma
 from pgm.core.frame import FrameContext
@@ -523,9 +523,12 @@ def vb_assigned(engine: Engine, factor, frame: FrameContext) -> dict[str, Any] |
     rows, z = got
     H = liks[0].H
     b: BatchedGaussian = engine.beliefs[target]
-    q: Replicated = engine.beliefs[noise]
-    alpha0 = np.stack([q.row(int(k)).alpha for k in rows])
-    beta0 = np.stack([q.row(int(k)).beta for k in rows])
+    q = engine.beliefs[noise]
+    if isinstance(q, BatchedInverseGamma):
+        alpha0, beta0 = q.alpha[rows], q.beta[rows]
+    else:
+        alpha0 = np.stack([q.row(int(k)).alpha for k in rows])
+        beta0 = np.stack([q.row(int(k)).beta for k in rows])
     m0, P0 = b.mean[rows], b.cov[rows]
     # scale-aware noise: the noise belief is of the variance in units of the box's size
     # along each component's axis (R = diag(r · size²)); residuals are measured so too
@@ -549,10 +552,15 @@ def vb_assigned(engine: Engine, factor, frame: FrameContext) -> dict[str, Any] |
     mean, cov = b.mean.copy(), b.cov.copy()
     mean[rows], cov[rows] = m, P
     engine.beliefs[target] = BatchedGaussian(mean, cov)
-    items = list(q.rows())
-    for i, k in enumerate(rows):
-        items[int(k)] = InverseGamma(alpha[i], beta[i])
-    engine.beliefs[noise] = type(q).stack(items)
+    if isinstance(q, BatchedInverseGamma):
+        a_all, b_all = q.alpha.copy(), q.beta.copy()
+        a_all[rows], b_all[rows] = alpha, beta
+        engine.beliefs[noise] = BatchedInverseGamma(a_all, b_all)
+    else:
+        items = list(q.rows())
+        for i, k in enumerate(rows):
+            items[int(k)] = InverseGamma(alpha[i], beta[i])
+        engine.beliefs[noise] = type(q).stack(items)
     return {"iterations": it}
 
 

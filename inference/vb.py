@@ -41,6 +41,7 @@ from typing import Any
 
 import numpy as np
 
+from pgm.core.batched import BatchedInverseGamma
 from pgm.core.beliefs import Intensity
 from pgm.core.expfam import Gaussian, InverseGamma
 from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianTransition
@@ -68,6 +69,28 @@ def _forget_noise(engine: Engine, factor, frame) -> None:
 @DEFAULT_RULES.register("estimate", InverseGamma)
 def _estimate_noise(engine: Engine, variable: str, frame) -> np.ndarray:
     return engine.beliefs[variable].r_hat()
+
+
+# -- a plate's noise beliefs, all replicas at once ------------------------------------------
+@DEFAULT_RULES.register(InverseGammaPrior, BatchedInverseGamma)
+def _prior_noise_batched(engine: Engine, factor, frame) -> None:
+    """Each replica's prior belief (its own copy of the prior factor's), stacked."""
+    engine.beliefs[factor.variables[0]] = BatchedInverseGamma.stack(
+        [g.factors[factor.name].belief() for g in engine.replicas.graphs])
+
+
+@DEFAULT_RULES.register(NoiseForgetting, BatchedInverseGamma)
+def _forget_noise_batched(engine: Engine, factor, frame) -> None:
+    """The forgetting prediction of every replica's noise belief."""
+    var = factor.variables[0]
+    engine.beliefs[var] = engine.beliefs[var].forget(factor.rho, factor.alpha_min)
+
+
+@DEFAULT_RULES.register("estimate", BatchedInverseGamma)
+def _estimate_noise_batched(engine: Engine, variable: str, frame) -> np.ndarray:
+    """``β/α`` per replica, ``(K, d)``."""
+    return engine.beliefs[variable].r_hat()
+
 
 
 # -- exact Gaussian rules (Kalman) ------------------------------------------------------------

@@ -36,9 +36,10 @@ from typing import Any, ClassVar
 import numpy as np
 
 from pgm.core.beliefs import ParticleArrays, Particles
-from pgm.core.expfam import Gaussian
+from pgm.core.expfam import Gaussian, InverseGamma
 
-__all__ = ["BatchedParticles", "BatchedGaussian", "Replicated", "batched_type", "is_batched"]
+__all__ = ["BatchedParticles", "BatchedGaussian", "BatchedInverseGamma", "Replicated",
+           "batched_type", "is_batched"]
 
 
 def is_batched(belief: Any) -> bool:
@@ -292,7 +293,7 @@ class BatchedGaussian:
     :class:`~pgm.core.expfam.Gaussian` still runs on it, once per replica (``row``,
     ``stack``).
 
-    >>> from pgm.core.expfam import Gaussian
+    >>> from pgm.core.expfam import Gaussian, InverseGamma
     >>> b = BatchedGaussian.stack([Gaussian(np.zeros(2), np.eye(2))] * 3)
     >>> b.K, b.dim, b.row(1).cov.shape
     (3, 2, (2, 2))
@@ -360,6 +361,80 @@ class BatchedGaussian:
         return f"BatchedGaussian(K={self.K}, d={self.mean.shape[1]})"
 
 
+class BatchedInverseGamma:
+    """``K`` inverse-Gamma noise beliefs of ``d`` components (a plate's per-target noise
+    for mean-field VB): shapes ``alpha`` and scales ``beta``, both ``(K, d)``. Forgetting
+    and the plug-in variance ``β/α`` act on all replicas at once with the arithmetic of
+    :class:`~pgm.core.expfam.InverseGamma`, element by element, so a replica holds what
+    a single graph would.
+
+    >>> b = BatchedInverseGamma.stack([InverseGamma.from_sigma([1.0, 2.0])] * 3)
+    >>> b.K, b.row(2).r_hat().tolist()
+    (3, [1.0, 4.0])
+    """
+
+    row_type: ClassVar[type | None] = InverseGamma
+    likelihood_reweights: ClassVar[bool] = False
+
+    __slots__ = ("alpha", "beta")
+
+    def __init__(self, alpha: np.ndarray, beta: np.ndarray):
+        alpha = np.asarray(alpha, dtype=float)
+        beta = np.asarray(beta, dtype=float)
+        if alpha.ndim != 2 or alpha.shape != beta.shape:
+            raise ValueError(f"BatchedInverseGamma: alpha and beta (K, d), got {alpha.shape} "
+                             f"and {beta.shape}")
+        self.alpha = alpha
+        self.beta = beta
+
+    @classmethod
+    def stack(cls, rows: Sequence[Any]) -> BatchedInverseGamma:
+        """The batch of the beliefs ``rows``."""
+        if not rows:
+            return cls(np.zeros((0, 0)), np.zeros((0, 0)))
+        return cls(np.stack([r.alpha for r in rows]), np.stack([r.beta for r in rows]))
+
+    def row(self, k: int) -> Any:
+        """Replica ``k``'s belief."""
+        return InverseGamma(self.alpha[k].copy(), self.beta[k].copy())
+
+    def rows(self) -> list[Any]:
+        """Every replica's belief."""
+        return [self.row(k) for k in range(self.K)]
+
+    @property
+    def K(self) -> int:  # noqa: N802
+        """Number of replicas."""
+        return self.alpha.shape[0]
+
+    def r_hat(self) -> np.ndarray:
+        """``β/α`` per replica and component, ``(K, d)``."""
+        return self.beta / self.alpha
+
+    def forget(self, rho: float, alpha_min: float = 0.0) -> BatchedInverseGamma:
+        """:meth:`InverseGamma.forget` of every replica."""
+        a, b = rho * self.alpha, rho * self.beta
+        scale = np.maximum(1.0, alpha_min / a)
+        return BatchedInverseGamma(a * scale, b * scale)
+
+    def select(self, indices: Sequence[int] | np.ndarray) -> BatchedInverseGamma:
+        """The replicas at ``indices``."""
+        idx = np.asarray(indices, dtype=int)
+        return BatchedInverseGamma(self.alpha[idx], self.beta[idx])
+
+    def concat(self, other: BatchedInverseGamma) -> BatchedInverseGamma:
+        """This batch followed by ``other``'s replicas."""
+        if self.K == 0:
+            return other
+        if other.K == 0:
+            return self
+        return BatchedInverseGamma(np.concatenate([self.alpha, other.alpha]),
+                                   np.concatenate([self.beta, other.beta]))
+
+    def __repr__(self) -> str:
+        return f"BatchedInverseGamma(K={self.K})"
+
+
 _REPLICATED: dict[type, type] = {}
 
 
@@ -373,6 +448,8 @@ def batched_type(row_type: type) -> type:
         return BatchedParticles
     if row_type is Gaussian:
         return BatchedGaussian
+    if row_type is InverseGamma:
+        return BatchedInverseGamma
     cls = _REPLICATED.get(row_type)
     if cls is None:
         cls = type(f"Replicated[{row_type.__name__}]", (Replicated,),

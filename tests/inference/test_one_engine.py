@@ -14,7 +14,13 @@ import pytest
 from test_conformance import _vb_akf  # the VB-AKF graph of the conformance cases
 
 from pgm import FactorGraph, Plate, Variable
-from pgm.core.batched import BatchedGaussian, BatchedParticles, Replicated, batched_type
+from pgm.core.batched import (
+    BatchedGaussian,
+    BatchedInverseGamma,
+    BatchedParticles,
+    Replicated,
+    batched_type,
+)
 from pgm.core.beliefs import Particles
 from pgm.core.expfam import Gaussian, InverseGamma
 from pgm.core.frame import FrameContext
@@ -210,7 +216,12 @@ def test_plate_beliefs_are_batched_and_operations_match_particles():
     g = BatchedGaussian.stack([Gaussian(np.arange(2.0) + k, np.eye(2) * (k + 1)) for k in range(3)])
     assert np.array_equal(g.row(2).mean, [2.0, 3.0]) and np.array_equal(g.row(1).cov, 2 * np.eye(2))
     assert g.select([2, 0]).concat(g).K == 5 and np.array_equal(g.select([2]).mean, g.mean[[2]])
-    assert issubclass(batched_type(InverseGamma), Replicated)
+    assert batched_type(InverseGamma) is BatchedInverseGamma
+    q = BatchedInverseGamma.stack([InverseGamma.from_sigma([1.0, 2.0], 5.0)] * 2)
+    np.testing.assert_array_equal(q.forget(0.8, 2.0).row(1).alpha,
+                                  InverseGamma.from_sigma([1.0, 2.0], 5.0).forget(0.8, 2.0).alpha)
+    other = type("OtherBelief", (), {})  # any other belief: one object per replica
+    assert issubclass(batched_type(other), Replicated) and batched_type(other).row_type is other
 
 
 def test_a_factor_kind_no_stage_runs_is_refused():
