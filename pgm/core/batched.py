@@ -285,7 +285,58 @@ class Replicated:
         return f"{type(self).__name__}(K={self.K})"
 
 
-class BatchedGaussian:
+class _ArrayBatch:
+    """A batch of ``K`` beliefs held as arrays with a leading replica axis, one per field
+    of the replica's belief (``_fields``, in the order its constructor takes them):
+    rows, stacking, selection and concatenation for all such batches."""
+
+    row_type: ClassVar[type | None] = None
+    likelihood_reweights: ClassVar[bool] = False
+    _fields: ClassVar[tuple[str, ...]] = ()
+    __slots__ = ()
+
+    def _arrays(self) -> tuple[np.ndarray, ...]:
+        return tuple(getattr(self, f) for f in self._fields)
+
+    @classmethod
+    def stack(cls, rows: Sequence[Any]):
+        """The batch of the beliefs ``rows``."""
+        if not rows:
+            return cls(np.zeros((0, 0)), *(np.zeros((0, 0)) for _ in cls._fields[1:]))
+        return cls(*(np.stack([getattr(r, f) for r in rows]) for f in cls._fields))
+
+    def row(self, k: int) -> Any:
+        """Replica ``k``'s belief."""
+        return self.row_type(*(a[k].copy() for a in self._arrays()))
+
+    def rows(self) -> list[Any]:
+        """Every replica's belief."""
+        return [self.row(k) for k in range(self.K)]
+
+    @property
+    def K(self) -> int:  # noqa: N802
+        """Number of replicas."""
+        return self._arrays()[0].shape[0]
+
+    def select(self, indices: Sequence[int] | np.ndarray):
+        """The replicas at ``indices``."""
+        idx = np.asarray(indices, dtype=int)
+        return type(self)(*(a[idx] for a in self._arrays()))
+
+    def concat(self, other):
+        """This batch followed by ``other``'s replicas."""
+        if self.K == 0:
+            return other
+        if other.K == 0:
+            return self
+        return type(self)(*(np.concatenate([a, b]) for a, b in
+                            zip(self._arrays(), other._arrays(), strict=True)))
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(K={self.K})"
+
+
+class BatchedGaussian(_ArrayBatch):
     """``K`` Gaussian beliefs of one dimension ``d`` (the replicas of an exact Kalman
     filter's plate variable): means ``(K, d)`` and covariances ``(K, d, d)``, so that the
     Kalman rules of a plate (:mod:`pgm.inference.association`) move every replica with a
@@ -293,15 +344,14 @@ class BatchedGaussian:
     :class:`~pgm.core.expfam.Gaussian` still runs on it, once per replica (``row``,
     ``stack``).
 
-    >>> from pgm.core.expfam import Gaussian, InverseGamma
+    >>> from pgm.core.expfam import Gaussian
     >>> b = BatchedGaussian.stack([Gaussian(np.zeros(2), np.eye(2))] * 3)
     >>> b.K, b.dim, b.row(1).cov.shape
     (3, 2, (2, 2))
     """
 
     row_type: ClassVar[type | None] = Gaussian
-    likelihood_reweights: ClassVar[bool] = False
-
+    _fields = ("mean", "cov")
     __slots__ = ("mean", "cov")
 
     def __init__(self, mean: np.ndarray, cov: np.ndarray):
@@ -323,45 +373,15 @@ class BatchedGaussian:
         """The batch of the Gaussians ``rows`` (each with ``mean`` and ``cov``)."""
         if not rows:
             return cls(np.zeros((0, 0)), np.zeros((0, 0, 0)))
-        return cls(np.stack([r.mean for r in rows]), np.stack([r.cov for r in rows]))
-
-    def row(self, k: int) -> Any:
-        """Replica ``k``'s Gaussian."""
-        return self.row_type(self.mean[k].copy(), self.cov[k].copy())
-
-    def rows(self) -> list[Any]:
-        """Every replica's Gaussian."""
-        return [self.row(k) for k in range(self.K)]
-
-    @property
-    def K(self) -> int:  # noqa: N802
-        """Number of replicas."""
-        return self.mean.shape[0]
+        return super().stack(rows)
 
     @property
     def dim(self) -> int:
         """Dimension of each replica's state."""
         return self.mean.shape[1]
 
-    def select(self, indices: Sequence[int] | np.ndarray) -> BatchedGaussian:
-        """The replicas at ``indices``."""
-        idx = np.asarray(indices, dtype=int)
-        return BatchedGaussian(self.mean[idx], self.cov[idx])
 
-    def concat(self, other: BatchedGaussian) -> BatchedGaussian:
-        """This batch followed by ``other``'s replicas."""
-        if self.K == 0:
-            return other
-        if other.K == 0:
-            return self
-        return BatchedGaussian(np.concatenate([self.mean, other.mean]),
-                               np.concatenate([self.cov, other.cov]))
-
-    def __repr__(self) -> str:
-        return f"BatchedGaussian(K={self.K}, d={self.mean.shape[1]})"
-
-
-class BatchedInverseGamma:
+class BatchedInverseGamma(_ArrayBatch):
     """``K`` inverse-Gamma noise beliefs of ``d`` components (a plate's per-target noise
     for mean-field VB): shapes ``alpha`` and scales ``beta``, both ``(K, d)``. Forgetting
     and the plug-in variance ``β/α`` act on all replicas at once with the arithmetic of
@@ -374,8 +394,7 @@ class BatchedInverseGamma:
     """
 
     row_type: ClassVar[type | None] = InverseGamma
-    likelihood_reweights: ClassVar[bool] = False
-
+    _fields = ("alpha", "beta")
     __slots__ = ("alpha", "beta")
 
     def __init__(self, alpha: np.ndarray, beta: np.ndarray):
@@ -387,26 +406,6 @@ class BatchedInverseGamma:
         self.alpha = alpha
         self.beta = beta
 
-    @classmethod
-    def stack(cls, rows: Sequence[Any]) -> BatchedInverseGamma:
-        """The batch of the beliefs ``rows``."""
-        if not rows:
-            return cls(np.zeros((0, 0)), np.zeros((0, 0)))
-        return cls(np.stack([r.alpha for r in rows]), np.stack([r.beta for r in rows]))
-
-    def row(self, k: int) -> Any:
-        """Replica ``k``'s belief."""
-        return InverseGamma(self.alpha[k].copy(), self.beta[k].copy())
-
-    def rows(self) -> list[Any]:
-        """Every replica's belief."""
-        return [self.row(k) for k in range(self.K)]
-
-    @property
-    def K(self) -> int:  # noqa: N802
-        """Number of replicas."""
-        return self.alpha.shape[0]
-
     def r_hat(self) -> np.ndarray:
         """``β/α`` per replica and component, ``(K, d)``."""
         return self.beta / self.alpha
@@ -416,23 +415,6 @@ class BatchedInverseGamma:
         a, b = rho * self.alpha, rho * self.beta
         scale = np.maximum(1.0, alpha_min / a)
         return BatchedInverseGamma(a * scale, b * scale)
-
-    def select(self, indices: Sequence[int] | np.ndarray) -> BatchedInverseGamma:
-        """The replicas at ``indices``."""
-        idx = np.asarray(indices, dtype=int)
-        return BatchedInverseGamma(self.alpha[idx], self.beta[idx])
-
-    def concat(self, other: BatchedInverseGamma) -> BatchedInverseGamma:
-        """This batch followed by ``other``'s replicas."""
-        if self.K == 0:
-            return other
-        if other.K == 0:
-            return self
-        return BatchedInverseGamma(np.concatenate([self.alpha, other.alpha]),
-                                   np.concatenate([self.beta, other.beta]))
-
-    def __repr__(self) -> str:
-        return f"BatchedInverseGamma(K={self.K})"
 
 
 _REPLICATED: dict[type, type] = {}
