@@ -631,16 +631,26 @@ def _propose_particles(engine: Engine, transition, proposal, frame, b: Particles
     var = transition.variables[0]
     past = (b.x,) + b.history
     f = proposal.fraction
+    cols = proposal.columns
+    if cols is not None and max(cols) >= b.dim:
+        raise ValueError(f"factor {proposal.name!r}: columns {list(cols)} do not fit variable "
+                         f"{var!r} of dimension {b.dim}")
     x_q = np.asarray(proposal.sample(engine.rng, frame, *past), dtype=float)
     if x_q.shape != b.x.shape:
         raise ValueError(f"factor {proposal.name!r}: sample() returned shape {x_q.shape}, "
                          f"expected {b.x.shape}")
-    if f < 1.0:
+    if f < 1.0 or cols is not None:
         x_p = np.asarray(transition.sample(engine.rng, *past), dtype=float)
-        x_new = np.where((engine.rng.random(b.num) < f)[:, None], x_q, x_p)
+        if cols is not None:  # the other components from the transition
+            x_p_cols = x_p.copy()
+            x_p_cols[:, list(cols)] = x_q[:, list(cols)]
+            x_q = x_p_cols
+        x_new = (np.where((engine.rng.random(b.num) < f)[:, None], x_q, x_p) if f < 1.0
+                 else x_q)
     else:
         x_new = x_q
-    log_p = np.asarray(transition.log_prob(x_new, *past), dtype=float)
+    log_p = np.asarray(transition.log_prob(x_new, *past) if cols is None else
+                       transition.log_prob_columns(x_new, cols, *past), dtype=float)
     log_q = np.asarray(proposal.log_prob(x_new, frame, *past), dtype=float)
     log_mix = log_q if f == 1.0 else np.logaddexp(np.log1p(-f) + log_p, np.log(f) + log_q)
     moved = b.moved(x_new, history_len=max(0, transition.order - 1))

@@ -211,6 +211,23 @@ class LinearGaussianTransition(TransitionFactor):
                     .logpdf(diff) - self.scaled.sum() * log_h)
         return np.atleast_1d(multivariate_normal(np.zeros(len(self.F)), self.Q).logpdf(diff))
 
+    def log_prob_columns(self, x: np.ndarray, columns, *past: np.ndarray) -> np.ndarray:
+        """The marginal ``N(x[c]; (F x_{t-1})[c], Q[c, c])`` of components ``c``; they must
+        be drawn independently of the others (``Q[c, rest] = 0``; no scale index)."""
+        if columns is None or sorted(columns) == list(range(x.shape[1])):
+            return self.log_prob(x, *past)
+        from scipy.stats import multivariate_normal
+
+        c = list(columns)
+        rest = [i for i in range(len(self.F)) if i not in c]
+        if self.scale_index is not None or np.any(self.Q[np.ix_(c, rest)] != 0):
+            raise ValueError(f"factor {self.name!r}: components {c} are not drawn "
+                             f"independently of the others (Q couples them, or a scale "
+                             f"index scales them)")
+        diff = x[:, c] - (past[0] @ self.F.T)[:, c]
+        return np.atleast_1d(multivariate_normal(np.zeros(len(c)), self.Q[np.ix_(c, c)])
+                             .logpdf(diff))
+
 
 class AR2Transition(TransitionFactor):
     r"""Second-order auto-regression with damping (eq. (13) of Zhang & Kang [#zhang2015]).
@@ -332,11 +349,31 @@ class AR2Transition(TransitionFactor):
         if self.relative or self.scale_noise > 0 or np.any(self.noise_std == 0):
             raise ValueError(f"factor {self.name!r}: log_prob needs positive noise in pixels on "
                              f"every component and no scale step")
+        return self._log_prob(x, list(range(x.shape[1])), *past)
+
+    def log_prob_columns(self, x: np.ndarray, columns, *past: np.ndarray) -> np.ndarray:
+        """The marginal density of components ``columns`` with positive noise outside the
+        size components of the scale step (e.g. the centre): their damped step with the
+        jump mixture (its jump shared by the components), in pixels or in box heights
+        (``relative``); the scale step acts on the sizes alone, independently."""
+        if columns is None or sorted(columns) == list(range(x.shape[1])):
+            return self.log_prob(x, *past)
+        c = list(columns)
+        sizes = set(self.size_indices) if self.scale_noise > 0 else set()
+        if any(self.noise_std[i] == 0 or i in sizes for i in c):
+            raise ValueError(f"factor {self.name!r}: components {c} need positive noise and "
+                             f"must not be sizes of the scale step")
+        return self._log_prob(x, c, *past)
+
+    def _log_prob(self, x: np.ndarray, c: list[int], *past: np.ndarray) -> np.ndarray:
         x1 = past[0]
         x2 = past[1] if len(past) > 1 else past[0]
-        r = (x - x1 - self.damping * (x1 - x2)) / self.noise_std
-        d = x.shape[1]
-        narrow = (-0.5 * np.sum(r * r, axis=1) - np.sum(np.log(self.noise_std))
+        std = np.broadcast_to(self.noise_std[c], (x.shape[0], len(c)))
+        if self.relative:
+            std = std * np.maximum(x1[:, self.size_indices[1]], 1e-6)[:, None]
+        r = (x[:, c] - x1[:, c] - self.damping * (x1[:, c] - x2[:, c])) / std
+        d = len(c)
+        narrow = (-0.5 * np.sum(r * r, axis=1) - np.sum(np.log(std), axis=1)
                   - 0.5 * d * np.log(2 * np.pi))
         if self.jump_prob == 0:
             return narrow

@@ -58,6 +58,17 @@ class TransitionFactor(Factor):
         """``log p(x_t | past)``, shape ``(N,)`` (optional: needed by some proposals)."""
         raise ValueError(f"{type(self).__name__} does not define log_prob()")
 
+    def log_prob_columns(self, x: np.ndarray, columns, *past: np.ndarray) -> np.ndarray:
+        """``log p(x_t[columns] | past)``, the marginal density of some components, shape
+        ``(N,)``: what a proposal of those components only is corrected by (the others
+        drawn from this transition, so their density cancels). Valid where the
+        transition draws ``columns`` independently of the other components given the
+        past; the default covers ``columns`` None (every component)."""
+        if columns is None or sorted(columns) == list(range(x.shape[1])):
+            return self.log_prob(x, *past)
+        raise ValueError(f"{type(self).__name__} does not give the marginal density of "
+                         f"components {list(columns)} (define log_prob_columns)")
+
 
 class LikelihoodFactor(Factor):
     """``p(z_t | x_t)``: scores all particles of a variable against the current frame."""
@@ -182,13 +193,25 @@ class ProposalFactor(Factor):
     kind = "proposal"
     abstract = True
 
-    def __init__(self, variable: str, *, fraction: float = 1.0, name: str | None = None):
+    def __init__(self, variable: str, *, fraction: float = 1.0, columns=None,
+                 name: str | None = None):
         super().__init__(variable, name=name)
         f = float(fraction)
         if not 0.0 < f <= 1.0:
             raise ValueError(f"factor {self.name!r}: fraction must be in (0, 1], got "
                              f"{fraction!r}")
         self.fraction = f
+        #: the components it proposes (None: all); the others come from the transition,
+        #: and the weight correction uses the transition's marginal density of these
+        #: (:meth:`TransitionFactor.log_prob_columns`) against :meth:`log_prob`, which is
+        #: then the density of these components only
+        self.columns: tuple[int, ...] | None = None
+        if columns is not None:
+            cols = tuple(int(c) for c in columns)
+            if not cols or len(set(cols)) != len(cols) or min(cols) < 0:
+                raise ValueError(f"factor {self.name!r}: columns must be distinct component "
+                                 f"indices, got {columns!r}")
+            self.columns = cols
 
     @abstractmethod
     def sample(self, rng: np.random.Generator, ctx: FrameContext,

@@ -13,7 +13,7 @@ import pytest
 
 from pgm import FactorGraph, Plate
 from pgm.core.frame import FrameContext
-from pgm.factors import LinearGaussianProposal
+from pgm.factors import LinearGaussianProposal, ProposalFactor
 from pgm.inference import Engine, kalman_filter, linear_gaussian_matrices
 from pgm.models import linear_gaussian as lg
 
@@ -113,3 +113,76 @@ def test_a_proposal_saves_loads_and_draws(problem, tmp_path):
     assert FactorGraph.load(tmp_path / "m.json") == g
     g.draw(tmp_path / "m.png")
     assert (tmp_path / "m.png").stat().st_size > 1000
+
+
+class _PositionFromTheMeasurement(ProposalFactor):
+    """A user's proposal of the position only (component 0) from a broad Gaussian around
+    the measurement; the velocity comes from the transition."""
+
+    def __init__(self, variable, *, std, fraction=0.5, name=None):
+        super().__init__(variable, fraction=fraction, columns=(0,), name=name)
+        self.std = float(std)
+
+    def params(self):
+        return {"std": self.std, "fraction": self.fraction}
+
+    def sample(self, rng, ctx, *past):
+        y = float(np.asarray(ctx.measurements).reshape(-1)[0])
+        out = np.zeros_like(past[0])
+        out[:, 0] = y + self.std * rng.standard_normal(len(out))
+        return out
+
+    def log_prob(self, x, ctx, *past):
+        y = float(np.asarray(ctx.measurements).reshape(-1)[0])
+        z = (x[:, 0] - y) / self.std
+        return -0.5 * z * z - np.log(self.std) - 0.5 * np.log(2 * np.pi)
+
+
+@pytest.mark.slow
+def test_a_proposal_of_some_components_stays_unbiased(problem):
+    """A proposal of the position alone (the velocity drawn from the transition; the
+    weights corrected by the transition's marginal density of the position) gives the
+    Kalman filter's means and log-likelihood, within the runs' standard errors, on a
+    model whose transition draws position and velocity independently."""
+    p, graph, ys, _ = problem
+    Q = np.diag(np.diag(p.Q))  # position and velocity steps independent
+    params = lg.Params(R=p.R, Q=Q)
+    diag = lg.build_graph(params)
+    kf = kalman_filter(**linear_gaussian_matrices(diag, "x"), ys=ys)
+    means, loglik = _runs(diag.with_factors(_PositionFromTheMeasurement(
+        "x", std=2.0 * float(np.sqrt(p.R[0, 0])))), ys, seed=11)
+    se = means.std(axis=0, ddof=1) / np.sqrt(R)
+    assert np.all(np.abs(means.mean(axis=0) - kf.filtered_means) < 6 * se + 1e-9)
+    ll_se = loglik.std(ddof=1) / np.sqrt(R)
+    assert abs(loglik.mean() - kf.marginal_log_likelihood) < 6 * ll_se + 1e-3
+
+
+def test_marginal_densities_of_some_components():
+    """The transitions' marginal densities of some components: a Gaussian block of a
+    linear-Gaussian step; the damped step (with its jump mixture, and in box heights) of
+    AR(2) centres, also under a scale step; couplings and sizes are refused."""
+    from scipy.stats import norm
+
+    from pgm.factors import AR2Transition, LinearGaussianTransition
+
+    rng = np.random.default_rng(0)
+    x1, x2, x = rng.normal(size=(3, 50, 4)) * 5 + np.array([100, 80, 40, 60])
+    lgt = LinearGaussianTransition("v", F=np.eye(4), Q=np.diag([1.0, 2.0, 3.0, 4.0]))
+    np.testing.assert_allclose(lgt.log_prob_columns(x, (1,), x1),
+                               norm(x1[:, 1], np.sqrt(2.0)).logpdf(x[:, 1]))
+    coupled = LinearGaussianTransition("v", F=np.eye(2), Q=[[1.0, 0.5], [0.5, 1.0]])
+    with pytest.raises(ValueError, match="not drawn independently"):
+        coupled.log_prob_columns(x[:, :2], (0,), x1[:, :2])
+    ar = AR2Transition("v", noise_std=[2.0, 3.0, 0.0, 0.0], damping=0.5, scale_noise=0.01,
+                       reference_size=(40.0, 60.0), jump_prob=0.3, jump_scale=10.0)
+    mu = x1[:, :2] + 0.5 * (x1[:, :2] - x2[:, :2])
+    narrow = norm(mu, [2.0, 3.0]).logpdf(x[:, :2]).sum(1)
+    wide = norm(mu, [20.0, 30.0]).logpdf(x[:, :2]).sum(1)
+    np.testing.assert_allclose(ar.log_prob_columns(x, (0, 1), x1, x2),
+                               np.logaddexp(np.log(0.7) + narrow, np.log(0.3) + wide))
+    rel = AR2Transition("v", noise_std=[0.05, 0.05, 0.0, 0.0], relative=True)
+    np.testing.assert_allclose(rel.log_prob_columns(x, (0,), x1, x2),
+                               norm(x1[:, 0] + 0.5 * (x1[:, 0] - x2[:, 0]),
+                                    0.05 * x1[:, 3]).logpdf(x[:, 0]))
+    with pytest.raises(ValueError, match="sizes of the scale step"):
+        ar.log_prob_columns(x, (0, 2), x1, x2)
