@@ -38,7 +38,6 @@ import numpy as np
 
 from pgm.core.batched import BatchedGaussian, BatchedInverseGamma, BatchedParticles
 from pgm.core.boxes import box_coding, encode_boxes, state_boxes
-from pgm.core.expfam import InverseGamma
 from pgm.core.frame import FrameContext
 from pgm.core.motion import linear_state_warp
 from pgm.factors import GaussianPrior, LinearGaussianTransition
@@ -77,12 +76,6 @@ class Assignment:
     scores: np.ndarray
     iou: np.ndarray
     rounds: np.ndarray
-
-    def detection_of(self, K: int) -> np.ndarray:  # noqa: N803
-        """``(K,)`` the detection index assigned to each replica, −1 for none."""
-        out = np.full(K, -1, dtype=int)
-        out[self.rows] = self.cols
-        return out
 
 
 def detection_boxes(frame: FrameContext) -> np.ndarray:
@@ -239,13 +232,20 @@ def predict_gaussians(engine: Engine, factor, frame: FrameContext) -> None:
     if warp is not None:  # the camera moved: last frame's states into this frame's image
         T, c = warp
         m, P = m @ T.T + c, T @ P @ T.T
+    engine.beliefs[var] = BatchedGaussian(*_predict(factor, labels, m, P))
+
+
+def _predict(factor, labels, m: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``F m``, ``F P Fᵀ + Q`` of states ``m`` ``(B, d)``, ``P`` ``(B, d, d)`` (``Q``
+    scale-aware where the transition says so; an ``xysr`` state whose area would turn
+    non-positive has its area rate set to zero first, as SORT does)."""
     if box_coding(labels) == "xysr" and "vs" in labels:  # keep the area positive
         s, vs = labels.index("s"), labels.index("vs")
         m = m.copy()
         m[m[:, s] + m[:, vs] <= 0, vs] = 0.0
     F = factor.F
-    Q = factor.noise_cov(m) if hasattr(factor, "noise_cov") else factor.Q  # scale-aware
-    engine.beliefs[var] = BatchedGaussian(m @ F.T, F @ P @ F.T + Q)
+    Q = factor.noise_cov(m) if hasattr(factor, "noise_cov") else factor.Q
+    return m @ F.T, F @ P @ F.T + Q
 
 
 def _means(belief) -> np.ndarray:
@@ -281,8 +281,9 @@ def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, 
             vel = np.array([h.velocity if h.velocity is not None else (0.0, 0.0)
                             for h in histories], dtype=float)
             known = np.array([h.velocity is not None for h in histories], dtype=float)
-            ref = np.array([h.previous(h.age) if h.previous(h.age) is not None else last[k]
-                            for k, h in enumerate(histories)], dtype=float)
+            prev = [h.previous(h.age) for h in histories]
+            ref = np.array([last[k] if b is None else b for k, b in enumerate(prev)],
+                           dtype=float)
             direction = direction_consistency(vel, known, ref, boxes, scores)
         a = assign(pred, boxes, scores, factor.rounds, last=last, direction=direction,
                    direction_weight=factor.direction_weight, **extra)
@@ -444,19 +445,6 @@ def _hide_edges(m: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray, gate
     return R, hidden
 
 
-def _predict_one(factor, labels, m: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """One replica's predict by the transition ``factor`` (the area clamp of
-    :func:`predict_gaussians` included)."""
-    m = m.copy()
-    if box_coding(labels) == "xysr" and "vs" in labels:
-        s, vs = labels.index("s"), labels.index("vs")
-        if m[s] + m[vs] <= 0:
-            m[vs] = 0.0
-    Q = factor.noise_cov(m[None])[0] if hasattr(factor, "noise_cov") and \
-        getattr(factor, "relative_std", None) is not None else factor.Q
-    return factor.F @ m, factor.F @ P @ factor.F.T + Q
-
-
 def _reupdate(engine: Engine, factor, rows: np.ndarray, m0: np.ndarray, P0: np.ndarray):
     """Observation-centric re-update (OC-SORT): a replica matched after ``g − 1`` frames
     without a detection restarts from its prediction one frame after its last detection
@@ -481,7 +469,7 @@ def _reupdate(engine: Engine, factor, rows: np.ndarray, m0: np.ndarray, P0: np.n
             prior = engine.replicas.graphs[k].factors_of(var, "prior")[0]
             post = (prior.mean(), prior.cov)
         gap = track.misses + 1
-        m, P = _predict_one(trans[0], labels, *post)
+        m, P = (a[0] for a in _predict(trans[0], labels, post[0][None], post[1][None]))
         last, new = np.asarray(track.state, dtype=float), a.boxes[det[k]]
         if coding == "xyxy":
             last, new = encode_boxes(last, "xyxy"), encode_boxes(new, "xyxy")
@@ -492,7 +480,7 @@ def _reupdate(engine: Engine, factor, rows: np.ndarray, m0: np.ndarray, P0: np.n
                                          factor.noise_cov(m[None]), z[None], factor.selects)
             m, P = mm[0], PP[0]
             if step < gap - 1:
-                m, P = _predict_one(trans[0], labels, m, P)
+                m, P = (a[0] for a in _predict(trans[0], labels, m[None], P[None]))
         m0[i], P0[i] = m, P
         redone.append(k)
     return m0, P0, ({"reupdated": np.array(redone)} if redone else None)
@@ -523,12 +511,8 @@ def vb_assigned(engine: Engine, factor, frame: FrameContext) -> dict[str, Any] |
     rows, z = got
     H = liks[0].H
     b: BatchedGaussian = engine.beliefs[target]
-    q = engine.beliefs[noise]
-    if isinstance(q, BatchedInverseGamma):
-        alpha0, beta0 = q.alpha[rows], q.beta[rows]
-    else:
-        alpha0 = np.stack([q.row(int(k)).alpha for k in rows])
-        beta0 = np.stack([q.row(int(k)).beta for k in rows])
+    q: BatchedInverseGamma = engine.beliefs[noise]
+    alpha0, beta0 = q.alpha[rows], q.beta[rows]
     m0, P0 = b.mean[rows], b.cov[rows]
     # scale-aware noise: the noise belief is of the variance in units of the box's size
     # along each component's axis (R = diag(r · size²)); residuals are measured so too
@@ -552,15 +536,9 @@ def vb_assigned(engine: Engine, factor, frame: FrameContext) -> dict[str, Any] |
     mean, cov = b.mean.copy(), b.cov.copy()
     mean[rows], cov[rows] = m, P
     engine.beliefs[target] = BatchedGaussian(mean, cov)
-    if isinstance(q, BatchedInverseGamma):
-        a_all, b_all = q.alpha.copy(), q.beta.copy()
-        a_all[rows], b_all[rows] = alpha, beta
-        engine.beliefs[noise] = BatchedInverseGamma(a_all, b_all)
-    else:
-        items = list(q.rows())
-        for i, k in enumerate(rows):
-            items[int(k)] = InverseGamma(alpha[i], beta[i])
-        engine.beliefs[noise] = type(q).stack(items)
+    a_all, b_all = q.alpha.copy(), q.beta.copy()
+    a_all[rows], b_all[rows] = alpha, beta
+    engine.beliefs[noise] = BatchedInverseGamma(a_all, b_all)
     return {"iterations": it}
 
 

@@ -247,13 +247,13 @@ def predict_batched(engine: Engine, factor, frame: FrameContext) -> None:
         labels = engine.graph.variables[var].labels
         flat = warp_states(flat, labels, frame.camera_motion)
         past = [warp_states(h, labels, frame.camera_motion) for h in past]
+    gens = reps.generators()
     if _local(engine, factor.name):  # a transition that learns per target: one call each
         new = np.concatenate([np.asarray(reps.graphs[k].factors[factor.name].sample(
-            reps.generators()[k], flat[k * n:(k + 1) * n],
-            *(h[k * n:(k + 1) * n] for h in past)),
+            gens[k], flat[k * n:(k + 1) * n], *(h[k * n:(k + 1) * n] for h in past)),
             dtype=float) for k in range(K)])
     else:
-        rng = ReplicaRNG(reps.generators(), n, owner=f"transition {factor.name!r}")
+        rng = ReplicaRNG(gens, n, owner=f"transition {factor.name!r}")
         new = np.asarray(factor.sample(rng, flat, *past), dtype=float)
     if new.shape != flat.shape:
         raise ValueError(f"factor {factor.name!r}: sample() returned shape {new.shape}, "
@@ -363,11 +363,12 @@ def coupling_batched(engine: Engine, factor, frame: FrameContext, src: str, dst:
     b = engine.beliefs[src]
     K, n, d = b.x.shape  # noqa: N806
     flat = b.x.reshape(K * n, d)
+    gens = reps.generators()
     if _local(engine, factor.name):
         x_msg = np.concatenate([np.asarray(reps.graphs[k].factors[factor.name].propagate(
-            reps.generators()[k], flat[k * n:(k + 1) * n], src)) for k in range(K)])
+            gens[k], flat[k * n:(k + 1) * n], src)) for k in range(K)])
     else:
-        x_msg = np.asarray(factor.propagate(ReplicaRNG(reps.generators(), n,
+        x_msg = np.asarray(factor.propagate(ReplicaRNG(gens, n,
                                                        owner=f"coupling {factor.name!r}"),
                                             flat, src), dtype=float)
     d_dst = engine.beliefs[dst].dim

@@ -53,11 +53,11 @@ from pgm.core.graph import FactorGraph
 from pgm.core.readout import Targets, register_readout
 from pgm.factors import LikelihoodFactor
 
-from . import association as _association  # noqa: F401  (the exact Kalman replicas' rules)
 from . import batched as _batched  # noqa: F401  (registers the batched rules)
+from .association import detection_boxes  # (and the exact Kalman replicas' rules)
 from .batched import box_columns, score_group  # noqa: F401  (score_group: the engine's)
 from .engine import Engine, StepRecord
-from .tracks import Track, confirm_tracks, match, reported, update_tracks
+from .tracks import Track, confirm_tracks, existences, match, reported, update_tracks
 
 if TYPE_CHECKING:
     from pgm.core.plate import Plate
@@ -369,16 +369,14 @@ def step(engine: Engine, frame: FrameContext, record: StepRecord, lifecycle: boo
              else np.zeros((reps.K, 4)))
     shown = reported(reps.tracks, lc.max_coast)
     if lc.report != "estimate":  # only where matched: the detection's box, or the estimate
-        matched = np.array([t.matched_box is not None for t in reps.tracks], dtype=bool)
+        matched = np.array([t.matched for t in reps.tracks], dtype=bool)
         shown &= matched
         if lc.report == "detection" and matched.any():
             boxes = boxes.copy()
-            boxes[matched] = [t.matched_box for t in reps.tracks if t.matched_box is not None]
+            boxes[matched] = [t.state for t in reps.tracks if t.matched]
     info.update(
         ids=np.array([t.track_id or 0 for t in reps.tracks], dtype=np.int64),
-        boxes=boxes, reported=shown,
-        existence=1.0 / (1.0 + np.exp(-np.array([t.log_odds for t in reps.tracks],
-                                                 dtype=float))))
+        boxes=boxes, reported=shown, existence=existences(reps.tracks))
 
 
 def learn(engine: Engine, items: list[str], frame: FrameContext, record: StepRecord) -> None:
@@ -425,20 +423,17 @@ def associate(engine: Engine, frame: FrameContext, record: StepRecord) -> None:
         if dets is None or not spec.boxed:
             det_boxes, scores = np.zeros((0, 4)), np.zeros(0)
         else:
-            d = np.asarray(dets.boxes, dtype=float).reshape(-1, 4)
-            det_boxes = np.column_stack([d[:, 0] + d[:, 2] / 2, d[:, 1] + d[:, 3] / 2,
-                                         d[:, 2], d[:, 3]])
-            scores = np.asarray(dets.scores, dtype=float)
+            det_boxes, scores = detection_boxes(frame), np.asarray(dets.scores, dtype=float)
         boxes = plate_boxes(engine.graph, reps.est) if reps.K and spec.boxed else np.zeros((0, 4))
         iou = _iou(boxes[:, None, :], det_boxes[None, :, :])
         rows, cols = match(-iou, iou >= lc.match_iou,
                            [t.misses > lc.max_coast for t in reps.tracks])
     for t in reps.tracks:
-        t.matched_box = None
+        t.matched = False
         t.age += 1
     for k, j in zip(rows, cols, strict=True):
         reps.tracks[k].state = det_boxes[j].copy()
-        reps.tracks[k].matched_box = det_boxes[j].copy()
+        reps.tracks[k].matched = True
     keep = update_tracks(reps.tracks, rows, confirm_hits=lc.confirm_hits,
                          max_coast=lc.max_coast, max_lost=lc.max_lost,
                          hit_log_odds=lc.hit_log_odds, miss_log_odds=lc.miss_log_odds,

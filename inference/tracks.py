@@ -33,7 +33,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Track", "TrackManager", "match", "update_tracks", "confirm_tracks", "reported"]
+__all__ = ["Track", "TrackManager", "match", "update_tracks", "confirm_tracks", "reported",
+           "existences"]
 
 
 @dataclass
@@ -50,13 +51,13 @@ class Track:
     streak: int = 1
     recovering: bool = False
     history: list = field(default_factory=list)
-    #: the box of the detection matched in the latest frame (None: no match)
-    matched_box: np.ndarray | None = None
+    #: whether a detection was matched to it in the latest frame (``state`` is its box)
+    matched: bool = False
 
     @property
     def existence(self) -> float:
         """Existence score in [0, 1]."""
-        return float(1.0 / (1.0 + np.exp(-self.log_odds)))
+        return float(existences([self])[0])
 
     def hit(self, confirm_hits: int, log_odds: float) -> None:
         """Record a hit: one more in the streak (ending recovery after ``confirm_hits`` in
@@ -74,6 +75,11 @@ class Track:
         self.misses += 1
         self.streak = 0
         self.log_odds = max(self.log_odds - log_odds, -10.0)
+
+
+def existences(tracks: list[Track]) -> np.ndarray:
+    """The tracks' existence scores, the logistic of their log-odds, ``(K,)``."""
+    return 1.0 / (1.0 + np.exp(-np.array([t.log_odds for t in tracks], dtype=float)))
 
 
 def match(cost: np.ndarray, valid: np.ndarray, lost: np.ndarray | list[bool]

@@ -53,6 +53,7 @@ from typing import Any
 
 import numpy as np
 
+from pgm.core.boxes import encode_boxes
 from pgm.core.graph import FactorGraph
 from pgm.core.numerics import check_finite_param
 from pgm.core.plate import Lifecycle, Plate
@@ -73,6 +74,8 @@ from . import config as _config
 __all__ = ["CONFIG", "Params", "build_graph", "lost_frames", "score_map_for", "video_build",
            "OPTIONS", "appearance_factors"]
 
+#: the box (cx, cy, w, h) the declaration's prior is written for; births re-centre it
+REFERENCE_BOX = (100.0, 100.0, 40.0, 100.0)
 #: the box codes a SORT state may use
 BOX_STATES = ("xyxy", "xysr")
 #: the noise models: fixed pixels (the trackers package) or in units of the box's size
@@ -294,14 +297,13 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
     """The plate graph of ``params``: one target's Kalman box state, replicated."""
     p = params or Params()
     _check(p)
+    if p.motion != "kalman":
+        return _particle_graph(p, name)
     q, r, p0 = _noise(p)
     labels, F, H = constant_velocity(p.box_state)
     variables = [Variable("box", len(labels), role="state", labels=tuple(labels))]
-    reference = {"xyxy": [80.0, 50.0, 120.0, 150.0], "xysr": [100.0, 100.0, 4000.0, 0.4]}
     mean = np.zeros(len(labels))
-    mean[:4] = reference[p.box_state]  # a 40 x 100 box at (100, 100); births re-centre it
-    if p.motion != "kalman":
-        return _particle_graph(p, name)
+    mean[:4] = encode_boxes(REFERENCE_BOX, p.box_state)  # births re-centre it
     scaled = p.noise == "scale"
     rel_q = [p.pos_std] * 4 + [p.vel_std] * 4 if scaled else None
     rel_p0 = [2 * p.pos_std] * 4 + [10 * p.vel_std] * 4 if scaled else None
@@ -327,7 +329,7 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
     lc = _lifecycle(p)
     engine = EngineSettings(num_particles=1, beliefs=beliefs)
     meta = {"output": "box", "engine": engine.to_dict(), "readout": "plate",
-            "reference_box": [100.0, 100.0, 40.0, 100.0]}
+            "reference_box": list(REFERENCE_BOX)}
     return FactorGraph(variables, factors, name=name, meta=meta,
                        plates=[Plate("target", tuple(plate_vars), lifecycle=lc)])
 
@@ -360,7 +362,7 @@ def _particle_graph(p: Params, name: str) -> FactorGraph:
     detection's likelihood scale-aware (``meas_std`` of the box's size)."""
     from pgm.factors import AveragedVelocityTransition, GaussianPrior
 
-    box = np.array([100.0, 100.0, 40.0, 100.0])
+    box = np.array(REFERENCE_BOX)
     if p.motion == "gpdm":
         from pathlib import Path
 

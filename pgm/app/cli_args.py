@@ -67,14 +67,17 @@ def _int_in(name: str, low: int, high: int):
     return conv
 
 
+def _number(name: str, text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
+
+
 def _probability(name: str):
     """An argparse type: a number in [0, 1]."""
     def conv(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") \
-                from None
+        v = _number(name, text)
         if not 0.0 <= v <= 1.0:  # also false for NaN
             raise argparse.ArgumentTypeError(f"{name} must be a probability in [0, 1], got "
                                              f"{text!r}")
@@ -86,11 +89,7 @@ def _probability(name: str):
 def _finite_float(name: str, low: float = 0.0):
     """An argparse type: a finite number ``>= low``."""
     def conv(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") \
-                from None
+        v = _number(name, text)
         if not np.isfinite(v) or v < low:
             raise argparse.ArgumentTypeError(f"{name} must be a finite number >= {low:g}, "
                                              f"got {text!r}")

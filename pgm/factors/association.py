@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from pgm.core.boxes import BOX_CODINGS, box_code_columns, box_coding, encode_boxes
+from pgm.core.boxes import BOX_CODINGS, box_code_columns, box_coding, decode_boxes, encode_boxes
 from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
@@ -90,8 +90,6 @@ def axis_sizes(labels, coding: str, x: np.ndarray) -> np.ndarray:
         raise ValueError("scale-aware noise needs a box state of corners (xyxy) or centre and "
                          "size (cxcywh), not area and aspect (xysr)")
     cols = box_code_columns(tuple(labels))[1]
-    from pgm.core.boxes import decode_boxes
-
     box = decode_boxes(x[..., cols], coding)
     w, h = np.abs(box[..., 2:3]), np.abs(box[..., 3:4])
     is_x = np.array([lab in X_LABELS for lab in labels])
@@ -124,7 +122,19 @@ def constant_velocity(coding: str) -> tuple[list[str], np.ndarray, np.ndarray]:
     return labels, F, H
 
 
-class BoxPrior(GaussianPrior):
+class _RelativeStd:
+    """A factor with an optional ``relative_std`` (scale-aware noise), saved with it."""
+
+    relative_std: np.ndarray | None = None
+
+    def params(self) -> dict[str, Any]:
+        p = super().params()
+        if self.relative_std is not None:
+            p["relative_std"] = self.relative_std
+        return p
+
+
+class BoxPrior(_RelativeStd, GaussianPrior):
     """A Gaussian prior on a box state (any :data:`~pgm.core.boxes.BOX_CODINGS`), re-centred
     on each new target's detection box with its rates set to zero. Its covariance is
     ``cov`` (the initial uncertainty ``P0``) or, with ``relative_std`` (one std per state
@@ -137,12 +147,6 @@ class BoxPrior(GaussianPrior):
                  name: str | None = None):
         super().__init__(variable, mean=mean, cov=cov, name=name)
         self.relative_std = _relative_std(self, relative_std, self.mean_.size)
-
-    def params(self) -> dict[str, Any]:
-        p = super().params()
-        if self.relative_std is not None:
-            p["relative_std"] = self.relative_std
-        return p
 
     def check(self, variables: dict[str, Variable]) -> None:
         super().check(variables)
@@ -400,7 +404,7 @@ class AssignedDetectionLikelihood(LikelihoodFactor):
                          f"with a DetectionAssociation (its rules read the frame's assignment)")
 
 
-class BoxTransition(LinearGaussianTransition):
+class BoxTransition(_RelativeStd, LinearGaussianTransition):
     """Constant-velocity box dynamics ``x_t = F x_{t-1} + N(0, Q)`` whose noise is fixed
     (``Q``) or, with ``relative_std`` (one std per state component), scale-aware:
     ``Q = diag((relative_std · size)²)`` with ``size`` the box's width or height along
@@ -412,12 +416,6 @@ class BoxTransition(LinearGaussianTransition):
         self.relative_std = _relative_std(self, relative_std, self.F.shape[0])
         self._labels: tuple | None = None
         self._coding: str | None = None
-
-    def params(self) -> dict[str, Any]:
-        p = super().params()
-        if self.relative_std is not None:
-            p["relative_std"] = self.relative_std
-        return p
 
     def check(self, variables: dict[str, Variable]) -> None:
         super().check(variables)
