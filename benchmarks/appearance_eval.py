@@ -134,7 +134,8 @@ def run_config(tasks, overrides, seeds):
     for seed in range(seeds):
         task_auc, task_prec, n_frames, secs = [], [], 0, 0.0
         for frames, gt, init, _ in tasks:
-            kw = {"n_parts": 1, "num_particles": 100} | overrides
+            h, w = frames[0][1].shape[:2]
+            kw = {"n_parts": 1, "num_particles": 100, "frame_size": (w, h)} | overrides
             graph = part_graph.build_graph(part_graph.Params(init_box=tuple(init), **kw))
             boxes, s, _ = time_engine(Engine(graph, np.random.default_rng(seed)), frames)
             m = single_object_metrics(gt, np.array([n for n, _ in frames]), boxes)

@@ -79,6 +79,8 @@ from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
 from pgm.core.motion import warp_states
+from pgm.core.numerics import check_finite_param
+from pgm.core.readout import confidence
 from pgm.core.rng import as_generator
 from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
 
@@ -216,6 +218,9 @@ class Engine:
         self._initializers = [f.name for f in self.graph.factors_by_kind("likelihood")
                               if type(f).initialize is not LikelihoodFactor.initialize]
         self._proposals = bool(self.graph.factors_by_kind("proposal"))
+        #: the graph's calibrated confidence at the last frame (kept where a proposal may
+        #: read it; :func:`pgm.core.readout.confidence`), or None
+        self.confidence: float | None = None
         self._groups_cache: dict[tuple, list[tuple[list[Factor], list[Rule], bool]]] = {}
         self._rule_cache: dict[tuple, Rule] = {}
         self.frame: FrameContext | None = None
@@ -372,6 +377,8 @@ class Engine:
             self._plates.step(self, frame, record, lifecycle)
         record.beliefs = dict(self.beliefs)
         record.messages = dict(self.messages)
+        if self._proposals and self.plate is None:
+            self.confidence = confidence(self.graph, record)
         self.t += 1
         return record
 
@@ -615,7 +622,14 @@ def _predict_particles(engine: Engine, factor, frame) -> None:
                        tuple(warp_states(h, labels, frame.camera_motion) for h in b.history))
     proposals = engine.graph.factors_of(var, "proposal")
     if proposals:
-        return _propose_particles(engine, factor, proposals[0], frame, b)
+        f = proposals[0].prepare(frame, (b.x,) + b.history, confidence=engine.confidence,
+                                 factors=engine.graph.factors)
+        f = float(check_finite_param(f"{proposals[0].name}.prepare()", f, nonneg=True))
+        if f > 1:
+            raise ValueError(f"factor {proposals[0].name!r}: prepare() returned the share "
+                             f"{f}, above 1")
+        if f > 0:
+            return _propose_particles(engine, factor, proposals[0], frame, b, f)
     x_new = np.asarray(factor.sample(engine.rng, b.x, *b.history), dtype=float)
     if x_new.shape != b.x.shape:
         raise ValueError(f"factor {factor.name!r}: sample() returned shape {x_new.shape}, "
@@ -623,14 +637,14 @@ def _predict_particles(engine: Engine, factor, frame) -> None:
     engine.beliefs[var] = b.moved(x_new, history_len=max(0, factor.order - 1))
 
 
-def _propose_particles(engine: Engine, transition, proposal, frame, b: Particles) -> dict:
+def _propose_particles(engine: Engine, transition, proposal, frame, b: Particles,
+                       f: float) -> dict:
     """The predict stage with a proposal factor: each particle drawn from the proposal
-    with probability ``f = proposal.fraction`` (else from the transition) and its weight
+    with probability ``f`` (its :meth:`~pgm.factors.ProposalFactor.prepare`; else from the transition) and its weight
     multiplied by ``p(x_t | x_{t-1}) / ((1 - f) p + f q)`` (the mixture's importance
     weight; :class:`~pgm.factors.kinds.ProposalFactor`)."""
     var = transition.variables[0]
     past = (b.x,) + b.history
-    f = proposal.fraction
     cols = proposal.columns
     if cols is not None and max(cols) >= b.dim:
         raise ValueError(f"factor {proposal.name!r}: columns {list(cols)} do not fit variable "

@@ -152,7 +152,8 @@ PARTS = Option("--parts", "n_parts", type=int_in("--parts", 1, 3),
 
 def default_build(config: ModelConfig, values: dict[str, Any], video: VideoInfo):
     """``module.build_graph(module.Params(...))`` with the options' fields and, where
-    ``Params`` has them, the video's initial box, frame rate and particle count."""
+    ``Params`` has them, the video's initial box, frame rate, frame size and particle
+    count."""
     params_cls = config.module.Params
     fields = {f.name for f in dataclasses.fields(params_cls)}
     kwargs = {o.field: values[o.dest] for o in config.options
@@ -161,6 +162,8 @@ def default_build(config: ModelConfig, values: dict[str, Any], video: VideoInfo)
         kwargs["init_box"] = tuple(float(v) for v in video.init_box)
     if "fps" in fields:
         kwargs["fps"] = float(video.fps)
+    if "frame_size" in fields:
+        kwargs["frame_size"] = (int(video.width), int(video.height))
     if video.particles is not None and "num_particles" in fields:
         kwargs["num_particles"] = int(video.particles)
     return config.module.build_graph(params_cls(**kwargs))

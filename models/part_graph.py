@@ -63,6 +63,7 @@ from pgm.factors import AR2Transition, GaussianPrior
 from pgm.factors.couplings import AffineCoupling, RelativeBoxCoupling
 from pgm.inference.settings import EngineSettings
 from pgm.observation.appearance.cues import appearance_cues, cue_factor
+from pgm.observation.appearance.redetection import RedetectionProposal
 
 from . import config as _config
 
@@ -158,6 +159,17 @@ class Params:
         Heavy-tailed position step (see :class:`~pgm.factors.AR2Transition`): a fraction
         ``jump_prob`` of the particles moves with ``jump_scale`` × the position noise
         (default ``jump_prob``: 0.4 for two or more parts, 0 for one node).
+    redetect : float
+        One node with a correlation filter only: the share of particles a
+        :class:`~pgm.observation.appearance.redetection.RedetectionProposal` draws near
+        the whole frame's response peaks in a frame where the calibrated confidence
+        (``graph.meta["confidence"]``, where declared) is below one half (0: off, the
+        default). Needs ``frame_size``; the transition then re-appears anywhere in the
+        frame with probability ``reappear_prob`` per frame.
+    reappear_prob : float
+        See :class:`~pgm.factors.AR2Transition` (used with ``redetect`` only).
+    frame_size : (width, height), optional
+        The video's frame size in pixels (the application passes it).
 
     Fields left at ``None`` take :data:`DEFAULTS` (two or more parts) or :data:`ONE_NODE`
     (one node) when the graph is built (:meth:`resolved`).
@@ -188,6 +200,10 @@ class Params:
     layout: str = "perez"
     kernel: str = "uniform"
     appearance: str | None = None
+    redetect: float = 0.0
+    redetect_below: float = 0.5
+    reappear_prob: float = 0.01
+    frame_size: tuple[int, int] | None = None
 
     @property
     def node_count(self) -> int:
@@ -273,6 +289,14 @@ def _check(params: Params) -> np.ndarray:
     if params.message_weight not in ("source", "target"):
         raise ValueError(f"message_weight must be 'source' or 'target', got "
                          f"{params.message_weight!r}")
+    check_finite_param("redetect", params.redetect, nonneg=True)
+    if params.redetect > 1:
+        raise ValueError(f"redetect must be a share in [0, 1], got {params.redetect!r}")
+    if params.frame_size is not None:
+        fs = np.asarray(params.frame_size, dtype=float)
+        if fs.shape != (2,) or not np.all(np.isfinite(fs)) or np.any(fs <= 0):
+            raise ValueError(f"frame_size must be (width, height) > 0, got "
+                             f"{params.frame_size!r}")
     for name in ("num_particles", "message_particles"):
         v = getattr(params, name)
         if v is not None and (isinstance(v, bool) or int(v) != v or v < 1):
@@ -302,18 +326,36 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
     c_pos = (params.coupling_pos_std if params.coupling_pos_std is not None
              else 0.03 * np.sqrt(box[2] * box[3]))
     variables, factors = [], []
+    cues = appearance_cues(params.appearance)
+    redetect = params.redetect > 0 and n == 1 and any(c == "cf" for c, _ in cues)
+    if params.redetect > 0 and not redetect:
+        raise ValueError("redetect needs one node with the correlation filter ('cf') among "
+                         "its cues")
+    if redetect and params.frame_size is None:
+        raise ValueError("redetect needs frame_size=(width, height): the area a lost object "
+                         "may re-appear in")
     for nm, pb in zip(names, parts, strict=True):
         variables.append(Variable(nm, 4, role="part", labels=BOX_LABELS))
+        region = (None if not redetect else
+                  (-0.5, -0.5, params.frame_size[0] - 0.5, params.frame_size[1] - 0.5))
         factors += [
             GaussianPrior(nm, mean=pb, cov=0.0),
             AR2Transition(nm, noise_std=[pos, pos, 0.0, 0.0], damping=params.damping,
                           scale_noise=params.scale_noise,
                           reference_size=pb[2:] if params.scale_noise > 0 else None,
-                          jump_prob=params.jump_prob, jump_scale=params.jump_scale),
+                          jump_prob=params.jump_prob, jump_scale=params.jump_scale,
+                          reappear_prob=params.reappear_prob if redetect else 0.0,
+                          region=region),
         ]
-        for k, (cue, opts) in enumerate(appearance_cues(params.appearance)):
+        cue_names = []
+        for k, (cue, opts) in enumerate(cues):
             factors.append(cue_factor(cue, nm, params, name=None if k == 0 else f"{cue}:{nm}",
                                       options=opts))
+            cue_names.append((cue, factors[-1].name))
+        if redetect:
+            cf_name = next(fn for c, fn in cue_names if c == "cf")
+            factors.append(RedetectionProposal(nm, cue=cf_name, fraction=params.redetect,
+                                                 below=params.redetect_below))
     if params.topology == "chain":
         pairs = [(k, k + 1) for k in range(n - 1)]
     else:
@@ -339,6 +381,10 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
         engine = engine.replace(fusion=params.fusion, message_weight=params.message_weight,
                                 message_particles=int(params.message_particles or n_particles))
     meta = {"output": names if n > 1 else names[0], "engine": engine.to_dict()}
+    if redetect:  # the proposal is on while the calibrated confidence is low
+        from .single_object import CONFIDENCE
+
+        meta["confidence"] = {"factor": cf_name, **CONFIDENCE}
     if n > 1:
         meta["readout"] = "part-offsets"
         meta["part_offsets"] = {nm: (box - pb).tolist()

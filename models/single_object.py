@@ -37,6 +37,16 @@ are where the tracker fails; a calibration needs failures), each video weighted 
 (the unit it must transfer to is a video); ``benchmarks/confidence.py`` prints its
 leave-one-group-out reliability.
 
+**Re-detection** (``redetect > 0``, ``pgm track ... --redetect 0.5``; off by default):
+while the calibrated confidence is below one half, a
+:class:`~pgm.observation.appearance.redetection.RedetectionProposal` draws that share of
+the particles near the peaks of the filter's whole-frame response (its long-term
+memory), and the transition gives a re-appearance anywhere in the frame probability
+``reappear_prob`` per frame, so the weights stay those of the model. It finds a target
+that jumped across the frame while hidden (``tests/pgm/observation/test_redetection.py``);
+on the shared sequences, where the target never leaves the view, it costs accuracy
+(``docs/results.md``), so it is not the default.
+
 >>> from pgm.models import single_object
 >>> g = single_object.build_graph(single_object.Params(init_box=(100, 80, 40, 60)))
 >>> [type(f).__name__ for f in g.factors_of("object", "likelihood")]
@@ -71,9 +81,15 @@ CONFIDENCE = {"intercept": -8.700, "slope": 4.001, "spread_slope": -0.069}
 @dataclass(frozen=True)
 class Params(colour_pf.Params):
     """The fields of :class:`pgm.models.colour_pf.Params` (100 particles by default)
-    with the default configuration's ``appearance``, ``scale_noise`` and ``jump_prob``."""
+    with the default configuration's ``appearance``, ``scale_noise`` and ``jump_prob``,
+    and re-detection (``redetect``, ``redetect_below``, ``reappear_prob``, ``frame_size``:
+    see :class:`pgm.models.part_graph.Params`; off by default, ``--redetect SHARE``)."""
 
     appearance: str = APPEARANCE
+    redetect: float = 0.0
+    redetect_below: float = 0.5
+    reappear_prob: float = 0.01
+    frame_size: tuple[int, int] | None = None
     scale_noise: float = SCALE_NOISE
     jump_prob: float = JUMP_PROB
 
@@ -97,4 +113,11 @@ CONFIG = _config.ModelConfig(
     "single-object", "single-object", sys.modules[__name__],
     "the default single-object tracker: an online correlation filter, scale, jumps and "
     "a calibrated confidence",
-    options=(_config.APPEARANCE, _config.SCALE_NOISE))
+    options=(_config.APPEARANCE, _config.SCALE_NOISE,
+             _config.Option("--redetect", "redetect", type=_config.finite_float("--redetect"),
+                            metavar="SHARE",
+                            help="re-detection: while the calibrated confidence is below "
+                                 "one half, draw this share of the particles near the peaks "
+                                 "of the correlation filter's whole-frame response (0: off, "
+                                 "the default; e.g. 0.5 for a target that leaves the view "
+                                 "and comes back elsewhere)")))

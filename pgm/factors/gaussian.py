@@ -267,6 +267,19 @@ class AR2Transition(TransitionFactor):
         (component ``size_indices[1]`` of ``x_{t-1}``), and the log-scale step is not
         clamped to a reference size — one setting for a person near the camera and one
         far away (plate models). Default False (pixels).
+    reappear_prob : float
+        A re-appearance: with this probability per frame the position components
+        (``position_indices``) are drawn uniformly over ``region`` instead (the object was
+        lost from view and comes back anywhere; 0: never). A step longer than four
+        standard deviations of the widest noise component is a re-appearance: it carries
+        no velocity into the next frame (the AR(2) term restarts from rest), so a
+        particle that re-appeared does not fly on. With a re-appearance a proposal near
+        an appearance peak anywhere in ``region`` stays importance-correct
+        (:class:`~pgm.observation.appearance.redetection.RedetectionProposal`).
+    region : (x0, y0, x1, y1), optional
+        Where an object may re-appear (the frame, in pixels); required when
+        ``reappear_prob > 0``.
+    position_indices : (int, int)
     """
 
     order = 2
@@ -274,8 +287,24 @@ class AR2Transition(TransitionFactor):
     def __init__(self, variable: str, *, noise_std, damping: float = 0.5,
                  scale_noise: float = 0.0, reference_size=None,
                  scale_clamp=(0.5, 2.0), size_indices=(2, 3), jump_prob: float = 0.0,
-                 jump_scale: float = 1.0, relative: bool = False, name: str | None = None):
+                 jump_scale: float = 1.0, relative: bool = False, reappear_prob: float = 0.0,
+                 region=None, position_indices=(0, 1), name: str | None = None):
         super().__init__(variable, name=name)
+        self.reappear_prob = float(check_finite_param(f"{self.name}.reappear_prob",
+                                                      reappear_prob, nonneg=True))
+        if self.reappear_prob >= 1:
+            raise ValueError(f"factor {self.name!r}: reappear_prob must be in [0, 1)")
+        self.position_indices = tuple(int(i) for i in position_indices)
+        self.region = None if region is None else np.asarray(region, dtype=float).reshape(-1)
+        if self.reappear_prob > 0:
+            if self.region is None or self.region.shape != (2 * len(self.position_indices),):
+                raise ValueError(f"factor {self.name!r}: reappear_prob needs region=(x0, y0, "
+                                 f"x1, y1), the area where the object may re-appear")
+            check_finite_param(f"{self.name}.region", self.region)
+            k = len(self.position_indices)
+            if np.any(self.region[k:] <= self.region[:k]):
+                raise ValueError(f"factor {self.name!r}: region must have x1 > x0 and y1 > y0, "
+                                 f"got {self.region.tolist()}")
         if not isinstance(relative, (bool, np.bool_)):
             raise ValueError(f"factor {self.name!r}: relative must be true or false, got "
                              f"{relative!r}")
@@ -315,7 +344,24 @@ class AR2Transition(TransitionFactor):
             p.update(relative=True, size_indices=list(self.size_indices))
             p.pop("reference_size", None)
             p.pop("scale_clamp", None)
+        if self.reappear_prob > 0:
+            p.update(reappear_prob=self.reappear_prob, region=self.region,
+                     position_indices=list(self.position_indices))
         return p
+
+    def _step(self, x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
+        """The velocity term ``a (x_{t-1} - x_{t-2})``; with re-appearances, zero for a
+        particle whose last position step exceeded four widest standard deviations."""
+        d = self.damping * (x1 - x2)
+        if self.reappear_prob == 0:
+            return d
+        pos = list(self.position_indices)
+        reach = 4.0 * self.noise_std[pos] * (self.jump_scale if self.jump_prob > 0 else 1.0)
+        reach = np.broadcast_to(reach, (x1.shape[0], len(pos)))
+        if self.relative:
+            reach = reach * np.maximum(x1[:, self.size_indices[1]], 1e-6)[:, None]
+        restart = np.any(np.abs(x1[:, pos] - x2[:, pos]) > reach, axis=1)
+        return np.where(restart[:, None], 0.0, d)
 
     def check(self, variables: dict[str, Variable]) -> None:
         self._check_dim(variables, self.variables[0], self.noise_std.size, "noise_std")
@@ -329,7 +375,13 @@ class AR2Transition(TransitionFactor):
         if self.jump_prob > 0:
             noise *= np.where(rng.random(x1.shape[0]) < self.jump_prob, self.jump_scale,
                               1.0)[:, None]
-        x = x1 + self.damping * (x1 - x2) + noise
+        x = x1 + self._step(x1, x2) + noise
+        if self.reappear_prob > 0:
+            pos = list(self.position_indices)
+            k = len(pos)
+            back = rng.random(x1.shape[0]) < self.reappear_prob
+            x[np.ix_(back, pos)] = (self.region[:k] + rng.random((int(back.sum()), k))
+                                    * (self.region[k:] - self.region[:k]))
         if self.scale_noise > 0:
             iw, ih = self.size_indices
             step = np.exp(self.scale_noise * rng.standard_normal(x.shape[0]))
@@ -351,6 +403,23 @@ class AR2Transition(TransitionFactor):
                              f"every component and no scale step")
         return self._log_prob(x, list(range(x.shape[1])), *past)
 
+    def _log_prob(self, x: np.ndarray, c: list[int], *past: np.ndarray) -> np.ndarray:
+        """The AR(2) density of components ``c``, mixed with the uniform re-appearance."""
+        step = self._log_prob_ar2(x, c, *past)
+        if self.reappear_prob == 0:
+            return step
+        pos = list(self.position_indices)
+        if not set(c) <= set(pos):
+            raise ValueError(f"factor {self.name!r}: with re-appearances the density is that "
+                             f"of position components {pos} only, not of {c}")
+        k = len(pos)
+        lo, hi = self.region[:k], self.region[k:]
+        j = [pos.index(i) for i in c]
+        inside = np.all((x[:, c] >= lo[j]) & (x[:, c] <= hi[j]), axis=1)
+        log_u = np.where(inside, -float(np.sum(np.log(hi[j] - lo[j]))), -np.inf)
+        return np.logaddexp(np.log1p(-self.reappear_prob) + step,
+                            np.log(self.reappear_prob) + log_u)
+
     def log_prob_columns(self, x: np.ndarray, columns, *past: np.ndarray) -> np.ndarray:
         """The marginal density of components ``columns`` with positive noise outside the
         size components of the scale step (e.g. the centre): their damped step with the
@@ -365,13 +434,13 @@ class AR2Transition(TransitionFactor):
                              f"must not be sizes of the scale step")
         return self._log_prob(x, c, *past)
 
-    def _log_prob(self, x: np.ndarray, c: list[int], *past: np.ndarray) -> np.ndarray:
+    def _log_prob_ar2(self, x: np.ndarray, c: list[int], *past: np.ndarray) -> np.ndarray:
         x1 = past[0]
         x2 = past[1] if len(past) > 1 else past[0]
         std = np.broadcast_to(self.noise_std[c], (x.shape[0], len(c)))
         if self.relative:
             std = std * np.maximum(x1[:, self.size_indices[1]], 1e-6)[:, None]
-        r = (x[:, c] - x1[:, c] - self.damping * (x1[:, c] - x2[:, c])) / std
+        r = (x[:, c] - x1[:, c] - self._step(x1, x2)[:, c]) / std
         d = len(c)
         narrow = (-0.5 * np.sum(r * r, axis=1) - np.sum(np.log(std), axis=1)
                   - 0.5 * d * np.log(2 * np.pi))

@@ -221,3 +221,14 @@ class ProposalFactor(Factor):
     @abstractmethod
     def log_prob(self, x: np.ndarray, ctx: FrameContext, *past: np.ndarray) -> np.ndarray:
         """``log q(x_t | past, z_t)``, shape ``(N,)``."""
+
+    def prepare(self, ctx: FrameContext, past: tuple[np.ndarray, ...], *,
+                confidence: float | None, factors: dict[str, Factor]) -> float:
+        """This frame's share of proposed particles, called before :meth:`sample`
+        (default: :attr:`fraction`). ``confidence`` is the graph's calibrated confidence
+        at the previous frame (:func:`pgm.core.readout.confidence`; None where it declares
+        none), ``factors`` the graph's factors by name. Returning 0 skips the proposal
+        for this frame (every particle from the transition); the share must not depend on
+        this frame's draws, so the weights stay correct. A proposal may also compute
+        here what :meth:`sample` and :meth:`log_prob` share in this frame."""
+        return self.fraction

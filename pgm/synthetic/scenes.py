@@ -4,16 +4,19 @@ multi-target scene with births, deaths and crossings."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import cv2
 import numpy as np
 
 from pgm.core.errors import InputError
 from pgm.core.rng import as_generator
-from pgm.synthetic.scene import _BLUE, _GREEN, _RED, ObjectSpec, OccluderSpec, Scene
+from pgm.synthetic.scene import (_BLUE, _GREEN, _RED, ObjectSpec, OccluderSpec, Scene,
+                                  _sensor_noise, _smooth_noise)
 from pgm.synthetic.sequence import SyntheticSequence
 
-__all__ = ["demo_scene", "part_occlusion_scene", "multi_target_scene"]
+__all__ = ["demo_scene", "part_occlusion_scene", "multi_target_scene", "jump_scene",
+           "JumpSequence"]
 
 
 def demo_scene(seed: int | np.random.Generator = 0, n_frames: int = 90) -> SyntheticSequence:
@@ -158,3 +161,52 @@ def multi_target_scene(seed: int | np.random.Generator = 0, n_frames: int = 100,
     occ = [OccluderSpec(box=(400, 250, 70, 110))] if occluder else []
     scene = Scene(objects, occ, size=(640, 480), fps=30.0, name="multi-target")
     return scene.render(as_generator(seed), n_frames)
+
+
+class JumpSequence(NamedTuple):
+    """Frames of :func:`jump_scene`: ``frames`` (list of (H, W, 3) uint8 BGR, frame
+    ``k + 1`` at index ``k``), ``boxes`` (n, 4) top-left ``(x, y, w, h)`` of the object
+    (also where it is hidden), ``visible`` (n,) whether any of it is in view."""
+
+    frames: list
+    boxes: np.ndarray
+    visible: np.ndarray
+
+
+def jump_scene(seed: int | np.random.Generator = 0, n_frames: int = 90) -> JumpSequence:
+    """A textured object that vanishes behind an occluder and comes back across the frame.
+
+    320x240 grey-textured background. The object (40x48, its own fixed texture) starts
+    centred at (70, 120) and moves right 0.8 px/frame; in frame 36 a grey page covers it
+    (70x80 at its last position, for the rest of the sequence) and the object is hidden
+    for 20 frames (36-55); from frame 56 it is in view again centred at (250, 110), 180
+    px to the right, moving left 0.5 px/frame. A tracker that stays where the object
+    vanished has lost it; one that re-detects finds it again from frame 56.
+    """
+    rng = as_generator(seed)
+    if n_frames < 1:
+        raise InputError(f"n_frames must be positive, got {n_frames}")
+    H, W = 240, 320
+    bg = 120.0 + 22.0 * _smooth_noise(rng, H, W, 14, 18, 1)[..., 0]
+    ow, oh = 40, 48
+    tex = (_smooth_noise(rng, oh, ow, 5, 4, 1) + 0.5 * _smooth_noise(rng, oh, ow, 12, 10, 1))
+    obj = np.clip(128.0 + 40.0 * tex[..., 0] / max(float(tex.std()), 1e-6), 0, 255)
+    page = 200.0 + 6.0 * _smooth_noise(rng, 80, 70, 8, 7, 1)[..., 0]
+    t = np.arange(1, n_frames + 1, dtype=float)
+    cx = np.where(t <= 55, 70.0 + 0.8 * (np.minimum(t, 35) - 1), 250.0 - 0.5 * (t - 56))
+    cy = np.where(t <= 55, 120.0 + 3.0 * np.sin(2 * np.pi * (t - 1) / 40), 110.0)
+    boxes = np.stack([cx - ow / 2, cy - oh / 2, np.full_like(cx, ow), np.full_like(cx, oh)],
+                     axis=1)
+    visible = (t <= 35) | (t >= 56)
+    px, py = int(round(cx[min(34, n_frames - 1)] - 35)), int(round(cy[min(34, n_frames - 1)] - 40))
+    frames = []
+    for k in range(n_frames):
+        img = bg.copy()
+        if visible[k]:
+            x0, y0 = int(round(boxes[k, 0])), int(round(boxes[k, 1]))
+            img[y0:y0 + oh, x0:x0 + ow] = obj
+        if t[k] >= 36:
+            img[py:py + 80, px:px + 70] = page
+        img = np.clip(img + _sensor_noise(rng, img.shape, 4.0), 0, 255).astype(np.uint8)
+        frames.append(cv2.cvtColor(img, cv2.COLOR_GRAY2BGR))
+    return JumpSequence(frames, boxes, visible)

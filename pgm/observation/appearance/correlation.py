@@ -41,6 +41,8 @@ References
    doi:10.1109/CVPR.2010.5539960
 .. [#danelljan2014] M. Danelljan, G. Häger, F. S. Khan and M. Felsberg, "Accurate scale
    estimation for robust visual tracking", Proc. BMVC 2014. doi:10.5244/C.28.65
+.. [#ma2015] C. Ma, X. Yang, C. Zhang and M.-H. Yang, "Long-term correlation tracking",
+   Proc. CVPR 2015, 5388–5396. doi:10.1109/CVPR.2015.7299177
 """
 
 from __future__ import annotations
@@ -56,7 +58,8 @@ from pgm.core.numerics import check_finite_param
 
 from .likelihoods import BoxAppearanceLikelihood, bounded_int, grey_frame
 
-__all__ = ["CorrelationFilterLikelihood", "window_features", "peak_to_sidelobe"]
+__all__ = ["CorrelationFilterLikelihood", "window_features", "patch_features",
+           "peak_to_sidelobe", "response_peaks"]
 
 #: widest search window, in template pixels per side (``target_px · (1 + padding)``):
 #: the window's features and spectra are ``(1 + n_orient) ·`` its area, per scale level
@@ -78,6 +81,40 @@ def peak_to_sidelobe(response: np.ndarray, radius: int) -> float:
     return float((peak - lobe.mean()) / max(float(lobe.std()), 1e-12 * max(abs(peak), 1e-300)))
 
 
+#: widest region scanned for re-detection (:meth:`CorrelationFilterLikelihood.detect`), in
+#: template pixels per side: a larger frame is scanned in a window of this side around
+#: the last estimate
+MAX_DETECT_PX = 1024
+#: windows a frame's particles may open (:meth:`CorrelationFilterLikelihood.relative_response`):
+#: the first at the particles' mean, the others at particles outside every window so far
+MAX_WINDOWS = 4
+
+
+def response_peaks(response: np.ndarray, radius: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The ``k`` highest local maxima of a map, at least ``radius`` cells apart (a
+    maximum of its ``(2 radius + 1)²`` neighbourhood): rows and columns ``(m, 2)`` as
+    ``(x, y)``, and their values ``(m,)``, highest first (``m <= k``)."""
+    r = np.asarray(response, dtype=np.float32)
+    size = 2 * int(radius) + 1
+    dil = cv2.dilate(r, np.ones((size, size), np.uint8))
+    ys, xs = np.nonzero(r >= dil)
+    vals = r[ys, xs]
+    order = np.argsort(-vals, kind="stable")
+    keep: list[int] = []
+    for i in order:  # suppress plateaus: one maximum per neighbourhood
+        if all(max(abs(xs[i] - xs[j]), abs(ys[i] - ys[j])) > radius for j in keep):
+            keep.append(int(i))
+            if len(keep) == k:
+                break
+    idx = np.array(keep, dtype=np.intp)
+    return np.stack([xs[idx], ys[idx]], axis=1).astype(float), vals[idx].astype(float)
+
+
+def _one_cloud(xy: np.ndarray, centre: np.ndarray, quarter: np.ndarray) -> bool:
+    """Whether nine in ten points lie within ``quarter`` (per axis) of ``centre``."""
+    return bool(np.mean(np.all(np.abs(xy - centre) <= quarter, axis=1)) >= 0.9)
+
+
 def window_features(grey: np.ndarray, centre, size, out_shape, n_orient: int) -> np.ndarray:
     """Features ``(1 + n_orient, th, tw)`` of the window of ``size = (w, h)`` px centred
     on ``centre = (cx, cy)``, resampled to ``out_shape = (tw, th)`` (border replicated)."""
@@ -88,6 +125,13 @@ def window_features(grey: np.ndarray, centre, size, out_shape, n_orient: int) ->
                   [0.0, sy, centre[1] - sy * th / 2 + 0.5 * sy - 0.5]])
     patch = cv2.warpAffine(grey, m, (tw, th), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                            borderMode=cv2.BORDER_REPLICATE)
+    return patch_features(patch, n_orient)
+
+
+def patch_features(patch: np.ndarray, n_orient: int) -> np.ndarray:
+    """Features ``(1 + n_orient, h, w)`` of a grey ``float32`` patch: its grey level
+    (contrast-normalised) and ``n_orient`` locally normalised gradient orientations."""
+    th, tw = patch.shape
     gx = cv2.Sobel(patch, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(patch, cv2.CV_32F, 0, 1, ksize=3)
     mag = np.sqrt(gx * gx + gy * gy)
@@ -131,6 +175,12 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         mean scale.
     floor : float
         Response (in units of the typical peak) of a particle outside every window.
+    memory_rate : float
+        Learning rate of the *long-term* filter (a memory of the confident frames, after
+        Ma et al. [#ma2015]): learned from the first frame and then from the same gated
+        frames as the filter, ``memory_rate`` at a time (0: the first frame's filter
+        kept). :meth:`detect` scans with both and keeps the better response, so a
+        target the short-term filter drifted away from is still recognised.
     """
 
     model_attr = "num"
@@ -139,7 +189,8 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
                  target_px: float = 32.0, n_orient: int = 6, sigma: float = 0.1,
                  reg: float = 1e-2, adapt_rate: float = 0.02, gate: float = 0.5,
                  scales: int = 3, scale_step: float = 1.05, floor: float = -0.2,
-                 box_indices=(0, 1, 2, 3), name: str | None = None):
+                 memory_rate: float = 0.002, box_indices=(0, 1, 2, 3),
+                 name: str | None = None):
         super().__init__(variable, lam=lam, box_indices=box_indices, adapt_rate=adapt_rate,
                          name=name)
         n = self.name
@@ -151,6 +202,10 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         self.scale_step = float(check_finite_param(f"{n}.scale_step", scale_step,
                                                    positive=True))
         self.floor = float(check_finite_param(f"{n}.floor", floor))
+        self.memory_rate = float(check_finite_param(f"{n}.memory_rate", memory_rate,
+                                                    nonneg=True))
+        if self.memory_rate > 1:
+            raise ValueError(f"factor {n!r}: memory_rate must be in [0, 1], got {memory_rate}")
         self.n_orient = bounded_int(n, "n_orient", n_orient)
         self.scales = bounded_int(n, "scales", scales)
         if self.scales % 2 == 0:
@@ -167,6 +222,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         self.peak = None  # running mean of the peak response at the estimates
         self.last_response = None  # relative response at the last estimate
         self.last_psr = None  # peak-to-sidelobe ratio of the map at the last estimate
+        self.memory = None  # the long-term filter: (num, den, peak)
 
     @property
     def learns(self) -> bool:
@@ -188,7 +244,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
                 "n_orient": self.n_orient, "sigma": self.sigma, "reg": self.reg,
                 "adapt_rate": self.adapt_rate, "gate": self.gate, "scales": self.scales,
                 "scale_step": self.scale_step, "floor": self.floor,
-                "box_indices": list(self.box_indices)}
+                "memory_rate": self.memory_rate, "box_indices": list(self.box_indices)}
 
     # -- geometry ----------------------------------------------------------------------
     def _setup(self, box: np.ndarray) -> None:
@@ -220,10 +276,30 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
             self.num = (1 - rate) * self.num + rate * num
             self.den = (1 - rate) * self.den + rate * den
 
-    def _response(self, zf: np.ndarray) -> np.ndarray:
-        lam = self.reg * float(self.den.mean()) + 1e-12  # a flat window has no energy
-        return sfft.irfft2(np.sum(np.conj(self.num) * zf, axis=0) / (self.den + lam),
+    def _response(self, zf: np.ndarray, num=None, den=None) -> np.ndarray:
+        """The response map of the window with spectrum ``zf`` (of the short-term filter,
+        or of the filter ``num, den``)."""
+        num = self.num if num is None else num
+        den = self.den if den is None else den
+        lam = self.reg * float(den.mean()) + 1e-12  # a flat window has no energy
+        return sfft.irfft2(np.sum(np.conj(num) * zf, axis=0) / (den + lam),
                            s=self.hann.shape)
+
+    def _learn_memory(self, xf: np.ndarray, here: float | None) -> None:
+        """The long-term filter: the first frame's, then blended at ``memory_rate``."""
+        num = np.conj(self.gf)[None] * xf
+        den = np.sum((xf * np.conj(xf)).real, axis=0)
+        if self.memory is None or here is None:
+            resp = self._response(xf, num, den)
+            self.memory = (num, den, max(float(resp.max()), 1e-12))
+            return
+        if self.memory_rate == 0:
+            return
+        r = self.memory_rate
+        m_num, m_den, m_peak = self.memory
+        here_lt = self._centre_max(self._response(xf, m_num, m_den))
+        self.memory = ((1 - r) * m_num + r * num, (1 - r) * m_den + r * den,
+                       (1 - r) * m_peak + r * here_lt)
 
     @property
     def _psr_radius(self) -> int:
@@ -246,6 +322,8 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         self.peak = max(float(response.max()), 1e-12)
         self.last_response = 1.0
         self.last_psr = peak_to_sidelobe(response, self._psr_radius)
+        self.memory = None
+        self._learn_memory(xf, None)
 
     def update(self, estimates, scores, frame=None) -> None:
         """Score the estimate's window, then learn from it if the score passes the gate."""
@@ -258,9 +336,11 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         here = self._centre_max(response)
         self.last_response = here / self.peak
         self.last_psr = peak_to_sidelobe(response, self._psr_radius)
-        if self.adapt_rate > 0 and here >= self.gate * self.peak:
-            self._train(xf, self.adapt_rate)
-            self.peak = (1 - self.adapt_rate) * self.peak + self.adapt_rate * here
+        if here >= self.gate * self.peak:
+            if self.adapt_rate > 0:
+                self._train(xf, self.adapt_rate)
+                self.peak = (1 - self.adapt_rate) * self.peak + self.adapt_rate * here
+            self._learn_memory(xf, here)
 
     def _centre_max(self, r: np.ndarray) -> float:
         """The best response within a tenth of the target of the window centre (where the
@@ -272,28 +352,148 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         x0, x1 = int(np.floor(cx)) - rad, int(np.ceil(cx)) + rad + 1
         return float(r[max(y0, 0):y1, max(x0, 0):x1].max())
 
+    # -- re-detection ------------------------------------------------------------------
+    def detect(self, ctx: FrameContext, centre, scale: float, max_peaks: int = 3
+               ) -> tuple[np.ndarray, np.ndarray]:
+        """Where the object may be in the whole frame: the highest peaks of the filter's
+        response over the frame at ``scale`` (relative to the first box), the better of
+        the short-term and the long-term filter at each pixel, each in units of its own
+        typical peak. Only the filter's cells over the object's box are used: the rest
+        learned the background around the object, which stays where the object was.
+
+        The frame is resampled to template pixels and correlated with the filters once
+        (FFT); a frame wider than :data:`MAX_DETECT_PX` template pixels is scanned in a
+        window of that side around ``centre``. Returns the peaks' centres ``(m, 2)`` in
+        image pixels and their relative responses ``(m,)``, highest first, at least a
+        tenth of the object apart and with the whole box inside the frame
+        (``m <= max_peaks``; cached per frame)."""
+        self.require_model()
+
+        def make():
+            grey = grey_frame(ctx)
+            H, W = grey.shape
+            step = self.ref_size * float(scale) / np.array(self.shape)  # image px / cell
+            ow = min(int(np.ceil(W / step[0])), MAX_DETECT_PX)
+            oh = min(int(np.ceil(H / step[1])), MAX_DETECT_PX)
+            size = np.array([ow, oh]) * step
+            c = np.asarray(centre, dtype=float)
+            mid = np.array([W, H]) / 2.0 - 0.5
+            # the scanned region: the frame, or a window around the estimate within it
+            lo = np.clip(c - size / 2, -0.5, np.array([W, H]) - 0.5 - size)
+            rc = np.where(size >= np.array([W, H]), mid, lo + size / 2)
+            feats = window_features(grey, rc, size, (ow, oh), self.n_orient)
+            th, tw = self.hann.shape
+            full = (oh + th - 1, ow + tw - 1)
+            fshape = (sfft.next_fast_len(full[0], real=True),
+                      sfft.next_fast_len(full[1], real=True))
+            zf = sfft.rfft2(feats, s=fshape, axes=(-2, -1))
+            # the filter's cells over the object's box: its context (padding) learned the
+            # background around the object, which stays where the object was
+            ih = np.abs(np.arange(th) - (th - 1) / 2) <= th / (1 + self.padding) / 2
+            iw = np.abs(np.arange(tw) - (tw - 1) / 2) <= tw / (1 + self.padding) / 2
+            box_mask = (ih[:, None] & iw[None, :]).astype(float)
+            best = None
+            filters = ([self.memory] if self.memory is not None
+                       else [(self.num, self.den, self.peak)])
+            for num, den, peak in filters:
+                lam = self.reg * float(den.mean()) + 1e-12
+                h = sfft.irfft2(np.conj(num) / (den + lam), s=(th, tw))
+                h = np.fft.fftshift(h, axes=(-2, -1)) * box_mask  # the object's part only
+                hf = sfft.rfft2(h, s=fshape, axes=(-2, -1))
+                r = sfft.irfft2(np.sum(hf * zf, axis=0), s=fshape)
+                r = r[th // 2:th // 2 + oh, tw // 2:tw // 2 + ow] / peak
+                best = r if best is None else np.maximum(best, r)
+            # only where the whole box is in the frame: a box across the border reads
+            # the border's replicated pixels
+            half = self.ref_size * float(scale) / (1 + self.padding) / 2
+            x0, y0 = rc - size / 2
+            gx = x0 + (np.arange(ow) + 0.5) * step[0] - 0.5
+            gy = y0 + (np.arange(oh) + 0.5) * step[1] - 0.5
+            ok_x = (gx - half[0] >= -0.5) & (gx + half[0] <= W - 0.5)
+            ok_y = (gy - half[1] >= -0.5) & (gy + half[1] <= H - 0.5)
+            if not ok_x.any() or not ok_y.any():
+                return np.zeros((0, 2)), np.zeros(0)
+            best = np.where(ok_y[:, None] & ok_x[None, :], best, -np.inf)
+            cells, vals = response_peaks(best, max(1, int(round(0.1 * self.target_px))),
+                                         max_peaks)
+            keep = np.isfinite(vals)
+            xy = rc - size / 2 + (cells[keep] + 0.5) * step - 0.5
+            return xy, vals[keep]
+
+        return ctx.cached(("cf-detect", id(self), max_peaks), make)
+
     # -- scoring -----------------------------------------------------------------------
+    def _window(self, ctx: FrameContext, centre, levels, key):
+        """Response maps of one window, one per scale level (cached on the frame)."""
+        def make():
+            maps = np.stack([self._response(self._spectrum(ctx, centre, s)) for s in levels])
+            return maps / self.peak
+
+        return ctx.cached(("cf-window", id(self)) + key, make)
+
     def _maps(self, x: np.ndarray, ctx: FrameContext):
-        """Response maps of this frame, one per scale level, around the particles' mean
-        (computed at the first call in a frame and cached on it)."""
+        """This frame's first window: its centre (the particles' mean), scale levels
+        (around their mean scale) and maps (computed at the first call in a frame and
+        cached on it)."""
         def make():
             b = self.boxes(x)
             centre = b[:, :2].mean(axis=0)
+            k = np.arange(self.scales) - self.scales // 2
+            quarter = self.ref_size * float(np.exp(np.mean(0.5 * np.log(np.maximum(
+                b[:, 2] * b[:, 3], 1e-12))))) / self.ref_scale / 4
+            if not _one_cloud(b[:, :2], centre, quarter):
+                centre = self._next_centre(b[:, :2], quarter)
             base = float(np.exp(np.mean(0.5 * np.log(np.maximum(b[:, 2] * b[:, 3],
                                                                  1e-12)))))
             base /= self.ref_scale
-            k = np.arange(self.scales) - self.scales // 2
             levels = base * self.scale_step ** k
-            maps = np.stack([self._response(self._spectrum(ctx, centre, s)) for s in levels])
-            return centre, levels, maps / self.peak
+            return centre, levels, self._window(ctx, centre, levels, ())
 
         return ctx.cached(("cf-response", id(self)), make)
 
     def relative_response(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
-        """``(N,)`` response at each particle, in units of the typical peak."""
+        """``(N,)`` response at each particle, in units of the typical peak.
+
+        The first window is centred on the particles' mean when nine in ten lie within a
+        quarter window of it (one cloud, a few stragglers: the usual case). Otherwise (a proposal
+        put some near a far-away peak, :meth:`detect`) each window is centred on a mode
+        of the particles not yet read — the one with the most of them within a quarter
+        window — and reads those within a quarter window of its centre, so every
+        particle is read near the middle of a window, where the maps are comparable; at
+        most :data:`MAX_WINDOWS` windows, the last reading every particle inside it,
+        and a particle outside them all scores ``floor``."""
         self.require_model()
         centre, levels, maps = self._maps(x, ctx)
         b = self.boxes(x)
+        out = np.full(len(b), self.floor)
+        quarter = self.ref_size * float(levels[len(levels) // 2]) / 4
+        compact = _one_cloud(b[:, :2], b[:, :2].mean(axis=0), quarter)
+        if compact:
+            return self._read(maps, levels, centre, b)[0]
+        todo = np.arange(len(b))
+        for k in range(MAX_WINDOWS):
+            if k > 0:
+                centre = self._next_centre(b[todo, :2], quarter)
+                maps = self._window(ctx, centre, levels,
+                                    (round(centre[0], 3), round(centre[1], 3)))
+            val, inside = self._read(maps, levels, centre, b[todo])
+            if k < MAX_WINDOWS - 1:
+                inside &= np.all(np.abs(b[todo, :2] - centre) <= quarter, axis=1)
+            out[todo[inside]] = val[inside]
+            todo = todo[~inside]
+            if todo.size == 0:
+                break
+        return out
+
+    @staticmethod
+    def _next_centre(xy: np.ndarray, quarter: np.ndarray) -> np.ndarray:
+        """Among points ``xy``, the one with the most others within ``quarter`` of it."""
+        d = np.abs(xy[:, None, :] - xy[None, :, :]) <= quarter
+        return xy[int(np.argmax(np.sum(d.all(axis=2), axis=1)))]
+
+    def _read(self, maps, levels, centre, b) -> tuple[np.ndarray, np.ndarray]:
+        """Bilinear (position) and linear (log-scale) reading of a window's maps at the
+        boxes ``b``: values and whether each box's centre lies in the window."""
         n_lev, th, tw = maps.shape
         scale = np.sqrt(np.maximum(b[:, 2] * b[:, 3], 1e-12)) / self.ref_scale
         if n_lev > 1:
@@ -305,6 +505,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         l1 = np.minimum(l0 + 1, n_lev - 1)
         fl = pos - l0
         out = np.zeros(len(b))
+        inside_all = np.ones(len(b), dtype=bool)
         for lev, wgt in ((l0, 1 - fl), (l1, fl)):
             # particle centre in the level's window: template px
             step = self.ref_size[None, :] * levels[lev][:, None] / np.array(self.shape)[None]
@@ -317,7 +518,8 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
             val = ((1 - fv) * ((1 - fu) * maps[lev, v0, u0] + fu * maps[lev, v0, u0 + 1])
                    + fv * ((1 - fu) * maps[lev, v0 + 1, u0] + fu * maps[lev, v0 + 1, u0 + 1]))
             out += wgt * np.where(inside, val, self.floor)
-        return out
+            inside_all &= inside | (wgt == 0)
+        return out, inside_all
 
     def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         return self.lam * self.relative_response(x, ctx)

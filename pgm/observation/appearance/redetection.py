@@ -1,0 +1,119 @@
+"""Re-detection of a lost target as a proposal of the engine.
+
+When the tracker's calibrated confidence (:func:`pgm.core.readout.confidence`) falls
+below ``below``, :class:`RedetectionProposal` scans the whole frame with an appearance
+cue that can (a correlation filter's :meth:`~pgm.observation.appearance.correlation.
+CorrelationFilterLikelihood.detect`: the short-term and the long-term filter) and draws
+a share ``fraction`` of the particles' positions near the highest peaks; the rest of each
+particle (its size) and the other particles come from the transition. The engine
+corrects every weight by ``p / ((1 - f) p + f q)``
+(:class:`~pgm.factors.ProposalFactor`), so the posterior is the model's: the proposal
+only puts particles where the model could not have sampled them. For that the
+transition must give a far-away position some probability — the re-appearance of
+:class:`~pgm.factors.AR2Transition` (``reappear_prob`` over the frame): a peak far from
+the lost estimate is then taken when its likelihood outweighs the re-appearance's
+prior odds, ``log(reappear_prob / area)`` against the density near the old position,
+and not otherwise.
+
+>>> from pgm.observation.appearance.redetection import RedetectionProposal
+>>> RedetectionProposal("object", cue="cf").params()["below"]
+0.5
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from pgm.core.frame import FrameContext
+from pgm.core.numerics import check_finite_param
+from pgm.factors.kinds import ProposalFactor
+
+__all__ = ["RedetectionProposal"]
+
+
+class RedetectionProposal(ProposalFactor):
+    """Positions from the peaks of a whole-frame appearance response, when lost.
+
+    Parameters
+    ----------
+    variable : str
+        The object's box variable ``(cx, cy, w, h, ...)``.
+    cue : str
+        Name of the likelihood factor that scans the frame: it has
+        ``detect(ctx, centre, scale, max_peaks) -> (centres, values)`` and
+        ``ref_scale`` (the first box's ``sqrt(w h)``), as the correlation filter does.
+    fraction : float
+        Share of the particles proposed in a frame where the proposal is on.
+    below : float
+        On when the previous frame's calibrated confidence is below this (always on
+        where the graph declares no confidence).
+    peaks : int
+        Peaks kept: at most this many, each at least half the best one's response.
+    spread : float
+        Standard deviation of the proposed centres around a peak, in units of the
+        object's size ``sqrt(w h)`` (0.1: the filter's own peak width).
+    columns : (int, int)
+        The position components.
+    """
+
+    def __init__(self, variable: str, *, cue: str, fraction: float = 0.5, below: float = 0.5,
+                 peaks: int = 3, spread: float = 0.1, columns=(0, 1), name: str | None = None):
+        super().__init__(variable, fraction=fraction, columns=columns, name=name)
+        if not isinstance(cue, str) or not cue:
+            raise ValueError(f"factor {self.name!r}: cue must name a likelihood factor")
+        self.cue = cue
+        self.below = float(check_finite_param(f"{self.name}.below", below, nonneg=True))
+        if isinstance(peaks, bool) or int(peaks) != peaks or peaks < 1:
+            raise ValueError(f"factor {self.name!r}: peaks must be a positive integer, got "
+                             f"{peaks!r}")
+        self.peaks = int(peaks)
+        self.spread = float(check_finite_param(f"{self.name}.spread", spread, positive=True))
+        if len(self.columns) != 2:
+            raise ValueError(f"factor {self.name!r}: columns must be the two position "
+                             f"components, got {list(self.columns)}")
+        self._centres: np.ndarray | None = None
+        self._std = 1.0
+
+    def params(self) -> dict[str, Any]:
+        return {"cue": self.cue, "fraction": self.fraction, "below": self.below,
+                "peaks": self.peaks, "spread": self.spread, "columns": list(self.columns)}
+
+    def prepare(self, ctx: FrameContext, past, *, confidence, factors) -> float:
+        """Off (0) while the confidence is at least ``below``; else the frame's peaks
+        around the particles' mean size, and ``fraction`` (0 where no peak is
+        positive)."""
+        if confidence is not None and confidence >= self.below:
+            return 0.0
+        cue = factors.get(self.cue)
+        if cue is None or not hasattr(cue, "detect"):
+            raise ValueError(f"factor {self.name!r}: cue {self.cue!r} is not a factor of this "
+                             f"graph that can scan a frame (detect())")
+        b = cue.boxes(past[0])
+        size = float(np.exp(np.mean(0.5 * np.log(np.maximum(b[:, 2] * b[:, 3], 1e-12)))))
+        centre = b[:, :2].mean(axis=0)
+        xy, vals = cue.detect(ctx, centre, size / cue.ref_scale, self.peaks)
+        keep = (vals > 0) & (vals >= 0.5 * (vals.max() if vals.size else 0))
+        if not keep.any():
+            return 0.0
+        self._centres = xy[keep]
+        self._std = self.spread * size
+        return self.fraction
+
+    def sample(self, rng: np.random.Generator, ctx: FrameContext, *past: np.ndarray
+               ) -> np.ndarray:
+        if self._centres is None:
+            raise ValueError(f"factor {self.name!r}: sample() before prepare() found peaks")
+        x = np.array(past[0], dtype=float)
+        pick = rng.integers(len(self._centres), size=x.shape[0])
+        x[:, list(self.columns)] = (self._centres[pick]
+                                    + self._std * rng.standard_normal((x.shape[0], 2)))
+        return x
+
+    def log_prob(self, x: np.ndarray, ctx: FrameContext, *past: np.ndarray) -> np.ndarray:
+        """``log (1/m) Σ_k N(x_pos; peak_k, spread² I)`` of the position components."""
+        d = (x[:, None, list(self.columns)] - self._centres[None]) / self._std
+        log_k = -0.5 * np.sum(d * d, axis=2) - 2 * np.log(self._std) - np.log(2 * np.pi)
+        m = log_k.max(axis=1)
+        return m + np.log(np.mean(np.exp(log_k - m[:, None]), axis=1))
