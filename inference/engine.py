@@ -640,8 +640,8 @@ def _predict_particles(engine: Engine, factor, frame) -> None:
 def _propose_particles(engine: Engine, transition, proposal, frame, b: Particles,
                        f: float) -> dict:
     """The predict stage with a proposal factor: each particle drawn from the proposal
-    with probability ``f`` (its :meth:`~pgm.factors.ProposalFactor.prepare`; else from the transition) and its weight
-    multiplied by ``p(x_t | x_{t-1}) / ((1 - f) p + f q)`` (the mixture's importance
+    with probability ``f`` (from its :meth:`~pgm.factors.ProposalFactor.prepare`; else
+    from the transition) and its weight multiplied by ``p(x_t | x_{t-1}) / ((1 - f) p + f q)`` (the mixture's importance
     weight; :class:`~pgm.factors.kinds.ProposalFactor`)."""
     var = transition.variables[0]
     past = (b.x,) + b.history

@@ -11,8 +11,16 @@ import numpy as np
 
 from pgm.core.errors import InputError
 from pgm.core.rng import as_generator
-from pgm.synthetic.scene import (_BLUE, _GREEN, _RED, ObjectSpec, OccluderSpec, Scene,
-                                  _sensor_noise, _smooth_noise)
+from pgm.synthetic.scene import (
+    _BLUE,
+    _GREEN,
+    _RED,
+    ObjectSpec,
+    OccluderSpec,
+    Scene,
+    _sensor_noise,
+    _smooth_noise,
+)
 from pgm.synthetic.sequence import SyntheticSequence
 
 __all__ = ["demo_scene", "part_occlusion_scene", "multi_target_scene", "jump_scene",

@@ -18,7 +18,6 @@ from pgm.observation.appearance.redetection import RedetectionProposal
 from pgm.synthetic.scenes import jump_scene
 
 
-
 def scene(rng, centre, size=(40, 56), shape=(200, 260)):
     """A textured object (fixed texture) on a textured background (fixed), plus noise."""
     def texture(r, sh, blur):
