@@ -641,8 +641,9 @@ def _propose_particles(engine: Engine, transition, proposal, frame, b: Particles
                        f: float) -> dict:
     """The predict stage with a proposal factor: each particle drawn from the proposal
     with probability ``f`` (from its :meth:`~pgm.factors.ProposalFactor.prepare`; else
-    from the transition) and its weight multiplied by ``p(x_t | x_{t-1}) / ((1 - f) p + f q)`` (the mixture's importance
-    weight; :class:`~pgm.factors.kinds.ProposalFactor`)."""
+    from the transition) and its weight multiplied by
+    ``p(x_t | x_{t-1}) / ((1 - f) p + f q)`` (the mixture's importance weight;
+    :class:`~pgm.factors.kinds.ProposalFactor`)."""
     var = transition.variables[0]
     past = (b.x,) + b.history
     cols = proposal.columns
