@@ -62,6 +62,7 @@ from pgm.core.variable import Variable
 from pgm.factors import AR2Transition, GaussianPrior
 from pgm.factors.couplings import AffineCoupling, RelativeBoxCoupling
 from pgm.inference.settings import EngineSettings
+from pgm.observation.appearance.correlation import MAX_WINDOWS
 from pgm.observation.appearance.cues import appearance_cues, cue_factor
 from pgm.observation.appearance.redetection import RedetectionProposal
 
@@ -349,6 +350,8 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
         ]
         cue_names = []
         for k, (cue, opts) in enumerate(cues):
+            if redetect and cue == "cf":  # far-away particles read in windows of their own
+                opts = {"windows": MAX_WINDOWS, **opts}
             factors.append(cue_factor(cue, nm, params, name=None if k == 0 else f"{cue}:{nm}",
                                       options=opts))
             cue_names.append((cue, factors[-1].name))

@@ -179,8 +179,13 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         Learning rate of the *long-term* filter (a memory of the confident frames, after
         Ma et al. [#ma2015]): learned from the first frame and then from the same gated
         frames as the filter, ``memory_rate`` at a time (0: the first frame's filter
-        kept). :meth:`detect` scans with both and keeps the better response, so a
-        target the short-term filter drifted away from is still recognised.
+        kept). :meth:`detect` scans the frame with it: a target the short-term filter
+        drifted away from is still recognised.
+    windows : int
+        Search windows a frame's particles may open (:meth:`relative_response`): 1 (the
+        default), one window at the particles' mean, a particle outside it scores
+        ``floor``; more (at most :data:`MAX_WINDOWS`; re-detection sets it) when a
+        proposal puts particles far from the others.
     """
 
     model_attr = "num"
@@ -189,7 +194,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
                  target_px: float = 32.0, n_orient: int = 6, sigma: float = 0.1,
                  reg: float = 1e-2, adapt_rate: float = 0.02, gate: float = 0.5,
                  scales: int = 3, scale_step: float = 1.05, floor: float = -0.2,
-                 memory_rate: float = 0.002, box_indices=(0, 1, 2, 3),
+                 memory_rate: float = 0.002, windows: int = 1, box_indices=(0, 1, 2, 3),
                  name: str | None = None):
         super().__init__(variable, lam=lam, box_indices=box_indices, adapt_rate=adapt_rate,
                          name=name)
@@ -207,6 +212,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         if self.memory_rate > 1:
             raise ValueError(f"factor {n!r}: memory_rate must be in [0, 1], got {memory_rate}")
         self.n_orient = bounded_int(n, "n_orient", n_orient)
+        self.windows = bounded_int(n, "windows", windows)  # at most MAX_WINDOWS
         self.scales = bounded_int(n, "scales", scales)
         if self.scales % 2 == 0:
             raise ValueError(f"factor {n!r}: scales must be a positive odd number")
@@ -244,7 +250,8 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
                 "n_orient": self.n_orient, "sigma": self.sigma, "reg": self.reg,
                 "adapt_rate": self.adapt_rate, "gate": self.gate, "scales": self.scales,
                 "scale_step": self.scale_step, "floor": self.floor,
-                "memory_rate": self.memory_rate, "box_indices": list(self.box_indices)}
+                "memory_rate": self.memory_rate, "windows": self.windows,
+                "box_indices": list(self.box_indices)}
 
     # -- geometry ----------------------------------------------------------------------
     def _setup(self, box: np.ndarray) -> None:
@@ -357,7 +364,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
                ) -> tuple[np.ndarray, np.ndarray]:
         """Where the object may be in the whole frame: the highest peaks of the filter's
         response over the frame at ``scale`` (relative to the first box), the better of
-        the short-term and the long-term filter at each pixel, each in units of its own
+        the long-term filter (the short-term one before it has any), in units of its
         typical peak. Only the filter's cells over the object's box are used: the rest
         learned the background around the object, which stays where the object was.
 
@@ -441,7 +448,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
             k = np.arange(self.scales) - self.scales // 2
             quarter = self.ref_size * float(np.exp(np.mean(0.5 * np.log(np.maximum(
                 b[:, 2] * b[:, 3], 1e-12))))) / self.ref_scale / 4
-            if not _one_cloud(b[:, :2], centre, quarter):
+            if self.windows > 1 and not _one_cloud(b[:, :2], centre, quarter):
                 centre = self._next_centre(b[:, :2], quarter)
             base = float(np.exp(np.mean(0.5 * np.log(np.maximum(b[:, 2] * b[:, 3],
                                                                  1e-12)))))
@@ -454,30 +461,30 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
     def relative_response(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         """``(N,)`` response at each particle, in units of the typical peak.
 
-        The first window is centred on the particles' mean when nine in ten lie within a
-        quarter window of it (one cloud, a few stragglers: the usual case). Otherwise (a proposal
+        The first window is centred on the particles' mean. With ``windows > 1``, and
+        unless nine in ten particles lie within a quarter window of it (one cloud, a few
+        stragglers: the usual case), (a proposal
         put some near a far-away peak, :meth:`detect`) each window is centred on a mode
         of the particles not yet read — the one with the most of them within a quarter
         window — and reads those within a quarter window of its centre, so every
         particle is read near the middle of a window, where the maps are comparable; at
-        most :data:`MAX_WINDOWS` windows, the last reading every particle inside it,
-        and a particle outside them all scores ``floor``."""
+        most ``windows`` windows, the last reading every particle inside it, and a
+        particle outside them all scores ``floor``."""
         self.require_model()
         centre, levels, maps = self._maps(x, ctx)
         b = self.boxes(x)
         out = np.full(len(b), self.floor)
         quarter = self.ref_size * float(levels[len(levels) // 2]) / 4
-        compact = _one_cloud(b[:, :2], b[:, :2].mean(axis=0), quarter)
-        if compact:
+        if self.windows == 1 or _one_cloud(b[:, :2], b[:, :2].mean(axis=0), quarter):
             return self._read(maps, levels, centre, b)[0]
         todo = np.arange(len(b))
-        for k in range(MAX_WINDOWS):
+        for k in range(self.windows):
             if k > 0:
                 centre = self._next_centre(b[todo, :2], quarter)
                 maps = self._window(ctx, centre, levels,
                                     (round(centre[0], 3), round(centre[1], 3)))
             val, inside = self._read(maps, levels, centre, b[todo])
-            if k < MAX_WINDOWS - 1:
+            if k < self.windows - 1:
                 inside &= np.all(np.abs(b[todo, :2] - centre) <= quarter, axis=1)
             out[todo[inside]] = val[inside]
             todo = todo[~inside]

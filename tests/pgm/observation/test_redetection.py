@@ -38,7 +38,7 @@ def _iou(a, b):
 
 
 def _trained(rng, centre=(80, 90), size=(40, 56)):
-    f = CorrelationFilterLikelihood("object")
+    f = CorrelationFilterLikelihood("object", windows=4)
     img = scene(rng, centre, size)
     f.learn(FrameContext(1, img), np.array([*centre, *size], float))
     return f
