@@ -145,8 +145,11 @@ def run_config(tasks, overrides, seeds, skip_start: float = 0.0):
             graph = part_graph.build_graph(part_graph.Params(init_box=tuple(init), **kw))
             boxes, s, _ = time_engine(Engine(graph, np.random.default_rng(seed)), frames)
             first = int(np.floor(skip_start * len(frames)))
-            m = single_object_metrics(gt, np.array([n for n, _ in frames])[first:],
-                                      np.asarray(boxes)[first:])
+            numbers = np.array([n for n, _ in frames])
+            if first:  # the ground truth of the scored frames only
+                keep = gt.frames >= numbers[first]
+                gt = SingleTrack(gt.frames[keep], gt.boxes[keep])
+            m = single_object_metrics(gt, numbers[first:], np.asarray(boxes)[first:])
             task_auc.append(m["success_auc"])
             task_prec.append(m["precision_at_20"])
             n_frames += len(frames)
