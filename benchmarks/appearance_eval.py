@@ -23,7 +23,7 @@ sequences and, for each one held out, picks the candidate with the best mean AUC
 other three and reports its AUC on the held-out one: how the default
 (``pgm.models.single_object``) was chosen.
 
-    python benchmarks/appearance_eval.py [--seeds 5] [--persons 6] [--quick]
+    python benchmarks/appearance_eval.py [--seeds 5] [--persons 6] [--quick] [--skip-start 0.25]
     python benchmarks/appearance_eval.py --loso [--seeds 2] [--skip-start 0.25]
 """
 
@@ -67,6 +67,10 @@ CONFIGS = [
     ("previous default: contrast+template, scale", OLD),
     ("DEFAULT: cf, scale, jumps", DEFAULT),
     ("  + re-detection (--redetect 0.5)", DEFAULT | dict(redetect=0.5)),
+    ("  + re-detection after 10 low frames", DEFAULT | dict(redetect=0.5, redetect_patience=10)),
+    ("  + in-plane angle (rotation_noise 0.005)", DEFAULT | dict(rotation_noise=0.005)),
+    ("  + in-plane angle (rotation_noise 0.01)", DEFAULT | dict(rotation_noise=0.01)),
+    ("  + in-plane angle (rotation_noise 0.02)", DEFAULT | dict(rotation_noise=0.02)),
     ("  - jumps", DEFAULT | dict(jump_prob=0.0)),
     ("  - scale (fixed size)", DEFAULT | dict(scale_noise=0.0)),
     ("  - filter updates (first frame only)", DEFAULT | dict(appearance="cf(adapt_rate=0)")),
@@ -133,6 +137,17 @@ def sequences(n_persons: int, names=SINGLE, persons_from=("PETS09-S2L1",)):
     return out
 
 
+def score(gt, numbers, boxes, skip_start: float = 0.0) -> dict:
+    """OTB metrics of ``boxes`` at frames ``numbers``, counting only the frames after
+    the first ``skip_start`` share (and the ground truth there)."""
+    numbers = np.asarray(numbers)
+    first = int(np.floor(skip_start * len(numbers)))
+    if first:
+        keep = gt.frames >= numbers[first]
+        gt = SingleTrack(gt.frames[keep], gt.boxes[keep])
+    return single_object_metrics(gt, numbers[first:], np.asarray(boxes, float)[first:])
+
+
 def run_config(tasks, overrides, seeds, skip_start: float = 0.0):
     """Mean AUC / precision over seeds (and tasks), median frames per second; with
     ``skip_start`` the scores count only the frames after that share of each task's."""
@@ -144,12 +159,7 @@ def run_config(tasks, overrides, seeds, skip_start: float = 0.0):
             kw = {"n_parts": 1, "num_particles": 100, "frame_size": (w, h)} | overrides
             graph = part_graph.build_graph(part_graph.Params(init_box=tuple(init), **kw))
             boxes, s, _ = time_engine(Engine(graph, np.random.default_rng(seed)), frames)
-            first = int(np.floor(skip_start * len(frames)))
-            numbers = np.array([n for n, _ in frames])
-            if first:  # the ground truth of the scored frames only
-                keep = gt.frames >= numbers[first]
-                gt = SingleTrack(gt.frames[keep], gt.boxes[keep])
-            m = single_object_metrics(gt, numbers[first:], np.asarray(boxes)[first:])
+            m = score(gt, [n for n, _ in frames], boxes, skip_start)
             task_auc.append(m["success_auc"])
             task_prec.append(m["precision_at_20"])
             n_frames += len(frames)
@@ -160,7 +170,7 @@ def run_config(tasks, overrides, seeds, skip_start: float = 0.0):
     return np.array(aucs), float(np.mean(precs)), float(np.median(fps))
 
 
-def run_mil_here(tasks):
+def run_mil_here(tasks, skip_start: float = 0.0):
     """OpenCV MIL in this process (the main OpenCV build has it): AUC, prec@20, fps."""
     aucs, precs, n_frames, secs = [], [], 0, 0.0
     for frames, gt, init, _ in tasks:
@@ -174,13 +184,13 @@ def run_mil_here(tasks):
             out.append(list(b) if ok else out[-1])
         secs += time.perf_counter() - t0
         n_frames += len(frames) - 1
-        m = single_object_metrics(gt, np.array([n for n, _ in frames]), np.array(out, float))
+        m = score(gt, [n for n, _ in frames], out, skip_start)
         aucs.append(m["success_auc"])
         precs.append(m["precision_at_20"])
     return {"MIL": (float(np.mean(aucs)), float(np.mean(precs)), n_frames / secs)}
 
 
-def run_peers(tasks):
+def run_peers(tasks, skip_start: float = 0.0):
     """CSRT, KCF and MIL in the peer virtualenv: ``name -> (AUC, prec@20, fps)``."""
     per: dict[str, list] = {}
     for frames, gt, init, paths in tasks:
@@ -189,15 +199,16 @@ def run_peers(tasks):
             if "error" in r:
                 print(f"  {name}: {r['error']}")
                 continue
-            m = single_object_metrics(gt, np.array([n for n, _ in frames]), r["boxes"])
+            m = score(gt, [n for n, _ in frames], r["boxes"], skip_start)
             per.setdefault(name.upper(), []).append((m["success_auc"], m["precision_at_20"],
                                                      r["fps"]))
     return {n: tuple(float(v) for v in np.mean(np.array(rows), axis=0))
             for n, rows in per.items()}
 
 
-def peer_rows(tasks) -> list[list]:
-    peers = run_peers(tasks) if peer_python() is not None else run_mil_here(tasks)
+def peer_rows(tasks, skip_start: float = 0.0) -> list[list]:
+    peers = (run_peers(tasks, skip_start) if peer_python() is not None
+             else run_mil_here(tasks, skip_start))
     return [[f"OpenCV {n}", f"{auc:.3f}", "", "", f"{prec:.3f}", fps]
             for n, (auc, prec, fps) in peers.items()]
 
@@ -237,8 +248,9 @@ def main() -> None:
     ap.add_argument("--loso", action="store_true",
                     help="the leave-one-sequence-out choice of the default over GRID")
     ap.add_argument("--skip-start", type=float, default=0.0, metavar="SHARE",
-                    help="with --loso: score only the frames after this share of each "
-                         "sequence's (0.25: the long run, not the start, decides)")
+                    help="score only the frames after this share of each sequence's "
+                         "(0.25: the long run, not the start, decides; with --loso, the "
+                         "choice too)")
     ap.add_argument("--sequences", default=None,
                     help="comma-separated subset (default: all, 'PETS persons' included)")
     args = ap.parse_args()
@@ -254,17 +266,20 @@ def main() -> None:
     if peer_python() is None:
         print(SETUP_HINT + "; MIL alone runs here")
     for name, tasks in seqs.items():
-        rows = peer_rows(tasks)
+        rows = peer_rows(tasks, args.skip_start)
         for label, overrides in CONFIGS:
             if args.quick and label not in QUICK:
                 continue
-            auc, prec, fps = run_config(tasks, overrides, args.seeds)
+            auc, prec, fps = run_config(tasks, overrides, args.seeds, args.skip_start)
             rows.append([label, f"{auc.mean():.3f}", f"{auc.min():.3f}", f"{auc.max():.3f}",
                          f"{prec:.3f}", fps])
         n = sum(len(t[0]) for t in tasks)
+        skipped = (f", first {args.skip_start:.0%} of each task's frames not scored"
+                   if args.skip_start else "")
         print_table(["config (100 particles unless stated)", "AUC", "min", "max", "prec@20",
                      "frames/s"], rows,
-                    title=f"{name}: {len(tasks)} task(s), {n} frames, {args.seeds} seeds")
+                    title=f"{name}: {len(tasks)} task(s), {n} frames, {args.seeds} seeds"
+                          f"{skipped}")
         sys.stdout.flush()
 
 

@@ -169,6 +169,10 @@ class Params:
         frame with probability ``reappear_prob`` per frame.
     reappear_prob : float
         See :class:`~pgm.factors.AR2Transition` (used with ``redetect`` only).
+    rotation_noise : float
+        One node with a correlation filter only: an in-plane angle (radians) as a fifth
+        state component ``angle``, with this standard deviation per frame, which the
+        filter sees (``angle_index``; 0: no angle, the default).
     frame_size : (width, height), optional
         The video's frame size in pixels (the application passes it).
 
@@ -203,7 +207,9 @@ class Params:
     appearance: str | None = None
     redetect: float = 0.0
     redetect_below: float = 0.5
+    redetect_patience: int = 1
     reappear_prob: float = 0.01
+    rotation_noise: float = 0.0
     frame_size: tuple[int, int] | None = None
 
     @property
@@ -332,16 +338,24 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
     if params.redetect > 0 and not redetect:
         raise ValueError("redetect needs one node with the correlation filter ('cf') among "
                          "its cues")
+    check_finite_param("rotation_noise", params.rotation_noise, nonneg=True)
+    rotate = params.rotation_noise > 0
+    if rotate and not (n == 1 and any(c == "cf" for c, _ in cues)):
+        raise ValueError("rotation_noise needs one node with the correlation filter ('cf') "
+                         "among its cues")
     if redetect and params.frame_size is None:
         raise ValueError("redetect needs frame_size=(width, height): the area a lost object "
                          "may re-appear in")
     for nm, pb in zip(names, parts, strict=True):
-        variables.append(Variable(nm, 4, role="part", labels=BOX_LABELS))
+        variables.append(Variable(nm, 5, role="part", labels=BOX_LABELS + ("angle",))
+                         if rotate else Variable(nm, 4, role="part", labels=BOX_LABELS))
         region = (None if not redetect else
                   (-0.5, -0.5, params.frame_size[0] - 0.5, params.frame_size[1] - 0.5))
         factors += [
-            GaussianPrior(nm, mean=pb, cov=0.0),
-            AR2Transition(nm, noise_std=[pos, pos, 0.0, 0.0], damping=params.damping,
+            GaussianPrior(nm, mean=[*pb, 0.0] if rotate else pb, cov=0.0),
+            AR2Transition(nm, noise_std=[pos, pos, 0.0, 0.0] + ([params.rotation_noise]
+                                                                if rotate else []),
+                          damping=params.damping,
                           scale_noise=params.scale_noise,
                           reference_size=pb[2:] if params.scale_noise > 0 else None,
                           jump_prob=params.jump_prob, jump_scale=params.jump_scale,
@@ -352,13 +366,16 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
         for k, (cue, opts) in enumerate(cues):
             if redetect and cue == "cf":  # far-away particles read in windows of their own
                 opts = {"windows": MAX_WINDOWS, **opts}
+            if rotate and cue == "cf":  # the filter sees the angle
+                opts = {"angle_index": 4, **opts}
             factors.append(cue_factor(cue, nm, params, name=None if k == 0 else f"{cue}:{nm}",
                                       options=opts))
             cue_names.append((cue, factors[-1].name))
         if redetect:
             cf_name = next(fn for c, fn in cue_names if c == "cf")
             factors.append(RedetectionProposal(nm, cue=cf_name, fraction=params.redetect,
-                                                 below=params.redetect_below))
+                                                 below=params.redetect_below,
+                                                 patience=params.redetect_patience))
     if params.topology == "chain":
         pairs = [(k, k + 1) for k in range(n - 1)]
     else:

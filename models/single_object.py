@@ -88,7 +88,9 @@ class Params(colour_pf.Params):
     appearance: str = APPEARANCE
     redetect: float = 0.0
     redetect_below: float = 0.5
+    redetect_patience: int = 1
     reappear_prob: float = 0.01
+    rotation_noise: float = 0.0
     frame_size: tuple[int, int] | None = None
     scale_noise: float = SCALE_NOISE
     jump_prob: float = JUMP_PROB

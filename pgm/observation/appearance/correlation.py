@@ -115,14 +115,19 @@ def _one_cloud(xy: np.ndarray, centre: np.ndarray, quarter: np.ndarray) -> bool:
     return bool(np.mean(np.all(np.abs(xy - centre) <= quarter, axis=1)) >= 0.9)
 
 
-def window_features(grey: np.ndarray, centre, size, out_shape, n_orient: int) -> np.ndarray:
+def window_features(grey: np.ndarray, centre, size, out_shape, n_orient: int,
+                    angle: float = 0.0) -> np.ndarray:
     """Features ``(1 + n_orient, th, tw)`` of the window of ``size = (w, h)`` px centred
-    on ``centre = (cx, cy)``, resampled to ``out_shape = (tw, th)`` (border replicated)."""
+    on ``centre = (cx, cy)`` and turned by ``angle`` (radians, image axes: x right, y
+    down), resampled to ``out_shape = (tw, th)`` (border replicated)."""
     tw, th = out_shape
     sx, sy = size[0] / tw, size[1] / th
-    # pixel centre convention: output pixel (i + 0.5) maps to cx + (i + 0.5 - tw/2) * sx
-    m = np.array([[sx, 0.0, centre[0] - sx * tw / 2 + 0.5 * sx - 0.5],
-                  [0.0, sy, centre[1] - sy * th / 2 + 0.5 * sy - 0.5]])
+    c, s = np.cos(angle), np.sin(angle)
+    # pixel centre convention: output pixel (i, j) maps to
+    # centre - 0.5 + R(angle) diag(sx, sy) (i + 0.5 - tw/2, j + 0.5 - th/2)
+    a0, b0 = 0.5 - tw / 2, 0.5 - th / 2
+    m = np.array([[c * sx, -s * sy, centre[0] - 0.5 + c * sx * a0 - s * sy * b0],
+                  [s * sx, c * sy, centre[1] - 0.5 + s * sx * a0 + c * sy * b0]])
     patch = cv2.warpAffine(grey, m, (tw, th), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                            borderMode=cv2.BORDER_REPLICATE)
     return patch_features(patch, n_orient)
@@ -181,6 +186,15 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         frames as the filter, ``memory_rate`` at a time (0: the first frame's filter
         kept). :meth:`detect` scans the frame with it: a target the short-term filter
         drifted away from is still recognised.
+    angle_index : int, optional
+        The state's in-plane rotation component (radians; None: no rotation, the
+        default). The filter then learns the window turned by the estimate's angle (it
+        stays in the object's own frame), and each frame adds two maps at the particles'
+        mean angle ``± angle_step`` at their mean scale; a particle reads the scale maps
+        at the mean angle plus the change the angle maps give at its own angle (a
+        first-order, separable reading of the scale × angle grid).
+    angle_step : float
+        Spacing of the angle maps (radians).
     windows : int
         Search windows a frame's particles may open (:meth:`relative_response`): 1 (the
         default), one window at the particles' mean, a particle outside it scores
@@ -194,8 +208,8 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
                  target_px: float = 32.0, n_orient: int = 6, sigma: float = 0.1,
                  reg: float = 1e-2, adapt_rate: float = 0.02, gate: float = 0.5,
                  scales: int = 3, scale_step: float = 1.05, floor: float = -0.2,
-                 memory_rate: float = 0.002, windows: int = 1, box_indices=(0, 1, 2, 3),
-                 name: str | None = None):
+                 memory_rate: float = 0.002, windows: int = 1, angle_index: int | None = None,
+                 angle_step: float = 0.1, box_indices=(0, 1, 2, 3), name: str | None = None):
         super().__init__(variable, lam=lam, box_indices=box_indices, adapt_rate=adapt_rate,
                          name=name)
         n = self.name
@@ -213,6 +227,13 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
             raise ValueError(f"factor {n!r}: memory_rate must be in [0, 1], got {memory_rate}")
         self.n_orient = bounded_int(n, "n_orient", n_orient)
         self.windows = bounded_int(n, "windows", windows)  # at most MAX_WINDOWS
+        if angle_index is not None and (isinstance(angle_index, bool)
+                                        or int(angle_index) != angle_index or angle_index < 0):
+            raise ValueError(f"factor {n!r}: angle_index must be a component index, got "
+                             f"{angle_index!r}")
+        self.angle_index = None if angle_index is None else int(angle_index)
+        self.angle_step = float(check_finite_param(f"{n}.angle_step", angle_step,
+                                                   positive=True))
         self.scales = bounded_int(n, "scales", scales)
         if self.scales % 2 == 0:
             raise ValueError(f"factor {n!r}: scales must be a positive odd number")
@@ -251,6 +272,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
                 "adapt_rate": self.adapt_rate, "gate": self.gate, "scales": self.scales,
                 "scale_step": self.scale_step, "floor": self.floor,
                 "memory_rate": self.memory_rate, "windows": self.windows,
+                "angle_index": self.angle_index, "angle_step": self.angle_step,
                 "box_indices": list(self.box_indices)}
 
     # -- geometry ----------------------------------------------------------------------
@@ -269,9 +291,14 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         g = np.exp(-0.5 * (((xx - (tw - 1) / 2) ** 2 + (yy - (th - 1) / 2) ** 2) / s ** 2))
         self.gf = sfft.rfft2(g.astype(np.float32))
 
-    def _spectrum(self, ctx: FrameContext, centre, scale: float) -> np.ndarray:
+    def _angle(self, value: np.ndarray) -> float:
+        """The in-plane angle of a state (0 without an angle component)."""
+        return 0.0 if self.angle_index is None else float(value[self.angle_index])
+
+    def _spectrum(self, ctx: FrameContext, centre, scale: float,
+                  angle: float = 0.0) -> np.ndarray:
         feats = window_features(grey_frame(ctx), centre, self.ref_size * scale, self.shape,
-                                self.n_orient)
+                                self.n_orient, angle)
         return sfft.rfft2(feats * self.hann, axes=(-2, -1))
 
     def _train(self, xf: np.ndarray, rate: float) -> None:
@@ -323,7 +350,8 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
                              f"size, got {box[2:].tolist()}")
         self._setup(box)
         self.num = None
-        xf = self._spectrum(ctx, box[:2], np.sqrt(box[2] * box[3]) / self.ref_scale)
+        xf = self._spectrum(ctx, box[:2], np.sqrt(box[2] * box[3]) / self.ref_scale,
+                            self._angle(np.asarray(value, float)))
         self._train(xf, 1.0)
         response = self._response(xf)
         self.peak = max(float(response.max()), 1e-12)
@@ -336,9 +364,10 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         """Score the estimate's window, then learn from it if the score passes the gate."""
         if frame is None or self.num is None:
             return
-        box = np.asarray(estimates[self.variables[0]], float)[list(self.box_indices)]
+        est = np.asarray(estimates[self.variables[0]], float)
+        box = est[list(self.box_indices)]
         scale = np.sqrt(max(box[2] * box[3], 1e-12)) / self.ref_scale
-        xf = self._spectrum(frame, box[:2], scale)
+        xf = self._spectrum(frame, box[:2], scale, self._angle(est))
         response = self._response(xf)
         here = self._centre_max(response)
         self.last_response = here / self.peak
@@ -430,11 +459,19 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         return ctx.cached(("cf-detect", id(self), max_peaks), make)
 
     # -- scoring -----------------------------------------------------------------------
-    def _window(self, ctx: FrameContext, centre, levels, key):
-        """Response maps of one window, one per scale level (cached on the frame)."""
+    def _window(self, ctx: FrameContext, centre, levels, angle: float, key):
+        """Response maps of one window turned by ``angle``: one per scale level, and with
+        an angle component two more at ``angle ± angle_step`` and the middle scale (None
+        without); cached on the frame."""
         def make():
-            maps = np.stack([self._response(self._spectrum(ctx, centre, s)) for s in levels])
-            return maps / self.peak
+            maps = np.stack([self._response(self._spectrum(ctx, centre, s, angle))
+                             for s in levels]) / self.peak
+            if self.angle_index is None:
+                return maps, None
+            mid = float(levels[len(levels) // 2])
+            turned = np.stack([self._response(self._spectrum(ctx, centre, mid, a))
+                               for a in (angle - self.angle_step, angle + self.angle_step)])
+            return maps, turned / self.peak
 
         return ctx.cached(("cf-window", id(self)) + key, make)
 
@@ -454,7 +491,8 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
                                                                  1e-12)))))
             base /= self.ref_scale
             levels = base * self.scale_step ** k
-            return centre, levels, self._window(ctx, centre, levels, ())
+            angle = 0.0 if self.angle_index is None else float(x[:, self.angle_index].mean())
+            return centre, levels, angle, self._window(ctx, centre, levels, angle, ())
 
         return ctx.cached(("cf-response", id(self)), make)
 
@@ -463,27 +501,29 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
 
         The first window is centred on the particles' mean. With ``windows > 1``, and
         unless nine in ten particles lie within a quarter window of it (one cloud, a few
-        stragglers: the usual case), (a proposal
-        put some near a far-away peak, :meth:`detect`) each window is centred on a mode
+        stragglers: the usual case; otherwise a proposal put some near a far-away peak,
+        :meth:`detect`), each window is centred on a mode
         of the particles not yet read — the one with the most of them within a quarter
         window — and reads those within a quarter window of its centre, so every
         particle is read near the middle of a window, where the maps are comparable; at
         most ``windows`` windows, the last reading every particle inside it, and a
         particle outside them all scores ``floor``."""
         self.require_model()
-        centre, levels, maps = self._maps(x, ctx)
+        centre, levels, angle, maps = self._maps(x, ctx)
         b = self.boxes(x)
+        angles = (np.zeros(len(b)) if self.angle_index is None
+                  else np.asarray(x[:, self.angle_index], float))
         out = np.full(len(b), self.floor)
         quarter = self.ref_size * float(levels[len(levels) // 2]) / 4
         if self.windows == 1 or _one_cloud(b[:, :2], b[:, :2].mean(axis=0), quarter):
-            return self._read(maps, levels, centre, b)[0]
+            return self._read(maps, levels, angle, centre, b, angles)[0]
         todo = np.arange(len(b))
         for k in range(self.windows):
             if k > 0:
                 centre = self._next_centre(b[todo, :2], quarter)
-                maps = self._window(ctx, centre, levels,
+                maps = self._window(ctx, centre, levels, angle,
                                     (round(centre[0], 3), round(centre[1], 3)))
-            val, inside = self._read(maps, levels, centre, b[todo])
+            val, inside = self._read(maps, levels, angle, centre, b[todo], angles[todo])
             if k < self.windows - 1:
                 inside &= np.all(np.abs(b[todo, :2] - centre) <= quarter, axis=1)
             out[todo[inside]] = val[inside]
@@ -498,9 +538,28 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         d = np.abs(xy[:, None, :] - xy[None, :, :]) <= quarter
         return xy[int(np.argmax(np.sum(d.all(axis=2), axis=1)))]
 
-    def _read(self, maps, levels, centre, b) -> tuple[np.ndarray, np.ndarray]:
-        """Bilinear (position) and linear (log-scale) reading of a window's maps at the
-        boxes ``b``: values and whether each box's centre lies in the window."""
+    def _sample(self, m: np.ndarray, centre, b, step, angle: float):
+        """Bilinear reading of the map ``m`` of a window turned by ``angle`` with cells
+        ``step`` (image px, per box or one) at the boxes' centres; and whether each lies
+        in the window."""
+        th, tw = m.shape
+        c, s = np.cos(angle), np.sin(angle)
+        dx, dy = b[:, 0] - centre[0], b[:, 1] - centre[1]
+        u = (c * dx + s * dy) / step[..., 0] + (tw - 1) / 2
+        v = (-s * dx + c * dy) / step[..., 1] + (th - 1) / 2
+        inside = (u >= 0) & (u <= tw - 1) & (v >= 0) & (v <= th - 1)
+        u0 = np.clip(np.floor(u).astype(np.intp), 0, tw - 2)
+        v0 = np.clip(np.floor(v).astype(np.intp), 0, th - 2)
+        fu, fv = np.clip(u - u0, 0, 1), np.clip(v - v0, 0, 1)
+        val = ((1 - fv) * ((1 - fu) * m[v0, u0] + fu * m[v0, u0 + 1])
+               + fv * ((1 - fu) * m[v0 + 1, u0] + fu * m[v0 + 1, u0 + 1]))
+        return val, inside
+
+    def _read(self, window, levels, angle, centre, b, angles) -> tuple[np.ndarray, np.ndarray]:
+        """Bilinear (position), linear (log-scale) and, with an angle component, linear
+        (angle) reading of a window's maps at the boxes ``b`` turned by ``angles``:
+        values and whether each box's centre lies in the window."""
+        maps, turned = window
         n_lev, th, tw = maps.shape
         scale = np.sqrt(np.maximum(b[:, 2] * b[:, 3], 1e-12)) / self.ref_scale
         if n_lev > 1:
@@ -513,19 +572,31 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         fl = pos - l0
         out = np.zeros(len(b))
         inside_all = np.ones(len(b), dtype=bool)
+        cells = np.array(self.shape, dtype=float)
         for lev, wgt in ((l0, 1 - fl), (l1, fl)):
             # particle centre in the level's window: template px
-            step = self.ref_size[None, :] * levels[lev][:, None] / np.array(self.shape)[None]
-            u = (b[:, 0] - centre[0]) / step[:, 0] + (tw - 1) / 2
-            v = (b[:, 1] - centre[1]) / step[:, 1] + (th - 1) / 2
-            inside = (u >= 0) & (u <= tw - 1) & (v >= 0) & (v <= th - 1)
-            u0 = np.clip(np.floor(u).astype(np.intp), 0, tw - 2)
-            v0 = np.clip(np.floor(v).astype(np.intp), 0, th - 2)
-            fu, fv = np.clip(u - u0, 0, 1), np.clip(v - v0, 0, 1)
-            val = ((1 - fv) * ((1 - fu) * maps[lev, v0, u0] + fu * maps[lev, v0, u0 + 1])
-                   + fv * ((1 - fu) * maps[lev, v0 + 1, u0] + fu * maps[lev, v0 + 1, u0 + 1]))
+            step = self.ref_size[None, :] * levels[lev][:, None] / cells[None]
+            val = np.zeros(len(b))
+            inside = np.zeros(len(b), dtype=bool)
+            for k in range(n_lev):  # each particle reads its own level's map
+                sel = lev == k
+                if sel.any():
+                    val[sel], inside[sel] = self._sample(maps[k], centre, b[sel], step[sel],
+                                                         angle)
             out += wgt * np.where(inside, val, self.floor)
             inside_all &= inside | (wgt == 0)
+        if turned is not None:  # the change of response with the particle's own angle
+            step = self.ref_size * float(levels[n_lev // 2]) / cells
+            mid, ok = self._sample(maps[n_lev // 2], centre, b, step, angle)
+            t = np.clip((angles - angle) / self.angle_step, -1.0, 1.0)
+            side = np.where(t < 0, 0, 1)
+            val = np.zeros(len(b))
+            for k, a in enumerate((angle - self.angle_step, angle + self.angle_step)):
+                sel = side == k
+                if sel.any():
+                    val[sel], ins = self._sample(turned[k], centre, b[sel], step, a)
+                    ok[sel] &= ins
+            out += np.where(ok, np.abs(t) * (val - mid), 0.0)
         return out, inside_all
 
     def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:

@@ -48,7 +48,10 @@ class RedetectionProposal(ProposalFactor):
         Share of the particles proposed in a frame where the proposal is on.
     below : float
         On when the previous frame's calibrated confidence is below this (always on
-        where the graph declares no confidence).
+        where the graph declares no confidence) ...
+    patience : int
+        ... in ``patience`` frames in a row (1: the first such frame): a short dip of a
+        drifting tracker is not a loss.
     peaks : int
         Peaks kept: at most this many, each at least half the best one's response.
     spread : float
@@ -59,7 +62,8 @@ class RedetectionProposal(ProposalFactor):
     """
 
     def __init__(self, variable: str, *, cue: str, fraction: float = 0.5, below: float = 0.5,
-                 peaks: int = 3, spread: float = 0.1, columns=(0, 1), name: str | None = None):
+                 patience: int = 1, peaks: int = 3, spread: float = 0.1, columns=(0, 1),
+                 name: str | None = None):
         super().__init__(variable, fraction=fraction, columns=columns, name=name)
         if not isinstance(cue, str) or not cue:
             raise ValueError(f"factor {self.name!r}: cue must name a likelihood factor")
@@ -69,6 +73,11 @@ class RedetectionProposal(ProposalFactor):
             raise ValueError(f"factor {self.name!r}: peaks must be a positive integer, got "
                              f"{peaks!r}")
         self.peaks = int(peaks)
+        if isinstance(patience, bool) or int(patience) != patience or patience < 1:
+            raise ValueError(f"factor {self.name!r}: patience must be a positive integer, got "
+                             f"{patience!r}")
+        self.patience = int(patience)
+        self._low = 0  # frames in a row with the confidence below `below`
         self.spread = float(check_finite_param(f"{self.name}.spread", spread, positive=True))
         if len(self.columns) != 2:
             raise ValueError(f"factor {self.name!r}: columns must be the two position "
@@ -78,13 +87,18 @@ class RedetectionProposal(ProposalFactor):
 
     def params(self) -> dict[str, Any]:
         return {"cue": self.cue, "fraction": self.fraction, "below": self.below,
-                "peaks": self.peaks, "spread": self.spread, "columns": list(self.columns)}
+                "patience": self.patience, "peaks": self.peaks, "spread": self.spread,
+                "columns": list(self.columns)}
 
     def prepare(self, ctx: FrameContext, past, *, confidence, factors) -> float:
         """Off (0) while the confidence is at least ``below``; else the frame's peaks
         around the particles' mean size, and ``fraction`` (0 where no peak is
         positive)."""
         if confidence is not None and confidence >= self.below:
+            self._low = 0
+            return 0.0
+        self._low += 1
+        if self._low < self.patience:
             return 0.0
         cue = factors.get(self.cue)
         if cue is None or not hasattr(cue, "detect"):

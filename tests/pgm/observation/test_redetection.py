@@ -115,6 +115,10 @@ def test_the_proposal_is_off_while_confident_and_its_density_integrates_to_one()
     past = (np.tile([80.0, 90.0, 40.0, 56.0], (10, 1)),)
     assert prop.prepare(ctx, past, confidence=0.9, factors={"cf": f}) == 0.0
     assert prop.prepare(ctx, past, confidence=0.1, factors={"cf": f}) == 0.5
+    patient = RedetectionProposal("object", cue="cf", patience=2)
+    shares = [patient.prepare(ctx, past, confidence=c, factors={"cf": f})
+              for c in (0.1, 0.9, 0.1, 0.1)]
+    assert shares == [0.0, 0.0, 0.0, 0.5]  # two low frames in a row
     x = prop.sample(rng, ctx, *past)
     assert np.median(np.hypot(x[:, 0] - 190, x[:, 1] - 120)) < 10
     total, _ = integrate.dblquad(
@@ -143,3 +147,51 @@ def test_a_target_that_jumps_during_a_full_occlusion_is_found_again(seed):
         hits[redetect] = np.mean(np.array(ious[59:]) > 0.5)
     assert hits[0.5] >= 0.9
     assert hits[0.0] <= 0.1
+
+
+def _turned_scene(phi, rng):
+    """The object of :func:`scene` at (130, 100) turned by ``phi`` about its centre, on a
+    plain background (a textured one is context the filter learns at the first angle)."""
+    H, W = 200, 260
+    bg = np.full((H, W), 100.0, np.float32)
+    obj = cv2.GaussianBlur(np.random.default_rng(101).normal(0, 1, (56, 40)).astype(np.float32),
+                           (0, 0), 1.5)
+    obj = (obj - obj.min()) / (obj.max() - obj.min()) * 200 + 30
+    big, mask = np.zeros((H, W), np.float32), np.zeros((H, W), np.float32)
+    big[72:128, 110:150], mask[72:128, 110:150] = obj, 1
+    c, s = np.cos(phi), np.sin(phi)  # x' = centre + R(phi) (x - centre), y down
+    m = np.array([[c, -s, 130 - c * 130 + s * 100], [s, c, 100 - s * 130 - c * 100]])
+    tb, tm = cv2.warpAffine(big, m, (W, H)), cv2.warpAffine(mask, m, (W, H))
+    return np.clip(bg * (1 - tm) + tb + rng.normal(0, 2, (H, W)), 0, 255).astype(np.uint8)
+
+
+@pytest.mark.parametrize("phi", [0.2, -0.2])
+def test_the_filter_sees_the_in_plane_angle(phi):
+    rng = np.random.default_rng(4)
+    f = CorrelationFilterLikelihood("o", angle_index=4, angle_step=0.1)
+    f.learn(FrameContext(1, _turned_scene(0.0, rng)), np.array([130.0, 100, 40, 56, 0.0]))
+    ctx = FrameContext(2, _turned_scene(phi, rng))
+    x = np.array([[130.0, 100, 40, 56, a] for a in (-0.2, 0.0, 0.2)])
+    x[:, 4] += phi / 2  # the maps sit at the particles' mean angle, phi / 2
+    r = f.relative_response(x, ctx)
+    right, wrong = (2, 0) if phi > 0 else (0, 2)
+    assert r[right] > r[1] > r[wrong]  # the true angle reads highest, the opposite lowest
+
+
+def test_an_angle_in_the_single_object_state_saves_and_runs():
+    seq = jump_scene(0, n_frames=12)
+    b0 = seq.boxes[0]
+    params = single_object.Params(init_box=(b0[0] + b0[2] / 2, b0[1] + b0[3] / 2, b0[2], b0[3]),
+                                  rotation_noise=0.01)
+    graph = single_object.build_graph(params)
+    assert graph.variables["object"].labels[-1] == "angle"
+    from pgm.core.graph import FactorGraph
+    assert FactorGraph.from_dict(graph.to_dict()) == graph
+    engine = Engine(graph, np.random.default_rng(0))
+    est = [engine.step(FrameContext(k + 1, img)).estimates["object"]
+           for k, img in enumerate(seq.frames)]
+    assert _iou(cxcywh_to_xywh(est[-1][:4]), seq.boxes[11]) > 0.5 and abs(est[-1][4]) < 0.3
+    with pytest.raises(ValueError, match="rotation_noise"):
+        single_object.build_graph(single_object.Params(init_box=(50, 50, 20, 20),
+                                                       appearance="colour",
+                                                       rotation_noise=0.01))
