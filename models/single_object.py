@@ -82,8 +82,10 @@ CONFIDENCE = {"intercept": -8.700, "slope": 4.001, "spread_slope": -0.069}
 class Params(colour_pf.Params):
     """The fields of :class:`pgm.models.colour_pf.Params` (100 particles by default)
     with the default configuration's ``appearance``, ``scale_noise`` and ``jump_prob``,
-    and re-detection (``redetect``, ``redetect_below``, ``reappear_prob``, ``frame_size``:
-    see :class:`pgm.models.part_graph.Params`; off by default, ``--redetect SHARE``)."""
+    re-detection (``redetect``, ``redetect_below``, ``redetect_patience``,
+    ``reappear_prob``, ``frame_size``; off by default, ``--redetect SHARE``) and an
+    in-plane angle (``rotation_noise``; none by default, ``--rotation-noise RAD``): see
+    :class:`pgm.models.part_graph.Params`."""
 
     appearance: str = APPEARANCE
     redetect: float = 0.0
@@ -122,4 +124,9 @@ CONFIG = _config.ModelConfig(
                                  "one half, draw this share of the particles near the peaks "
                                  "of the correlation filter's whole-frame response (0: off, "
                                  "the default; e.g. 0.5 for a target that leaves the view "
-                                 "and comes back elsewhere)")))
+                                 "and comes back elsewhere)"),
+             _config.Option("--rotation-noise", "rotation_noise",
+                            type=_config.finite_float("--rotation-noise"), metavar="RAD",
+                            help="an in-plane angle in the state, with this standard "
+                                 "deviation per frame (radians), seen by the correlation "
+                                 "filter (0: none, the default)")))
