@@ -108,21 +108,23 @@ def explain_unknown_options(flags: list[str], model: str | None) -> str | None:
 
 def _with_init_box(graph, box_cxcywh: np.ndarray, path: str):
     """A saved single-object graph moved to start on ``box_cxcywh``: its one Gaussian
-    prior over ``(cx, cy, w, h)`` gets the box as its mean (everything else is kept)."""
+    prior over ``(cx, cy, w, h, ...)`` gets the box as the first four components of its
+    mean (the others, e.g. an angle, and everything else are kept)."""
     from pgm.core.graph import FactorGraph
     from pgm.factors.gaussian import GaussianPrior
 
     priors = [f for f in graph.factors.values() if f.kind == "prior"]
     ok = (len(priors) == 1 and isinstance(priors[0], GaussianPrior)
-          and priors[0].mean_.size == 4)
+          and priors[0].mean_.size >= 4)
     if not ok:
         raise InputError(f"cannot move saved model {path} to a new initial box: it has "
-                         f"{len(priors)} priors (one over cx, cy, w, h is needed); leave out "
-                         f"--init/--gt to start where it was saved, or build it with "
+                         f"{len(priors)} priors (one over cx, cy, w, h, ... is needed); "
+                         f"leave out --init/--gt to start where it was saved, or build it with "
                          f"--model NAME")
     old = priors[0]
-    new = GaussianPrior(old.variables[0], mean=np.asarray(box_cxcywh, dtype=float),
-                        cov=old.cov, name=old.name)
+    mean = np.array(old.mean_, dtype=float).reshape(-1)
+    mean[:4] = np.asarray(box_cxcywh, dtype=float)
+    new = GaussianPrior(old.variables[0], mean=mean, cov=old.cov, name=old.name)
     factors = [new if f is old else f for f in graph.factors.values()]
     return FactorGraph(list(graph.variables.values()), factors, name=graph.name,
                        meta=graph.meta)

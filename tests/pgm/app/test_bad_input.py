@@ -342,6 +342,27 @@ def test_saved_single_object_model_honours_init_and_refuses_options(files, tmp_p
         assert_one_line_error(code, err, f"{opt[0]} does not apply to a saved model")
 
 
+def test_a_saved_model_with_an_angle_and_redetection_moves_to_a_new_box(files, tmp_path,
+                                                                        capsys):
+    first = tmp_path / "first"
+    code, _, err = run_cli(capsys, ["track", files["seq"], "--redetect", "0.5",
+                                    "--rotation-noise", "0.01", "--out", first, "--quiet",
+                                    "--no-video", "--max-frames", 2])
+    assert code == 0, err
+    again = tmp_path / "again"
+    code, _, err = run_cli(capsys, ["track", files["seq"], "--model", first / "model.json",
+                                    "--init", "31,101,20,20", "--out", again, "--quiet",
+                                    "--no-video", "--max-frames", 2])
+    assert code == 0, err
+    row = (again / "tracks.txt").read_text().splitlines()[0].split(",")
+    assert [float(v) for v in row[2:6]] == [31, 101, 20, 20]
+    for opt, msg in ((["--redetect", "1.5"], "redetect must be a share in [0, 1]"),
+                     (["--rotation-noise", "-1"], "must be non-negative")):
+        code, _, err = run_cli(capsys, ["track", files["seq"], "--out", tmp_path / "x",
+                                        "--quiet", *opt])
+        assert_one_line_error(code, err, msg)
+
+
 def test_saved_multi_target_model_reruns(files, tmp_path, capsys):
     first = tmp_path / "first"
     code, _, err = run_cli(capsys, ["track", files["mot"], "--model", "vb-phd", "--out", first,
