@@ -208,6 +208,7 @@ class Params:
     redetect: float = 0.0
     redetect_below: float = 0.5
     redetect_patience: int = 1
+    redetect_false_alarm: float = 1e-3
     reappear_prob: float = 0.01
     rotation_noise: float = 0.0
     frame_size: tuple[int, int] | None = None
@@ -375,7 +376,8 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
             cf_name = next(fn for c, fn in cue_names if c == "cf")
             factors.append(RedetectionProposal(nm, cue=cf_name, fraction=params.redetect,
                                                  below=params.redetect_below,
-                                                 patience=params.redetect_patience))
+                                                 patience=params.redetect_patience,
+                                                 false_alarm=params.redetect_false_alarm))
     if params.topology == "chain":
         pairs = [(k, k + 1) for k in range(n - 1)]
     else:

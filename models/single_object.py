@@ -91,6 +91,7 @@ class Params(colour_pf.Params):
     redetect: float = 0.0
     redetect_below: float = 0.5
     redetect_patience: int = 1
+    redetect_false_alarm: float = 1e-3
     reappear_prob: float = 0.01
     rotation_noise: float = 0.0
     frame_size: tuple[int, int] | None = None

@@ -47,7 +47,7 @@ References
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import cv2
 import numpy as np
@@ -59,7 +59,7 @@ from pgm.core.numerics import check_finite_param
 from .likelihoods import BoxAppearanceLikelihood, bounded_int, grey_frame
 
 __all__ = ["CorrelationFilterLikelihood", "window_features", "patch_features",
-           "peak_to_sidelobe", "response_peaks"]
+           "peak_to_sidelobe", "response_peaks", "Scan"]
 
 #: widest search window, in template pixels per side (``target_px · (1 + padding)``):
 #: the window's features and spectra are ``(1 + n_orient) ·`` its area, per scale level
@@ -88,6 +88,15 @@ MAX_DETECT_PX = 1024
 #: windows a frame's particles may open (:meth:`CorrelationFilterLikelihood.relative_response`):
 #: the first at the particles' mean, the others at particles outside every window so far
 MAX_WINDOWS = 4
+
+
+class Scan(NamedTuple):
+    """A whole-frame scan (:meth:`CorrelationFilterLikelihood.detect`)."""
+
+    centres: np.ndarray  #: (m, 2) peak centres, image pixels
+    values: np.ndarray  #: (m,) relative responses
+    z: np.ndarray  #: (m,) standard scores within the scanned map
+    independent: float  #: independent values in the map (for a max-of-noise threshold)
 
 
 def response_peaks(response: np.ndarray, radius: int, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -389,8 +398,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         return float(r[max(y0, 0):y1, max(x0, 0):x1].max())
 
     # -- re-detection ------------------------------------------------------------------
-    def detect(self, ctx: FrameContext, centre, scale: float, max_peaks: int = 3
-               ) -> tuple[np.ndarray, np.ndarray]:
+    def detect(self, ctx: FrameContext, centre, scale: float, max_peaks: int = 3) -> Scan:
         """Where the object may be in the whole frame: the highest peaks of the filter's
         response over the frame at ``scale`` (relative to the first box), the better of
         the long-term filter (the short-term one before it has any), in units of its
@@ -399,10 +407,12 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
 
         The frame is resampled to template pixels and correlated with the filters once
         (FFT); a frame wider than :data:`MAX_DETECT_PX` template pixels is scanned in a
-        window of that side around ``centre``. Returns the peaks' centres ``(m, 2)`` in
-        image pixels and their relative responses ``(m,)``, highest first, at least a
-        tenth of the object apart and with the whole box inside the frame
-        (``m <= max_peaks``; cached per frame)."""
+        window of that side around ``centre``. Returns a :class:`Scan`: the peaks'
+        centres ``(m, 2)`` in image pixels, their relative responses ``(m,)`` and
+        standard scores (in standard deviations of the map above its mean), highest
+        first, at least a tenth of the object apart and with the whole box inside the
+        frame (``m <= max_peaks``), and the number of independent values the map holds
+        (its cells over the square of twice the target peak's width); cached per frame."""
         self.require_model()
 
         def make():
@@ -448,13 +458,19 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
             ok_x = (gx - half[0] >= -0.5) & (gx + half[0] <= W - 0.5)
             ok_y = (gy - half[1] >= -0.5) & (gy + half[1] <= H - 0.5)
             if not ok_x.any() or not ok_y.any():
-                return np.zeros((0, 2)), np.zeros(0)
-            best = np.where(ok_y[:, None] & ok_x[None, :], best, -np.inf)
+                return Scan(np.zeros((0, 2)), np.zeros(0), np.zeros(0), 0.0)
+            valid = ok_y[:, None] & ok_x[None, :]
+            mean, sd = float(best[valid].mean()), float(best[valid].std()) + 1e-12
+            best = np.where(valid, best, -np.inf)
             cells, vals = response_peaks(best, max(1, int(round(0.1 * self.target_px))),
                                          max_peaks)
             keep = np.isfinite(vals)
             xy = rc - size / 2 + (cells[keep] + 0.5) * step - 0.5
-            return xy, vals[keep]
+            # the map is correlated over about the target peak's width: one independent
+            # value per (2 sigma)^2 cells
+            corr = 2.0 * self.sigma * self.target_px
+            return Scan(xy, vals[keep], (vals[keep] - mean) / sd,
+                        float(valid.sum()) / max(corr * corr, 1.0))
 
         return ctx.cached(("cf-detect", id(self), max_peaks), make)
 

@@ -25,6 +25,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from scipy.stats import norm
 
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
@@ -54,6 +55,12 @@ class RedetectionProposal(ProposalFactor):
         drifting tracker is not a loss.
     peaks : int
         Peaks kept: at most this many, each at least half the best one's response.
+    false_alarm : float
+        Keep only peaks the scan's own noise would reach with this probability per
+        frame: a peak's standard score within the map must reach the upper
+        ``false_alarm / M`` quantile of a standard normal, ``M`` the map's independent
+        values (:class:`~pgm.observation.appearance.correlation.Scan`; a Bonferroni
+        bound on the maximum of the map's noise). 1: no such test.
     spread : float
         Standard deviation of the proposed centres around a peak, in units of the
         object's size ``sqrt(w h)`` (0.1: the filter's own peak width).
@@ -62,8 +69,8 @@ class RedetectionProposal(ProposalFactor):
     """
 
     def __init__(self, variable: str, *, cue: str, fraction: float = 0.5, below: float = 0.5,
-                 patience: int = 1, peaks: int = 3, spread: float = 0.1, columns=(0, 1),
-                 name: str | None = None):
+                 patience: int = 1, peaks: int = 3, spread: float = 0.1,
+                 false_alarm: float = 1e-3, columns=(0, 1), name: str | None = None):
         super().__init__(variable, fraction=fraction, columns=columns, name=name)
         if not isinstance(cue, str) or not cue:
             raise ValueError(f"factor {self.name!r}: cue must name a likelihood factor")
@@ -79,6 +86,11 @@ class RedetectionProposal(ProposalFactor):
         self.patience = int(patience)
         self._low = 0  # frames in a row with the confidence below `below`
         self.spread = float(check_finite_param(f"{self.name}.spread", spread, positive=True))
+        self.false_alarm = float(check_finite_param(f"{self.name}.false_alarm", false_alarm,
+                                                    positive=True))
+        if self.false_alarm > 1:
+            raise ValueError(f"factor {self.name!r}: false_alarm must be in (0, 1], got "
+                             f"{false_alarm!r}")
         if len(self.columns) != 2:
             raise ValueError(f"factor {self.name!r}: columns must be the two position "
                              f"components, got {list(self.columns)}")
@@ -88,7 +100,7 @@ class RedetectionProposal(ProposalFactor):
     def params(self) -> dict[str, Any]:
         return {"cue": self.cue, "fraction": self.fraction, "below": self.below,
                 "patience": self.patience, "peaks": self.peaks, "spread": self.spread,
-                "columns": list(self.columns)}
+                "false_alarm": self.false_alarm, "columns": list(self.columns)}
 
     def prepare(self, ctx: FrameContext, past, *, confidence, factors) -> float:
         """Off (0) while the confidence is at least ``below``; else the frame's peaks
@@ -107,11 +119,14 @@ class RedetectionProposal(ProposalFactor):
         b = cue.boxes(past[0])
         size = float(np.exp(np.mean(0.5 * np.log(np.maximum(b[:, 2] * b[:, 3], 1e-12)))))
         centre = b[:, :2].mean(axis=0)
-        xy, vals = cue.detect(ctx, centre, size / cue.ref_scale, self.peaks)
+        scan = cue.detect(ctx, centre, size / cue.ref_scale, self.peaks)
+        vals = scan.values
         keep = (vals > 0) & (vals >= 0.5 * (vals.max() if vals.size else 0))
+        if self.false_alarm < 1:  # above what the noise of the map's maximum reaches
+            keep &= scan.z >= norm.isf(self.false_alarm / max(scan.independent, 1.0))
         if not keep.any():
             return 0.0
-        self._centres = xy[keep]
+        self._centres = scan.centres[keep]
         self._std = self.spread * size
         return self.fraction
 

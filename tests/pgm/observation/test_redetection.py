@@ -48,7 +48,7 @@ def test_the_whole_frame_scan_finds_the_object_far_from_where_it_was():
     rng = np.random.default_rng(0)
     f = _trained(rng)
     img = scene(rng, (190, 120))  # 110 px right: outside any search window at (80, 90)
-    xy, vals = f.detect(FrameContext(2, img), (80, 90), 1.0)
+    xy, vals, z, m = f.detect(FrameContext(2, img), (80, 90), 1.0)
     assert np.hypot(*(xy[0] - (190, 120))) <= 2.0
     assert vals[0] > 2 * vals[1]  # the object stands out of the rest of the frame
 
@@ -130,23 +130,31 @@ def test_the_proposal_is_off_while_confident_and_its_density_integrates_to_one()
                                                           factors={})
 
 
-@pytest.mark.parametrize("seed", [0, 1])
-def test_a_target_that_jumps_during_a_full_occlusion_is_found_again(seed):
-    """Frames 36-55 the object is hidden; from 56 it is 180 px away. With re-detection the
-    tracker overlaps it by at least half on nearly every frame from 60; without, on none."""
+def _found_again(seed, **redetection):
+    """Share of frames from 60 on where the box overlaps the truth by at least half."""
     seq = jump_scene(seed)
     b0 = seq.boxes[0]
     init = (b0[0] + b0[2] / 2, b0[1] + b0[3] / 2, b0[2], b0[3])
-    hits = {}
-    for redetect in (0.0, 0.5):
-        params = single_object.Params(init_box=init, redetect=redetect, frame_size=(320, 240))
-        engine = Engine(single_object.build_graph(params), np.random.default_rng(seed))
-        ious = [_iou(cxcywh_to_xywh(engine.step(FrameContext(k + 1, img)).estimates["object"]),
-                     seq.boxes[k]) for k, img in enumerate(seq.frames)]
-        assert np.mean(np.array(ious[:35]) > 0.5) == 1.0  # tracked before it vanished
-        hits[redetect] = np.mean(np.array(ious[59:]) > 0.5)
-    assert hits[0.5] >= 0.9
-    assert hits[0.0] <= 0.1
+    params = single_object.Params(init_box=init, frame_size=(320, 240), **redetection)
+    engine = Engine(single_object.build_graph(params), np.random.default_rng(seed))
+    ious = [_iou(cxcywh_to_xywh(engine.step(FrameContext(k + 1, img)).estimates["object"]),
+                 seq.boxes[k]) for k, img in enumerate(seq.frames)]
+    assert np.mean(np.array(ious[:35]) > 0.5) == 1.0  # tracked before it vanished
+    return float(np.mean(np.array(ious[59:]) > 0.5))
+
+
+def test_a_target_that_jumps_during_a_full_occlusion_is_found_again():
+    """Frames 36-55 the object is hidden; from 56 it is 180 px away. Seeds 0-3: without
+    re-detection the tracker never finds it again; with it (its default false-alarm
+    test on the scan's peaks) it holds it from frame 60 on in at least three of the four
+    (measured over seeds 0-7: 7 of 8; the eighth sat on the occluder with a confidence
+    above one half, so nothing was proposed); with no false-alarm test, in all four."""
+    off = [_found_again(seed) for seed in range(4)]
+    on = [_found_again(seed, redetect=0.5) for seed in range(4)]
+    ungated = [_found_again(seed, redetect=0.5, redetect_false_alarm=1.0) for seed in range(4)]
+    assert max(off) <= 0.1
+    assert sum(h >= 0.9 for h in on) >= 3
+    assert min(ungated) >= 0.9
 
 
 def _turned_scene(phi, rng):
