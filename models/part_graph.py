@@ -167,6 +167,9 @@ class Params:
         (``graph.meta["confidence"]``, where declared) is below one half (0: off, the
         default). Needs ``frame_size``; the transition then re-appears anywhere in the
         frame with probability ``reappear_prob`` per frame.
+    redetect_below, redetect_patience, redetect_false_alarm
+        The proposal's ``below``, ``patience`` and ``false_alarm``
+        (:class:`~pgm.observation.appearance.redetection.RedetectionProposal`).
     reappear_prob : float
         See :class:`~pgm.factors.AR2Transition` (used with ``redetect`` only).
     rotation_noise : float

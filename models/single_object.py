@@ -41,7 +41,8 @@ leave-one-group-out reliability.
 while the calibrated confidence is below one half, a
 :class:`~pgm.observation.appearance.redetection.RedetectionProposal` draws that share of
 the particles near the peaks of the filter's whole-frame response (its long-term
-memory), and the transition gives a re-appearance anywhere in the frame probability
+memory) that stand out of the response's own noise (a false-alarm rate of 1e-3 per
+frame), and the transition gives a re-appearance anywhere in the frame probability
 ``reappear_prob`` per frame, so the weights stay those of the model. It finds a target
 that jumped across the frame while hidden (``tests/pgm/observation/test_redetection.py``);
 on the shared sequences, where the target never leaves the view, it costs accuracy
@@ -83,7 +84,7 @@ class Params(colour_pf.Params):
     """The fields of :class:`pgm.models.colour_pf.Params` (100 particles by default)
     with the default configuration's ``appearance``, ``scale_noise`` and ``jump_prob``,
     re-detection (``redetect``, ``redetect_below``, ``redetect_patience``,
-    ``reappear_prob``, ``frame_size``; off by default, ``--redetect SHARE``) and an
+    ``redetect_false_alarm``, ``reappear_prob``, ``frame_size``; off by default, ``--redetect SHARE``) and an
     in-plane angle (``rotation_noise``; none by default, ``--rotation-noise RAD``): see
     :class:`pgm.models.part_graph.Params`."""
 
