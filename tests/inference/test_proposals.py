@@ -186,3 +186,43 @@ def test_marginal_densities_of_some_components():
                                     0.05 * x1[:, 3]).logpdf(x[:, 0]))
     with pytest.raises(ValueError, match="sizes of the scale step"):
         ar.log_prob_columns(x, (0, 2), x1, x2)
+
+
+class _EveryOtherFrame(LinearGaussianProposal):
+    """The locally optimal proposal on even frames only (``prepare`` returns 0 on odd
+    ones), or a share ``bad`` on every frame."""
+
+    def __init__(self, *args, bad=None, **kw):
+        super().__init__(*args, **kw)
+        self.bad = bad
+        self.calls = []
+
+    def prepare(self, ctx, past, *, confidence, factors):
+        self.calls.append((ctx.index, confidence, sorted(factors)))
+        if self.bad is not None:
+            return self.bad
+        return self.fraction if ctx.index % 2 == 0 else 0.0
+
+
+def test_prepare_sets_the_share_per_frame_and_stays_unbiased(problem):
+    """A share of 0 in a frame is the bootstrap filter there; over the frames the
+    estimates stay the Kalman filter's (within the runs' standard error)."""
+    p, graph, ys, kf = problem
+    prop = _EveryOtherFrame("x", F=p.F, Q=p.Q, H=p.H, R=p.R)
+    g = _with(graph, prop)
+    frames = [FrameContext(t + 1, measurements=ys[t]) for t in range(T)]
+    engine = Engine(g, 3, num_particles=N)
+    recs = list(engine.run(frames))
+    assert "proposed" in str(recs[1].info) and "proposed" not in str(recs[2].info)
+    calls = engine.graph.factors[prop.name].calls  # frames 2.., no confidence declared
+    assert [c[0] for c in calls] == list(range(2, T + 1))
+    assert all(c[1] is None and prop.name in c[2] for c in calls)
+    means, loglik = _runs(g, ys)
+    se = means.std(axis=0, ddof=1) / np.sqrt(R)  # the same bounds as the tests above
+    assert np.all(np.abs(means.mean(axis=0) - kf.filtered_means) < 6 * se + 1e-9)
+    ll_se = loglik.std(ddof=1) / np.sqrt(R)
+    assert abs(loglik.mean() - kf.marginal_log_likelihood) < 6 * ll_se + 1e-3
+    for bad in (1.5, float("nan"), -0.1):
+        g = _with(graph, _EveryOtherFrame("x", F=p.F, Q=p.Q, H=p.H, R=p.R, bad=bad))
+        with pytest.raises(ValueError, match=r"prepare\(\)"):
+            list(Engine(g, 0, num_particles=N).run(frames[:3]))
