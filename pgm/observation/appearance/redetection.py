@@ -22,10 +22,10 @@ and not otherwise.
 
 from __future__ import annotations
 
+from statistics import NormalDist
 from typing import Any
 
 import numpy as np
-from scipy.stats import norm
 
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
@@ -123,7 +123,8 @@ class RedetectionProposal(ProposalFactor):
         vals = scan.values
         keep = (vals > 0) & (vals >= 0.5 * (vals.max() if vals.size else 0))
         if self.false_alarm < 1:  # above what the noise of the map's maximum reaches
-            keep &= scan.z >= norm.isf(self.false_alarm / max(scan.independent, 1.0))
+            tail = min(self.false_alarm / max(scan.independent, 1.0), 0.5)
+            keep &= scan.z >= -NormalDist().inv_cdf(tail)  # the upper tail's quantile
         if not keep.any():
             return 0.0
         self._centres = scan.centres[keep]
