@@ -143,9 +143,13 @@ def score(gt, numbers, boxes, skip_start: float = 0.0) -> dict:
     numbers = np.asarray(numbers)
     first = int(np.floor(skip_start * len(numbers)))
     if first:
-        keep = gt.frames >= numbers[first]
-        gt = SingleTrack(gt.frames[keep], gt.boxes[keep])
+        gt = gt.since(numbers[first])
     return single_object_metrics(gt, numbers[first:], np.asarray(boxes, float)[first:])
+
+
+def _skipped(skip_start: float) -> str:
+    """A table title's note on the frames left out of the scores."""
+    return f", first {skip_start:.0%} of each task's frames not scored" if skip_start else ""
 
 
 def run_config(tasks, overrides, seeds, skip_start: float = 0.0):
@@ -225,9 +229,9 @@ def loso(seqs, seeds: int, skip_start: float = 0.0) -> None:
         rows.append([label] + [f"{table[label][n]:.3f}" for n in names]
                     + [f"{np.mean(list(table[label].values())):.3f}"])
         print(f"  {label}: " + " ".join(rows[-1][1:]), file=sys.stderr, flush=True)
-    skipped = f", first {skip_start:.0%} of each sequence's frames not scored" if skip_start else ""
     print_table(["candidate (part_graph.Params)"] + names + ["mean"], rows,
-                title=f"Candidates for the default, success AUC ({seeds} seeds{skipped})")
+                title=f"Candidates for the default, success AUC ({seeds} seeds"
+                      f"{_skipped(skip_start)})")
     picks = []
     for held in names:
         others = [n for n in names if n != held]
@@ -274,12 +278,10 @@ def main() -> None:
             rows.append([label, f"{auc.mean():.3f}", f"{auc.min():.3f}", f"{auc.max():.3f}",
                          f"{prec:.3f}", fps])
         n = sum(len(t[0]) for t in tasks)
-        skipped = (f", first {args.skip_start:.0%} of each task's frames not scored"
-                   if args.skip_start else "")
         print_table(["config (100 particles unless stated)", "AUC", "min", "max", "prec@20",
                      "frames/s"], rows,
                     title=f"{name}: {len(tasks)} task(s), {n} frames, {args.seeds} seeds"
-                          f"{skipped}")
+                          f"{_skipped(args.skip_start)}")
         sys.stdout.flush()
 
 

@@ -68,8 +68,8 @@ from pgm.observation.appearance.redetection import RedetectionProposal
 
 from . import config as _config
 
-__all__ = ["CONFIG", "Params", "build_graph", "split_box", "part_names", "BOX_LABELS",
-           "PAPER_PARTICLES", "DEFAULTS", "ONE_NODE", "PRESETS", "object_box"]
+__all__ = ["CONFIG", "Params", "RedetectionAndAngle", "build_graph", "split_box", "part_names",
+           "BOX_LABELS", "PAPER_PARTICLES", "DEFAULTS", "ONE_NODE", "PRESETS", "object_box"]
 
 BOX_LABELS = ("cx", "cy", "w", "h")
 #: particles per node (and per message) in the experiments of Zhang & Kang [#zhang2015]
@@ -93,8 +93,44 @@ PRESETS = {
 }
 
 
+@dataclass(frozen=True, kw_only=True)
+class RedetectionAndAngle:
+    """Re-detection and an in-plane angle (one node with a correlation filter): the
+    fields :class:`Params` and :class:`pgm.models.single_object.Params` share.
+
+    Attributes
+    ----------
+    redetect : float
+        One node with a correlation filter only: the share of particles a
+        :class:`~pgm.observation.appearance.redetection.RedetectionProposal` draws near
+        the whole frame's response peaks in a frame where the calibrated confidence
+        (``graph.meta["confidence"]``, where declared) is below one half (0: off, the
+        default). Needs ``frame_size``; the transition then re-appears anywhere in the
+        frame with probability ``reappear_prob`` per frame.
+    redetect_below, redetect_patience, redetect_false_alarm
+        The proposal's ``below``, ``patience`` and ``false_alarm``
+        (:class:`~pgm.observation.appearance.redetection.RedetectionProposal`).
+    reappear_prob : float
+        See :class:`~pgm.factors.AR2Transition` (used with ``redetect`` only).
+    rotation_noise : float
+        One node with a correlation filter only: an in-plane angle (radians) as a fifth
+        state component ``angle``, with this standard deviation per frame, which the
+        filter sees (``angle_index``; 0: no angle, the default).
+    frame_size : (width, height), optional
+        The video's frame size in pixels (the application passes it).
+    """
+
+    redetect: float = 0.0
+    redetect_below: float = 0.5
+    redetect_patience: int = 1
+    redetect_false_alarm: float = 1e-3
+    reappear_prob: float = 0.01
+    rotation_noise: float = 0.0
+    frame_size: tuple[int, int] | None = None
+
+
 @dataclass(frozen=True)
-class Params:
+class Params(RedetectionAndAngle):
     """Settings of a part graph.
 
     Attributes
@@ -160,24 +196,10 @@ class Params:
         Heavy-tailed position step (see :class:`~pgm.factors.AR2Transition`): a fraction
         ``jump_prob`` of the particles moves with ``jump_scale`` × the position noise
         (default ``jump_prob``: 0.4 for two or more parts, 0 for one node).
-    redetect : float
-        One node with a correlation filter only: the share of particles a
-        :class:`~pgm.observation.appearance.redetection.RedetectionProposal` draws near
-        the whole frame's response peaks in a frame where the calibrated confidence
-        (``graph.meta["confidence"]``, where declared) is below one half (0: off, the
-        default). Needs ``frame_size``; the transition then re-appears anywhere in the
-        frame with probability ``reappear_prob`` per frame.
-    redetect_below, redetect_patience, redetect_false_alarm
-        The proposal's ``below``, ``patience`` and ``false_alarm``
-        (:class:`~pgm.observation.appearance.redetection.RedetectionProposal`).
-    reappear_prob : float
-        See :class:`~pgm.factors.AR2Transition` (used with ``redetect`` only).
-    rotation_noise : float
-        One node with a correlation filter only: an in-plane angle (radians) as a fifth
-        state component ``angle``, with this standard deviation per frame, which the
-        filter sees (``angle_index``; 0: no angle, the default).
-    frame_size : (width, height), optional
-        The video's frame size in pixels (the application passes it).
+    redetect, redetect_below, redetect_patience, redetect_false_alarm, reappear_prob,
+    rotation_noise, frame_size
+        Re-detection and an in-plane angle for one node with a correlation filter
+        (:class:`RedetectionAndAngle`; keyword only).
 
     Fields left at ``None`` take :data:`DEFAULTS` (two or more parts) or :data:`ONE_NODE`
     (one node) when the graph is built (:meth:`resolved`).
@@ -208,13 +230,6 @@ class Params:
     layout: str = "perez"
     kernel: str = "uniform"
     appearance: str | None = None
-    redetect: float = 0.0
-    redetect_below: float = 0.5
-    redetect_patience: int = 1
-    redetect_false_alarm: float = 1e-3
-    reappear_prob: float = 0.01
-    rotation_noise: float = 0.0
-    frame_size: tuple[int, int] | None = None
 
     @property
     def node_count(self) -> int:
@@ -338,23 +353,21 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
              else 0.03 * np.sqrt(box[2] * box[3]))
     variables, factors = [], []
     cues = appearance_cues(params.appearance)
-    redetect = params.redetect > 0 and n == 1 and any(c == "cf" for c, _ in cues)
-    if params.redetect > 0 and not redetect:
-        raise ValueError("redetect needs one node with the correlation filter ('cf') among "
-                         "its cues")
+    one_cf = n == 1 and any(c == "cf" for c, _ in cues)
     check_finite_param("rotation_noise", params.rotation_noise, nonneg=True)
-    rotate = params.rotation_noise > 0
-    if rotate and not (n == 1 and any(c == "cf" for c, _ in cues)):
-        raise ValueError("rotation_noise needs one node with the correlation filter ('cf') "
-                         "among its cues")
+    redetect, rotate = params.redetect > 0, params.rotation_noise > 0
+    for option, on in (("redetect", redetect), ("rotation_noise", rotate)):
+        if on and not one_cf:
+            raise ValueError(f"{option} needs one node with the correlation filter ('cf') "
+                             f"among its cues")
     if redetect and params.frame_size is None:
         raise ValueError("redetect needs frame_size=(width, height): the area a lost object "
                          "may re-appear in")
+    region = (None if not redetect else
+              (-0.5, -0.5, params.frame_size[0] - 0.5, params.frame_size[1] - 0.5))
     for nm, pb in zip(names, parts, strict=True):
         variables.append(Variable(nm, 5, role="part", labels=BOX_LABELS + ("angle",))
                          if rotate else Variable(nm, 4, role="part", labels=BOX_LABELS))
-        region = (None if not redetect else
-                  (-0.5, -0.5, params.frame_size[0] - 0.5, params.frame_size[1] - 0.5))
         factors += [
             GaussianPrior(nm, mean=[*pb, 0.0] if rotate else pb, cov=0.0),
             AR2Transition(nm, noise_std=[pos, pos, 0.0, 0.0] + ([params.rotation_noise]
@@ -366,7 +379,6 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
                           reappear_prob=params.reappear_prob if redetect else 0.0,
                           region=region),
         ]
-        cue_names = []
         for k, (cue, opts) in enumerate(cues):
             if redetect and cue == "cf":  # far-away particles read in windows of their own
                 opts = {"windows": MAX_WINDOWS, **opts}
@@ -374,9 +386,9 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
                 opts = {"angle_index": 4, **opts}
             factors.append(cue_factor(cue, nm, params, name=None if k == 0 else f"{cue}:{nm}",
                                       options=opts))
-            cue_names.append((cue, factors[-1].name))
+            if cue == "cf":
+                cf_name = factors[-1].name
         if redetect:
-            cf_name = next(fn for c, fn in cue_names if c == "cf")
             factors.append(RedetectionProposal(nm, cue=cf_name, fraction=params.redetect,
                                                  below=params.redetect_below,
                                                  patience=params.redetect_patience,

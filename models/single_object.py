@@ -63,7 +63,7 @@ from pgm.core.graph import FactorGraph
 from pgm.core.readout import check_confidence_spec
 from pgm.observation.appearance.correlation import CorrelationFilterLikelihood
 
-from . import colour_pf
+from . import colour_pf, part_graph
 from . import config as _config
 
 __all__ = ["CONFIG", "Params", "build_graph", "APPEARANCE", "SCALE_NOISE", "JUMP_PROB", "CONFIDENCE"]
@@ -80,22 +80,14 @@ CONFIDENCE = {"intercept": -8.700, "slope": 4.001, "spread_slope": -0.069}
 
 
 @dataclass(frozen=True)
-class Params(colour_pf.Params):
+class Params(colour_pf.Params, part_graph.RedetectionAndAngle):
     """The fields of :class:`pgm.models.colour_pf.Params` (100 particles by default)
     with the default configuration's ``appearance``, ``scale_noise`` and ``jump_prob``,
-    re-detection (``redetect``, ``redetect_below``, ``redetect_patience``,
-    ``redetect_false_alarm``, ``reappear_prob``, ``frame_size``; off by default, ``--redetect SHARE``) and an
-    in-plane angle (``rotation_noise``; none by default, ``--rotation-noise RAD``): see
-    :class:`pgm.models.part_graph.Params`."""
+    and those of :class:`pgm.models.part_graph.RedetectionAndAngle` (keyword only):
+    re-detection (off by default, ``--redetect SHARE``) and an in-plane angle (none by
+    default, ``--rotation-noise RAD``)."""
 
     appearance: str = APPEARANCE
-    redetect: float = 0.0
-    redetect_below: float = 0.5
-    redetect_patience: int = 1
-    redetect_false_alarm: float = 1e-3
-    reappear_prob: float = 0.01
-    rotation_noise: float = 0.0
-    frame_size: tuple[int, int] | None = None
     scale_noise: float = SCALE_NOISE
     jump_prob: float = JUMP_PROB
 

@@ -130,17 +130,9 @@ print(f"{T} frames; wrote {out / 'proposals.txt'}")
 # tracker stays where it vanished; with ``redetect=0.5`` (``pgm track ... --redetect
 # 0.5``) half the particles come from the whole-frame scan in the frames where the
 # calibrated confidence is below one half.
-from pgm.core.boxes import cxcywh_to_xywh  # noqa: E402
+from pgm.core.boxes import cxcywh_to_xywh, iou_xywh  # noqa: E402
 from pgm.models import single_object  # noqa: E402
 from pgm.synthetic.scenes import jump_scene  # noqa: E402
-
-
-def overlap(a, b):
-    x0, y0 = max(a[0], b[0]), max(a[1], b[1])
-    x1, y1 = min(a[0] + a[2], b[0] + b[2]), min(a[1] + a[3], b[1] + b[3])
-    inter = max(0.0, x1 - x0) * max(0.0, y1 - y0)
-    return inter / (a[2] * a[3] + b[2] * b[3] - inter)
-
 
 seq = jump_scene(0)  # 90 frames, whatever --max-frames says: the jump is at 56
 x, y, w, h = seq.boxes[0]
@@ -149,7 +141,7 @@ for label, share in (("default", 0.0), ("with re-detection", 0.5)):
     params = single_object.Params(init_box=(x + w / 2, y + h / 2, w, h), redetect=share,
                                   frame_size=(320, 240))
     engine = Engine(single_object.build_graph(params), np.random.default_rng(0))
-    hit = np.array([overlap(cxcywh_to_xywh(engine.step(pgm.FrameContext(k + 1, img))
+    hit = np.array([iou_xywh(cxcywh_to_xywh(engine.step(pgm.FrameContext(k + 1, img))
                                            .estimates["object"]), seq.boxes[k]) >= 0.5
                     for k, img in enumerate(seq.frames)])
     after = hit[55:].mean()

@@ -17,7 +17,7 @@ import numpy as np
 
 __all__ = ["xywh_to_cxcywh", "cxcywh_to_xywh", "iou_xywh", "centre_xywh", "BOX_LABELS",
            "box_columns", "BOX_CODINGS", "box_coding", "box_code_columns", "encode_boxes",
-           "decode_boxes", "state_boxes"]
+           "decode_boxes", "state_boxes", "mean_box_size"]
 
 #: the labels of a box variable's columns (centre, width, height)
 BOX_LABELS = ("cx", "cy", "w", "h")
@@ -124,6 +124,13 @@ def cxcywh_to_xywh(b: np.ndarray) -> np.ndarray:
     out[..., 0] = b[..., 0] - b[..., 2] / 2.0
     out[..., 1] = b[..., 1] - b[..., 3] / 2.0
     return out
+
+
+def mean_box_size(b: np.ndarray) -> float:
+    """Geometric mean of ``sqrt(w h)`` over centre boxes ``(N, 4)`` ``(cx, cy, w, h)``:
+    the typical size of a particle cloud's boxes (a log-scale step is symmetric in it)."""
+    b = np.asarray(b, dtype=float)
+    return float(np.exp(np.mean(0.5 * np.log(np.maximum(b[:, 2] * b[:, 3], 1e-12)))))
 
 
 def centre_xywh(b: np.ndarray) -> np.ndarray:

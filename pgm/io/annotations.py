@@ -145,6 +145,11 @@ class SingleTrack:
         keep = self.frames <= int(last_frame)
         return SingleTrack(self.frames[keep], self.boxes[keep])
 
+    def since(self, first_frame: int) -> SingleTrack:
+        """The annotations of frames ``>= first_frame`` (to score a run's later part)."""
+        keep = self.frames >= int(first_frame)
+        return SingleTrack(self.frames[keep], self.boxes[keep])
+
 
 def detect_gt_format(path: str | Path) -> str:
     """Guess ``'otb'``, ``'miltrack'`` or ``'mot'`` for a ground-truth file.

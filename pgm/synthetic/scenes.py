@@ -185,7 +185,8 @@ def jump_scene(seed: int | np.random.Generator = 0, n_frames: int = 90) -> JumpS
     """A textured object that vanishes behind an occluder and comes back across the frame.
 
     320x240 grey-textured background. The object (40x48, its own fixed texture) starts
-    centred at (70, 120) and moves right 0.8 px/frame; in frame 36 a grey page covers it
+    centred at (70, 120) and moves right 0.8 px/frame with a 3 px vertical wobble (period
+    40 frames); in frame 36 a grey page covers it
     (70x80 at its last position, for the rest of the sequence) and the object is hidden
     for 20 frames (36-55); from frame 56 it is in view again centred at (250, 110), 180
     px to the right, moving left 0.5 px/frame. A tracker that stays where the object

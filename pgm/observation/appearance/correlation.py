@@ -53,6 +53,7 @@ import cv2
 import numpy as np
 import scipy.fft as sfft
 
+from pgm.core.boxes import mean_box_size
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
 
@@ -310,9 +311,16 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
                                 self.n_orient, angle)
         return sfft.rfft2(feats * self.hann, axes=(-2, -1))
 
+    def _filter_of(self, xf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The filter ``(num, den)`` that one window of spectrum ``xf`` alone gives."""
+        return np.conj(self.gf)[None] * xf, np.sum((xf * np.conj(xf)).real, axis=0)
+
+    def _regularised(self, den: np.ndarray) -> np.ndarray:
+        """The filter's denominator plus its ridge ``λ``."""
+        return den + (self.reg * float(den.mean()) + 1e-12)  # a flat window has no energy
+
     def _train(self, xf: np.ndarray, rate: float) -> None:
-        num = np.conj(self.gf)[None] * xf
-        den = np.sum((xf * np.conj(xf)).real, axis=0)
+        num, den = self._filter_of(xf)
         if self.num is None:
             self.num, self.den = num, den
         else:
@@ -324,14 +332,12 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         or of the filter ``num, den``)."""
         num = self.num if num is None else num
         den = self.den if den is None else den
-        lam = self.reg * float(den.mean()) + 1e-12  # a flat window has no energy
-        return sfft.irfft2(np.sum(np.conj(num) * zf, axis=0) / (den + lam),
+        return sfft.irfft2(np.sum(np.conj(num) * zf, axis=0) / self._regularised(den),
                            s=self.hann.shape)
 
     def _learn_memory(self, xf: np.ndarray, here: float | None) -> None:
         """The long-term filter: the first frame's, then blended at ``memory_rate``."""
-        num = np.conj(self.gf)[None] * xf
-        den = np.sum((xf * np.conj(xf)).real, axis=0)
+        num, den = self._filter_of(xf)
         if self.memory is None or here is None:
             resp = self._response(xf, num, den)
             self.memory = (num, den, max(float(resp.max()), 1e-12))
@@ -399,11 +405,11 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
 
     # -- re-detection ------------------------------------------------------------------
     def detect(self, ctx: FrameContext, centre, scale: float, max_peaks: int = 3) -> Scan:
-        """Where the object may be in the whole frame: the highest peaks of the filter's
-        response over the frame at ``scale`` (relative to the first box), the better of
-        the long-term filter (the short-term one before it has any), in units of its
-        typical peak. Only the filter's cells over the object's box are used: the rest
-        learned the background around the object, which stays where the object was.
+        """Where the object may be in the whole frame: the highest peaks of the long-term
+        filter's response over the frame at ``scale`` (relative to the first box), in
+        units of its typical peak. Only the filter's cells over the object's box are
+        used: the rest learned the background around the object, which stays where the
+        object was.
 
         The frame is resampled to template pixels and correlated with the filters once
         (FFT); a frame wider than :data:`MAX_DETECT_PX` template pixels is scanned in a
@@ -438,17 +444,12 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
             ih = np.abs(np.arange(th) - (th - 1) / 2) <= th / (1 + self.padding) / 2
             iw = np.abs(np.arange(tw) - (tw - 1) / 2) <= tw / (1 + self.padding) / 2
             box_mask = (ih[:, None] & iw[None, :]).astype(float)
-            best = None
-            filters = ([self.memory] if self.memory is not None
-                       else [(self.num, self.den, self.peak)])
-            for num, den, peak in filters:
-                lam = self.reg * float(den.mean()) + 1e-12
-                h = sfft.irfft2(np.conj(num) / (den + lam), s=(th, tw))
-                h = np.fft.fftshift(h, axes=(-2, -1)) * box_mask  # the object's part only
-                hf = sfft.rfft2(h, s=fshape, axes=(-2, -1))
-                r = sfft.irfft2(np.sum(hf * zf, axis=0), s=fshape)
-                r = r[th // 2:th // 2 + oh, tw // 2:tw // 2 + ow] / peak
-                best = r if best is None else np.maximum(best, r)
+            num, den, peak = self.memory
+            h = sfft.irfft2(np.conj(num) / self._regularised(den), s=(th, tw))
+            h = np.fft.fftshift(h, axes=(-2, -1)) * box_mask  # the object's part only
+            hf = sfft.rfft2(h, s=fshape, axes=(-2, -1))
+            best = sfft.irfft2(np.sum(hf * zf, axis=0), s=fshape)
+            best = best[th // 2:th // 2 + oh, tw // 2:tw // 2 + ow] / peak
             # only where the whole box is in the frame: a box across the border reads
             # the border's replicated pixels
             half = self.ref_size * float(scale) / (1 + self.padding) / 2
@@ -497,16 +498,12 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         cached on it)."""
         def make():
             b = self.boxes(x)
+            base = mean_box_size(b) / self.ref_scale
+            levels = base * self.scale_step ** (np.arange(self.scales) - self.scales // 2)
             centre = b[:, :2].mean(axis=0)
-            k = np.arange(self.scales) - self.scales // 2
-            quarter = self.ref_size * float(np.exp(np.mean(0.5 * np.log(np.maximum(
-                b[:, 2] * b[:, 3], 1e-12))))) / self.ref_scale / 4
+            quarter = self.ref_size * base / 4
             if self.windows > 1 and not _one_cloud(b[:, :2], centre, quarter):
                 centre = self._next_centre(b[:, :2], quarter)
-            base = float(np.exp(np.mean(0.5 * np.log(np.maximum(b[:, 2] * b[:, 3],
-                                                                 1e-12)))))
-            base /= self.ref_scale
-            levels = base * self.scale_step ** k
             angle = 0.0 if self.angle_index is None else float(x[:, self.angle_index].mean())
             return centre, levels, angle, self._window(ctx, centre, levels, angle, ())
 
@@ -529,10 +526,10 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         b = self.boxes(x)
         angles = (np.zeros(len(b)) if self.angle_index is None
                   else np.asarray(x[:, self.angle_index], float))
-        out = np.full(len(b), self.floor)
         quarter = self.ref_size * float(levels[len(levels) // 2]) / 4
         if self.windows == 1 or _one_cloud(b[:, :2], b[:, :2].mean(axis=0), quarter):
             return self._read(maps, levels, angle, centre, b, angles)[0]
+        out = np.full(len(b), self.floor)
         todo = np.arange(len(b))
         for k in range(self.windows):
             if k > 0:
@@ -554,11 +551,13 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         d = np.abs(xy[:, None, :] - xy[None, :, :]) <= quarter
         return xy[int(np.argmax(np.sum(d.all(axis=2), axis=1)))]
 
-    def _sample(self, m: np.ndarray, centre, b, step, angle: float):
-        """Bilinear reading of the map ``m`` of a window turned by ``angle`` with cells
-        ``step`` (image px, per box or one) at the boxes' centres; and whether each lies
-        in the window."""
-        th, tw = m.shape
+    @staticmethod
+    def _sample(maps: np.ndarray, which, centre, b, step, angle):
+        """Bilinear reading of the maps ``maps[which]`` (``which``: one index per box, or
+        one for all) of windows turned by ``angle`` (per box or one) with cells ``step``
+        (image px, per box or one) at the boxes' centres; and whether each lies in its
+        window."""
+        _, th, tw = maps.shape
         c, s = np.cos(angle), np.sin(angle)
         dx, dy = b[:, 0] - centre[0], b[:, 1] - centre[1]
         u = (c * dx + s * dy) / step[..., 0] + (tw - 1) / 2
@@ -567,8 +566,9 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         u0 = np.clip(np.floor(u).astype(np.intp), 0, tw - 2)
         v0 = np.clip(np.floor(v).astype(np.intp), 0, th - 2)
         fu, fv = np.clip(u - u0, 0, 1), np.clip(v - v0, 0, 1)
-        val = ((1 - fv) * ((1 - fu) * m[v0, u0] + fu * m[v0, u0 + 1])
-               + fv * ((1 - fu) * m[v0 + 1, u0] + fu * m[v0 + 1, u0 + 1]))
+        val = ((1 - fv) * ((1 - fu) * maps[which, v0, u0] + fu * maps[which, v0, u0 + 1])
+               + fv * ((1 - fu) * maps[which, v0 + 1, u0]
+                       + fu * maps[which, v0 + 1, u0 + 1]))
         return val, inside
 
     def _read(self, window, levels, angle, centre, b, angles) -> tuple[np.ndarray, np.ndarray]:
@@ -592,27 +592,17 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         for lev, wgt in ((l0, 1 - fl), (l1, fl)):
             # particle centre in the level's window: template px
             step = self.ref_size[None, :] * levels[lev][:, None] / cells[None]
-            val = np.zeros(len(b))
-            inside = np.zeros(len(b), dtype=bool)
-            for k in range(n_lev):  # each particle reads its own level's map
-                sel = lev == k
-                if sel.any():
-                    val[sel], inside[sel] = self._sample(maps[k], centre, b[sel], step[sel],
-                                                         angle)
+            val, inside = self._sample(maps, lev, centre, b, step, angle)
             out += wgt * np.where(inside, val, self.floor)
             inside_all &= inside | (wgt == 0)
         if turned is not None:  # the change of response with the particle's own angle
             step = self.ref_size * float(levels[n_lev // 2]) / cells
-            mid, ok = self._sample(maps[n_lev // 2], centre, b, step, angle)
+            mid, ok = self._sample(maps, n_lev // 2, centre, b, step, angle)
             t = np.clip((angles - angle) / self.angle_step, -1.0, 1.0)
-            side = np.where(t < 0, 0, 1)
-            val = np.zeros(len(b))
-            for k, a in enumerate((angle - self.angle_step, angle + self.angle_step)):
-                sel = side == k
-                if sel.any():
-                    val[sel], ins = self._sample(turned[k], centre, b[sel], step, a)
-                    ok[sel] &= ins
-            out += np.where(ok, np.abs(t) * (val - mid), 0.0)
+            side = (t >= 0).astype(np.intp)  # turned[0]: angle - step, turned[1]: + step
+            val, ins = self._sample(turned, side, centre, b, step,
+                                    angle + (2 * side - 1) * self.angle_step)
+            out += np.where(ok & ins, np.abs(t) * (val - mid), 0.0)
         return out, inside_all
 
     def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:

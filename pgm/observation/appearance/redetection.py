@@ -27,8 +27,9 @@ from typing import Any
 
 import numpy as np
 
+from pgm.core.boxes import mean_box_size
 from pgm.core.frame import FrameContext
-from pgm.core.numerics import check_finite_param
+from pgm.core.numerics import check_finite_param, logsumexp
 from pgm.factors.kinds import ProposalFactor
 
 __all__ = ["RedetectionProposal"]
@@ -117,7 +118,7 @@ class RedetectionProposal(ProposalFactor):
             raise ValueError(f"factor {self.name!r}: cue {self.cue!r} is not a factor of this "
                              f"graph that can scan a frame (detect())")
         b = cue.boxes(past[0])
-        size = float(np.exp(np.mean(0.5 * np.log(np.maximum(b[:, 2] * b[:, 3], 1e-12)))))
+        size = mean_box_size(b)
         centre = b[:, :2].mean(axis=0)
         scan = cue.detect(ctx, centre, size / cue.ref_scale, self.peaks)
         vals = scan.values
@@ -145,5 +146,4 @@ class RedetectionProposal(ProposalFactor):
         """``log (1/m) Σ_k N(x_pos; peak_k, spread² I)`` of the position components."""
         d = (x[:, None, list(self.columns)] - self._centres[None]) / self._std
         log_k = -0.5 * np.sum(d * d, axis=2) - 2 * np.log(self._std) - np.log(2 * np.pi)
-        m = log_k.max(axis=1)
-        return m + np.log(np.mean(np.exp(log_k - m[:, None]), axis=1))
+        return logsumexp(log_k, axis=1) - np.log(len(self._centres))

@@ -323,10 +323,12 @@ def test_eval_prints_missing_values(files, tmp_path, capsys):
 
 
 # -- defect 4: saved models ----------------------------------------------------------
-def test_saved_single_object_model_honours_init_and_refuses_options(files, tmp_path, capsys):
+def _saved_then_moved(files, tmp_path, capsys, *model_args) -> Path:
+    """Track 2 frames with ``model_args``, then re-run the saved model from a new
+    ``--init`` box; the first row of the second run is that box. The saved model."""
     first = tmp_path / "first"
-    code, _, err = run_cli(capsys, ["track", files["seq"], "--model", "colour-pf", "--out",
-                                    first, "--quiet", "--no-video", "--max-frames", 2])
+    code, _, err = run_cli(capsys, ["track", files["seq"], *model_args, "--out", first,
+                                    "--quiet", "--no-video", "--max-frames", 2])
     assert code == 0, err
     again = tmp_path / "again"
     code, _, err = run_cli(capsys, ["track", files["seq"], "--model", first / "model.json",
@@ -335,8 +337,13 @@ def test_saved_single_object_model_honours_init_and_refuses_options(files, tmp_p
     assert code == 0, err
     row = (again / "tracks.txt").read_text().splitlines()[0].split(",")
     assert [float(v) for v in row[2:6]] == [31, 101, 20, 20]  # --init was used
+    return first / "model.json"
+
+
+def test_saved_single_object_model_honours_init_and_refuses_options(files, tmp_path, capsys):
+    saved = _saved_then_moved(files, tmp_path, capsys, "--model", "colour-pf")
     for opt in (["--appearance", "template"], ["--scale-noise", "0.1"], ["--parts", "2"]):
-        code, _, err = run_cli(capsys, ["track", files["seq"], "--model", first / "model.json",
+        code, _, err = run_cli(capsys, ["track", files["seq"], "--model", saved,
                                         "--init", "31,101,20,20", "--out", tmp_path / "x",
                                         "--quiet", *opt])
         assert_one_line_error(code, err, f"{opt[0]} does not apply to a saved model")
@@ -344,18 +351,7 @@ def test_saved_single_object_model_honours_init_and_refuses_options(files, tmp_p
 
 def test_a_saved_model_with_an_angle_and_redetection_moves_to_a_new_box(files, tmp_path,
                                                                         capsys):
-    first = tmp_path / "first"
-    code, _, err = run_cli(capsys, ["track", files["seq"], "--redetect", "0.5",
-                                    "--rotation-noise", "0.01", "--out", first, "--quiet",
-                                    "--no-video", "--max-frames", 2])
-    assert code == 0, err
-    again = tmp_path / "again"
-    code, _, err = run_cli(capsys, ["track", files["seq"], "--model", first / "model.json",
-                                    "--init", "31,101,20,20", "--out", again, "--quiet",
-                                    "--no-video", "--max-frames", 2])
-    assert code == 0, err
-    row = (again / "tracks.txt").read_text().splitlines()[0].split(",")
-    assert [float(v) for v in row[2:6]] == [31, 101, 20, 20]
+    _saved_then_moved(files, tmp_path, capsys, "--redetect", "0.5", "--rotation-noise", "0.01")
     for opt, msg in ((["--redetect", "1.5"], "redetect must be a share in [0, 1]"),
                      (["--rotation-noise", "-1"], "must be non-negative")):
         code, _, err = run_cli(capsys, ["track", files["seq"], "--out", tmp_path / "x",

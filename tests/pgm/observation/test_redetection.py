@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from pgm.core.boxes import cxcywh_to_xywh
+from pgm.core.boxes import cxcywh_to_xywh, iou_xywh
 from pgm.core.frame import FrameContext
 from pgm.factors import AR2Transition
 from pgm.inference import Engine
@@ -28,13 +28,6 @@ def scene(rng, centre, size=(40, 56), shape=(200, 260)):
     img[y0:y0 + size[1], x0:x0 + size[0]] = texture(np.random.default_rng(101),
                                                     (size[1], size[0]), 1.5) * 200 + 30
     return np.clip(img + rng.normal(0, 2, shape), 0, 255).astype(np.uint8)
-
-
-def _iou(a, b):
-    x0, y0 = max(a[0], b[0]), max(a[1], b[1])
-    x1, y1 = min(a[0] + a[2], b[0] + b[2]), min(a[1] + a[3], b[1] + b[3])
-    inter = max(0.0, x1 - x0) * max(0.0, y1 - y0)
-    return inter / (a[2] * a[3] + b[2] * b[3] - inter)
 
 
 def _trained(rng, centre=(80, 90), size=(40, 56)):
@@ -137,7 +130,7 @@ def _found_again(seed, **redetection):
     init = (b0[0] + b0[2] / 2, b0[1] + b0[3] / 2, b0[2], b0[3])
     params = single_object.Params(init_box=init, frame_size=(320, 240), **redetection)
     engine = Engine(single_object.build_graph(params), np.random.default_rng(seed))
-    ious = [_iou(cxcywh_to_xywh(engine.step(FrameContext(k + 1, img)).estimates["object"]),
+    ious = [iou_xywh(cxcywh_to_xywh(engine.step(FrameContext(k + 1, img)).estimates["object"]),
                  seq.boxes[k]) for k, img in enumerate(seq.frames)]
     assert np.mean(np.array(ious[:35]) > 0.5) == 1.0  # tracked before it vanished
     return float(np.mean(np.array(ious[59:]) > 0.5))
@@ -198,7 +191,7 @@ def test_an_angle_in_the_single_object_state_saves_and_runs():
     engine = Engine(graph, np.random.default_rng(0))
     est = [engine.step(FrameContext(k + 1, img)).estimates["object"]
            for k, img in enumerate(seq.frames)]
-    assert _iou(cxcywh_to_xywh(est[-1][:4]), seq.boxes[11]) > 0.5 and abs(est[-1][4]) < 0.3
+    assert iou_xywh(cxcywh_to_xywh(est[-1][:4]), seq.boxes[11]) > 0.5 and abs(est[-1][4]) < 0.3
     with pytest.raises(ValueError, match="rotation_noise"):
         single_object.build_graph(single_object.Params(init_box=(50, 50, 20, 20),
                                                        appearance="colour",
