@@ -403,6 +403,12 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         x0, x1 = int(np.floor(cx)) - rad, int(np.ceil(cx)) + rad + 1
         return float(r[max(y0, 0):y1, max(x0, 0):x1].max())
 
+    def _cached(self, ctx: FrameContext, key: tuple, make):
+        """``make()`` once per frame for this factor. The entry holds the factor itself,
+        so its ``id`` (in the key) cannot be reused by another factor while the frame's
+        cache lives (a frame may be stepped by several engines in turn)."""
+        return ctx.cached((id(self),) + key, lambda: (self, make()))[1]
+
     # -- re-detection ------------------------------------------------------------------
     def detect(self, ctx: FrameContext, centre, scale: float, max_peaks: int = 3) -> Scan:
         """Where the object may be in the whole frame: the highest peaks of the long-term
@@ -473,7 +479,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
             return Scan(xy, vals[keep], (vals[keep] - mean) / sd,
                         float(valid.sum()) / max(corr * corr, 1.0))
 
-        return ctx.cached(("cf-detect", id(self), max_peaks), make)
+        return self._cached(ctx, ("cf-detect", max_peaks), make)
 
     # -- scoring -----------------------------------------------------------------------
     def _window(self, ctx: FrameContext, centre, levels, angle: float, key):
@@ -490,7 +496,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
                                for a in (angle - self.angle_step, angle + self.angle_step)])
             return maps, turned / self.peak
 
-        return ctx.cached(("cf-window", id(self)) + key, make)
+        return self._cached(ctx, ("cf-window",) + key, make)
 
     def _maps(self, x: np.ndarray, ctx: FrameContext):
         """This frame's first window: its centre (the particles' mean), scale levels
@@ -507,7 +513,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
             angle = 0.0 if self.angle_index is None else float(x[:, self.angle_index].mean())
             return centre, levels, angle, self._window(ctx, centre, levels, angle, ())
 
-        return ctx.cached(("cf-response", id(self)), make)
+        return self._cached(ctx, ("cf-response",), make)
 
     def relative_response(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         """``(N,)`` response at each particle, in units of the typical peak.
