@@ -24,7 +24,7 @@ __all__ = ["BoxAppearanceLikelihood", "SIZE_BOUNDS", "bounded_int", "grey_frame"
 SIZE_BOUNDS = {"n_orient": (2, 36), "cells": (1, 16), "grid": (1, 64), "rings": (1, 64),
                "angles": (1, 360), "radial_samples": (1, 16), "n_components": (1, 64),
                "n_samples": (1, 65536), "n_h": (1, 180), "n_s": (1, 256), "n_v": (1, 256),
-               "scales": (1, 15), "windows": (1, 4)}
+               "scales": (1, 15), "windows": (1, 4), "n_scales": (3, 65)}
 
 
 def bounded_int(factor: str, name: str, value: Any) -> int:

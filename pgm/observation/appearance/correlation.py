@@ -218,7 +218,8 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
                  target_px: float = 32.0, n_orient: int = 6, sigma: float = 0.1,
                  reg: float = 1e-2, adapt_rate: float = 0.02, gate: float = 0.5,
                  scales: int = 3, scale_step: float = 1.05, floor: float = -0.2,
-                 memory_rate: float = 0.002, windows: int = 1, angle_index: int | None = None,
+                 memory_rate: float = 0.002, context_rate: float = 0.0, windows: int = 1,
+                 angle_index: int | None = None,
                  angle_step: float = 0.1, box_indices=(0, 1, 2, 3), name: str | None = None):
         super().__init__(variable, lam=lam, box_indices=box_indices, adapt_rate=adapt_rate,
                          name=name)
@@ -235,6 +236,11 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
                                                     nonneg=True))
         if self.memory_rate > 1:
             raise ValueError(f"factor {n!r}: memory_rate must be in [0, 1], got {memory_rate}")
+        self.context_rate = float(check_finite_param(f"{n}.context_rate", context_rate,
+                                                     nonneg=True))
+        if self.context_rate > 1:
+            raise ValueError(f"factor {n!r}: context_rate must be in [0, 1], got "
+                             f"{context_rate}")
         self.n_orient = bounded_int(n, "n_orient", n_orient)
         self.windows = bounded_int(n, "windows", windows)  # at most MAX_WINDOWS
         if angle_index is not None and (isinstance(angle_index, bool)
@@ -260,6 +266,9 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         self.last_response = None  # relative response at the last estimate
         self.last_psr = None  # peak-to-sidelobe ratio of the map at the last estimate
         self.memory = None  # the long-term filter: (num, den, peak)
+        self.context = None  # (th, tw) probability that a cell moves with the object
+        self._mask_cache = None
+        self._last_seen = None  # (features, centre, scale, angle) of the last learned frame
 
     @property
     def learns(self) -> bool:
@@ -281,7 +290,8 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
                 "n_orient": self.n_orient, "sigma": self.sigma, "reg": self.reg,
                 "adapt_rate": self.adapt_rate, "gate": self.gate, "scales": self.scales,
                 "scale_step": self.scale_step, "floor": self.floor,
-                "memory_rate": self.memory_rate, "windows": self.windows,
+                "memory_rate": self.memory_rate, "context_rate": self.context_rate,
+                "windows": self.windows,
                 "angle_index": self.angle_index, "angle_step": self.angle_step,
                 "box_indices": list(self.box_indices)}
 
@@ -305,10 +315,15 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         """The in-plane angle of a state (0 without an angle component)."""
         return 0.0 if self.angle_index is None else float(value[self.angle_index])
 
-    def _spectrum(self, ctx: FrameContext, centre, scale: float,
+    def _features(self, ctx: FrameContext, centre, scale: float,
                   angle: float = 0.0) -> np.ndarray:
-        feats = window_features(grey_frame(ctx), centre, self.ref_size * scale, self.shape,
-                                self.n_orient, angle)
+        return window_features(grey_frame(ctx), centre, self.ref_size * scale, self.shape,
+                               self.n_orient, angle)
+
+    def _spectrum(self, ctx: FrameContext, centre, scale: float,
+                  angle: float = 0.0, feats: np.ndarray | None = None) -> np.ndarray:
+        if feats is None:
+            feats = self._features(ctx, centre, scale, angle)
         return sfft.rfft2(feats * self.hann, axes=(-2, -1))
 
     def _filter_of(self, xf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -320,6 +335,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         return den + (self.reg * float(den.mean()) + 1e-12)  # a flat window has no energy
 
     def _train(self, xf: np.ndarray, rate: float) -> None:
+        self._mask_cache = None
         num, den = self._filter_of(xf)
         if self.num is None:
             self.num, self.den = num, den
@@ -330,10 +346,22 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
     def _response(self, zf: np.ndarray, num=None, den=None) -> np.ndarray:
         """The response map of the window with spectrum ``zf`` (of the short-term filter,
         or of the filter ``num, den``)."""
+        if num is None and den is None and self.context is not None:
+            return sfft.irfft2(np.sum(self._masked_filter() * zf, axis=0), s=self.hann.shape)
         num = self.num if num is None else num
         den = self.den if den is None else den
         return sfft.irfft2(np.sum(np.conj(num) * zf, axis=0) / self._regularised(den),
                            s=self.hann.shape)
+
+    def _masked_filter(self) -> np.ndarray:
+        """The short-term filter's spectrum with each cell weighted by the probability
+        that it moves with the object (:attr:`context`), cached until either changes."""
+        if self._mask_cache is None:
+            th, tw = self.hann.shape
+            h = sfft.irfft2(np.conj(self.num) / self._regularised(self.den), s=(th, tw))
+            # the filter's cell (0, 0) is the window centre's: the mask is centred likewise
+            self._mask_cache = sfft.rfft2(h * np.fft.ifftshift(self.context), axes=(-2, -1))
+        return self._mask_cache
 
     def _learn_memory(self, xf: np.ndarray, here: float | None) -> None:
         """The long-term filter: the first frame's, then blended at ``memory_rate``."""
@@ -365,8 +393,20 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
                              f"size, got {box[2:].tolist()}")
         self._setup(box)
         self.num = None
-        xf = self._spectrum(ctx, box[:2], np.sqrt(box[2] * box[3]) / self.ref_scale,
-                            self._angle(np.asarray(value, float)))
+        scale = np.sqrt(box[2] * box[3]) / self.ref_scale
+        angle = self._angle(np.asarray(value, float))
+        feats = self._features(ctx, box[:2], scale, angle)
+        xf = self._spectrum(ctx, box[:2], scale, angle, feats)
+        self.context = None
+        if self.context_rate > 0:
+            # the box is the object's; whether the rest of the window moves with it is
+            # not known yet: even odds
+            th, tw = self.hann.shape
+            ih = np.abs(np.arange(th) - (th - 1) / 2) <= th / (1 + self.padding) / 2
+            iw = np.abs(np.arange(tw) - (tw - 1) / 2) <= tw / (1 + self.padding) / 2
+            self._box_cells = ih[:, None] & iw[None, :]
+            self.context = np.where(self._box_cells, 1.0, 0.5)
+        self._last_seen = (feats, box[:2].copy(), scale, angle)
         self._train(xf, 1.0)
         response = self._response(xf)
         self.peak = max(float(response.max()), 1e-12)
@@ -382,16 +422,44 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         est = np.asarray(estimates[self.variables[0]], float)
         box = est[list(self.box_indices)]
         scale = np.sqrt(max(box[2] * box[3], 1e-12)) / self.ref_scale
-        xf = self._spectrum(frame, box[:2], scale, self._angle(est))
+        angle = self._angle(est)
+        feats = self._features(frame, box[:2], scale, angle)
+        xf = self._spectrum(frame, box[:2], scale, angle, feats)
         response = self._response(xf)
         here = self._centre_max(response)
         self.last_response = here / self.peak
         self.last_psr = peak_to_sidelobe(response, self._psr_radius)
         if here >= self.gate * self.peak:
+            if self.context is not None:
+                self._learn_context(frame, feats, box[:2], scale, angle)
             if self.adapt_rate > 0:
                 self._train(xf, self.adapt_rate)
                 self.peak = (1 - self.adapt_rate) * self.peak + self.adapt_rate * here
             self._learn_memory(xf, here)
+
+    def _learn_context(self, frame: FrameContext, feats: np.ndarray, centre, scale: float,
+                       angle: float) -> None:
+        """Which cells of the window move with the object: compared with the last learned
+        frame's window, does a cell's content now sit at the object's new place (it moved
+        with it: the object, or context carried along) or where the window was (the
+        static background)? Each frame's log-odds of the two (squared feature
+        differences over their window's typical one) blend into :attr:`context` at
+        ``context_rate``. A move under one cell tells the two apart nowhere and is not
+        used (the older frame stays the reference)."""
+        seen, c0, s0, a0 = self._last_seen
+        step = self.ref_size * s0 / np.array(self.shape, float)  # image px per cell
+        if np.hypot(*((np.asarray(centre) - c0) / step)) < 1.0:
+            return
+        still = self._features(frame, c0, s0, a0)  # this frame where the window was
+        moved = cv2.boxFilter(np.sum((feats - seen) ** 2, axis=0), -1, (3, 3))
+        stayed = cv2.boxFilter(np.sum((still - seen) ** 2, axis=0), -1, (3, 3))
+        typical = float(np.median(np.minimum(moved, stayed))) + 1e-12
+        odds = np.clip((stayed - moved) / typical, -4.0, 4.0)
+        r = self.context_rate
+        self.context = (1 - r) * self.context + r / (1.0 + np.exp(-odds))
+        self.context[self._box_cells] = 1.0  # the box is the object's, by definition
+        self._mask_cache = None
+        self._last_seen = (feats, np.asarray(centre, float).copy(), scale, angle)
 
     def _centre_max(self, r: np.ndarray) -> float:
         """The best response within a tenth of the target of the window centre (where the

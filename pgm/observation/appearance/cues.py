@@ -13,6 +13,7 @@ variable.
 from __future__ import annotations
 
 from pgm.observation.appearance.correlation import CorrelationFilterLikelihood
+from pgm.observation.appearance.scale_filter import ScaleFilterLikelihood
 from pgm.observation.appearance.likelihoods import (
     ColourContrastLikelihood,
     ColourHistogramLikelihood,
@@ -26,7 +27,7 @@ from pgm.observation.appearance.likelihoods import (
 __all__ = ["CUES", "appearance_cues", "cue_factor"]
 
 #: the cues an ``appearance`` string may combine with "+" (each a likelihood factor)
-CUES = ("colour", "fragments", "gradient", "gmm", "rings", "contrast", "template", "cf")
+CUES = ("colour", "fragments", "gradient", "gmm", "rings", "contrast", "template", "cf", "scale")
 
 
 def appearance_cues(appearance: str) -> list[tuple[str, dict[str, float]]]:
@@ -92,4 +93,6 @@ def _cue_factor(cue, variable, params, name, kw):
         return TemplateLikelihood(variable, **{"lam": params.lam, **kw}, name=name)
     if cue == "cf":
         return CorrelationFilterLikelihood(variable, **kw, name=name)
+    if cue == "scale":
+        return ScaleFilterLikelihood(variable, **kw, name=name)
     return RotationInvariantLikelihood(variable, **kw, name=name)

@@ -114,3 +114,48 @@ def test_settings_are_checked_and_saved_with_the_model(tmp_path):
     g.save(tmp_path / "g.json")
     loaded = FactorGraph.load(tmp_path / "g.json").factors[f.name]
     assert loaded.params() == f.params()
+
+
+def _moving_scene(t, collar):
+    """Frame ``t``: a textured object (40 x 56) moving 3 px a frame to the right over a
+    static textured background; with ``collar`` a textured band twice the object's size
+    around it moves with it (context that belongs to the object)."""
+    bg = texture(np.random.default_rng(100), (200, 300), 2.0) * 160 + 40
+    cx, cy = 100 + 3 * t, 100
+    img = bg.copy()
+    if collar:
+        band = texture(np.random.default_rng(102), (112, 80), 1.5) * 160 + 40
+        img[cy - 56:cy + 56, cx - 40:cx + 40] = band
+    img[cy - 28:cy + 28, cx - 20:cx + 20] = texture(np.random.default_rng(101), (56, 40),
+                                                    1.5) * 200 + 30
+    img = img + np.random.default_rng(t).normal(0, 2, img.shape)
+    return np.clip(img, 0, 255).astype(np.uint8), np.array([cx, cy, 40.0, 56.0])
+
+
+@pytest.mark.parametrize("collar", [False, True])
+def test_context_learns_which_cells_move_with_the_object(collar):
+    """``context_rate``: after 25 frames of steady motion the cells around the box read
+    as static background (a static desk) or as moving with the object (a collar that
+    moves with it); the box's own cells stay the object's."""
+    f = CorrelationFilterLikelihood("object", context_rate=0.2)
+    img, box = _moving_scene(0, collar)
+    f.initialize(FrameContext(1, img), box)
+    assert f.context is not None and np.all(np.isin(f.context, (0.5, 1.0)))
+    for t in range(1, 26):
+        img, box = _moving_scene(t, collar)
+        f.update({"object": box}, None, FrameContext(t + 1, img))
+    th, tw = f.context.shape
+    yy, xx = np.mgrid[0:th, 0:tw]
+    # cells between the box and twice its size (inside the window's Hann taper)
+    u = np.abs(xx - (tw - 1) / 2) / (tw / 3 / 2)
+    v = np.abs(yy - (th - 1) / 2) / (th / 3 / 2)
+    ring = (np.maximum(u, v) > 1.2) & (np.maximum(u, v) < 1.8)
+    assert np.all(f.context[f._box_cells] == 1.0)
+    if collar:
+        assert f.context[ring].mean() > 0.7
+    else:
+        assert f.context[ring].mean() < 0.3
+    # without context_rate there is no map and the response is the whole window's
+    plain = CorrelationFilterLikelihood("object")
+    plain.initialize(FrameContext(1, img), box)
+    assert plain.context is None
