@@ -75,6 +75,11 @@ CONFIGS = [
     ("  - scale (fixed size)", DEFAULT | dict(scale_noise=0.0)),
     ("  - filter updates (first frame only)", DEFAULT | dict(appearance="cf(adapt_rate=0)")),
     ("  - update gate", DEFAULT | dict(appearance="cf(gate=0)")),
+    ("  + context learned from motion (cf(context_rate=0.05))",
+     DEFAULT | dict(appearance="cf(context_rate=0.05)")),
+    ("  + scale filter (cf+scale)", DEFAULT | dict(appearance="cf+scale")),
+    ("  size by the scale filter alone (cf(scales=1)+scale)",
+     DEFAULT | dict(appearance="cf(scales=1)+scale")),
     ("  + template", DEFAULT | dict(appearance="cf+template")),
     ("  + contrast", DEFAULT | dict(appearance="cf+contrast")),
 ]
@@ -90,7 +95,10 @@ GRID = ([(f"cf(lam={lam},padding={pad}), jumps {jp}",
            ("DEFAULT + re-detection (share 0.5, re-appearance 0.01)",
             DEFAULT | dict(redetect=0.5)),
            ("DEFAULT + re-detection (share 0.5, re-appearance 0.001)",
-            DEFAULT | dict(redetect=0.5, reappear_prob=0.001))])
+            DEFAULT | dict(redetect=0.5, reappear_prob=0.001)),
+           ("DEFAULT + context learned from motion (context_rate 0.05)",
+            DEFAULT | dict(appearance="cf(context_rate=0.05)")),
+           ("DEFAULT + scale filter (cf+scale)", DEFAULT | dict(appearance="cf+scale"))])
 SINGLE = ("FaceOcc1", "Crossing", "David", "Tiger1")
 
 
