@@ -157,3 +157,22 @@ def test_classic_trackers_benchmark_prints_the_cores_and_their_speed(shared_data
     assert all(-1.0 <= float(r[2]) <= 1.0 and 0.0 <= float(r[3]) <= 1.0 for r in scores)
     assert [r[1] for r in speed] == ["sort", "bytetrack", "ocsort"]
     assert all(float(r[3]) > 0 for r in speed)
+
+
+@pytest.mark.slow
+def test_desk_benchmark_prints_a_row_per_tracker():
+    """``benchmarks/desk_eval.py`` on one short video without the peers: a row per config,
+    each AUC in [0, 1] (no wall-clock thresholds)."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, str(root / "benchmarks" / "desk_eval.py"), "--videos",
+                          "1", "--frames", "20", "--no-peers", "--appearance",
+                          "cf(context_rate=0.05)"],
+                         cwd=root, capture_output=True, text=True, timeout=300, check=True).stdout
+    rows = [line for line in out.splitlines() if line.strip().startswith(("DEFAULT", "+", "size",
+                                                                          "appearance"))]
+    assert len(rows) == 4
+    for row in rows:
+        auc = float(row.split()[-3])
+        assert 0.0 <= auc <= 1.0
