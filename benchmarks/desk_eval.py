@@ -66,25 +66,21 @@ def main() -> None:
             tasks.append(([(k + 1, img) for k, img in enumerate(seq.frames)], gt,
                           init_box_from_gt(gt, 1), paths))
         rows = []
+        per: dict[str, list] = {}  # row label -> [(AUC, fps) per video]
         for label, overrides in configs:
-            per, fps = [], []
-            for seed, task in enumerate(tasks):
-                auc, _, f = ae.run_config([task], overrides, 1)  # tracker seed 0
-                per.append(float(auc[0]))
-                fps.append(f)
-            rows.append([label] + [f"{a:.3f}" for a in per]
-                        + [f"{np.mean(per):.3f}", float(np.median(fps))])
-        peers = ae.run_peers if peer_python() is not None else ae.run_mil_here
-        if peer_python() is None and not args.no_peers:
-            print(ae.SETUP_HINT + "; MIL alone runs here")
-        per_peer: dict[str, list] = {}
-        for task in [] if args.no_peers else tasks:
-            for name, (auc, _, f) in peers([task]).items():
-                per_peer.setdefault(name, []).append((auc, f))
-        for name, vals in per_peer.items():
-            rows.append([f"OpenCV {name}"] + [f"{a:.3f}" for a, _ in vals]
-                        + [f"{np.mean([a for a, _ in vals]):.3f}",
-                           float(np.median([f for _, f in vals]))])
+            for task in tasks:
+                auc, _, fps = ae.run_config([task], overrides, 1)  # tracker seed 0
+                per.setdefault(label, []).append((float(auc[0]), fps))
+        if not args.no_peers:
+            if peer_python() is None:
+                print(ae.SETUP_HINT + "; MIL alone runs here")
+            peers = ae.run_peers if peer_python() is not None else ae.run_mil_here
+            for task in tasks:
+                for name, (auc, _, fps) in peers([task]).items():
+                    per.setdefault(f"OpenCV {name}", []).append((auc, fps))
+        rows = [[label] + [f"{a:.3f}" for a, _ in vals]
+                + [f"{np.mean([a for a, _ in vals]):.3f}",
+                   float(np.median([f for _, f in vals]))] for label, vals in per.items()]
     print_table(["tracker"] + [f"video {s}" for s in range(args.videos)] + ["mean", "frames/s"],
                 rows, title=f"desk_scene: {args.videos} videos x {args.frames} frames, "
                             f"background {args.background:g}; success AUC")

@@ -13,6 +13,7 @@ import numpy as np
 
 from pgm.core.errors import InputError
 from pgm.core.rng import as_generator
+from pgm.synthetic._checks import _check_n_frames
 from pgm.synthetic.scene import (
     _BLUE,
     _GREEN,
@@ -195,8 +196,7 @@ def jump_scene(seed: int | np.random.Generator = 0, n_frames: int = 90) -> JumpS
     vanished has lost it; one that re-detects finds it again from frame 56.
     """
     rng = as_generator(seed)
-    if n_frames < 1:
-        raise InputError(f"n_frames must be positive, got {n_frames}")
+    n_frames = _check_n_frames(n_frames)
     H, W = 240, 320
     bg = 120.0 + 22.0 * _smooth_noise(rng, H, W, 14, 18, 1)[..., 0]
     ow, oh = 40, 48
@@ -275,8 +275,7 @@ def desk_scene(seed: int | np.random.Generator = 0, n_frames: int = 1344, *,
     bounding box of the visible faces.
     """
     rng = as_generator(seed)
-    if n_frames < 1:
-        raise InputError(f"n_frames must be positive, got {n_frames}")
+    n_frames = _check_n_frames(n_frames)
     H, W, T, f = 240, 320, 64, 400.0
     desk = 110.0 + background * (30.0 * _smooth_noise(rng, H, W, 10, 12, 1)[..., 0]
                                  + 12.0 * _smooth_noise(rng, H, W, 40, 50, 1)[..., 0])

@@ -122,6 +122,12 @@ class BoxAppearanceLikelihood(LikelihoodFactor):
         if not self.has_model:
             self.learn(ctx, np.asarray(value, dtype=float))
 
+    def _cached(self, ctx: FrameContext, key: tuple, make):
+        """``make()`` once per frame for this factor. The entry holds the factor itself,
+        so its ``id`` (in the key) cannot be reused by another factor while the frame's
+        cache lives (a frame may be stepped by several engines in turn)."""
+        return ctx.cached((id(self),) + key, lambda: (self, make()))[1]
+
     @abstractmethod
     def learn(self, ctx: FrameContext, value: np.ndarray) -> None:
         """Set the appearance model from frame ``ctx`` at the state ``value`` ``(d,)``."""

@@ -60,7 +60,7 @@ from pgm.core.numerics import check_finite_param
 from .likelihoods import BoxAppearanceLikelihood, bounded_int, grey_frame
 
 __all__ = ["CorrelationFilterLikelihood", "window_features", "patch_features",
-           "peak_to_sidelobe", "response_peaks", "Scan"]
+           "peak_to_sidelobe", "response_peaks", "Scan", "filter_of", "ridge"]
 
 #: widest search window, in template pixels per side (``target_px · (1 + padding)``):
 #: the window's features and spectra are ``(1 + n_orient) ·`` its area, per scale level
@@ -118,6 +118,19 @@ def response_peaks(response: np.ndarray, radius: int, k: int) -> tuple[np.ndarra
                 break
     idx = np.array(keep, dtype=np.intp)
     return np.stack([xs[idx], ys[idx]], axis=1).astype(float), vals[idx].astype(float)
+
+
+def filter_of(gf: np.ndarray, xf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The filter ``(num, den)`` that one sample of spectrum ``xf`` ``(C, ...)`` alone
+    gives for the label spectrum ``gf`` (MOSSE / DSST's closed form, any dimension):
+    ``conj(G) · X_c`` and ``Σ_c |X_c|²``."""
+    return np.conj(gf)[None] * xf, np.sum((xf * np.conj(xf)).real, axis=0)
+
+
+def ridge(den: np.ndarray, reg: float) -> np.ndarray:
+    """A filter's denominator plus its ridge: ``reg`` times its mean energy (and a floor,
+    since a flat window has none)."""
+    return den + (reg * float(den.mean()) + 1e-12)
 
 
 def _one_cloud(xy: np.ndarray, centre: np.ndarray, quarter: np.ndarray) -> bool:
@@ -306,6 +319,10 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         self.ref_scale = np.sqrt(w * h)
         hann = np.outer(np.hanning(th), np.hanning(tw)).astype(np.float32)
         self.hann = hann
+        # the cells over the object's box (the rest is context)
+        ih = np.abs(np.arange(th) - (th - 1) / 2) <= th / (1 + self.padding) / 2
+        iw = np.abs(np.arange(tw) - (tw - 1) / 2) <= tw / (1 + self.padding) / 2
+        self.box_cells = ih[:, None] & iw[None, :]
         s = self.sigma * self.target_px
         yy, xx = np.mgrid[0:th, 0:tw]
         g = np.exp(-0.5 * (((xx - (tw - 1) / 2) ** 2 + (yy - (th - 1) / 2) ** 2) / s ** 2))
@@ -328,11 +345,11 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
 
     def _filter_of(self, xf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The filter ``(num, den)`` that one window of spectrum ``xf`` alone gives."""
-        return np.conj(self.gf)[None] * xf, np.sum((xf * np.conj(xf)).real, axis=0)
+        return filter_of(self.gf, xf)
 
     def _regularised(self, den: np.ndarray) -> np.ndarray:
         """The filter's denominator plus its ridge ``λ``."""
-        return den + (self.reg * float(den.mean()) + 1e-12)  # a flat window has no energy
+        return ridge(den, self.reg)
 
     def _train(self, xf: np.ndarray, rate: float) -> None:
         self._mask_cache = None
@@ -397,15 +414,10 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         angle = self._angle(np.asarray(value, float))
         feats = self._features(ctx, box[:2], scale, angle)
         xf = self._spectrum(ctx, box[:2], scale, angle, feats)
-        self.context = None
-        if self.context_rate > 0:
-            # the box is the object's; whether the rest of the window moves with it is
-            # not known yet: even odds
-            th, tw = self.hann.shape
-            ih = np.abs(np.arange(th) - (th - 1) / 2) <= th / (1 + self.padding) / 2
-            iw = np.abs(np.arange(tw) - (tw - 1) / 2) <= tw / (1 + self.padding) / 2
-            self._box_cells = ih[:, None] & iw[None, :]
-            self.context = np.where(self._box_cells, 1.0, 0.5)
+        # the box is the object's; whether the rest of the window moves with it is not
+        # known yet: even odds
+        self.context = (np.where(self.box_cells, 1.0, 0.5) if self.context_rate > 0
+                        else None)
         self._last_seen = (feats, box[:2].copy(), scale, angle)
         self._train(xf, 1.0)
         response = self._response(xf)
@@ -457,7 +469,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         odds = np.clip((stayed - moved) / typical, -4.0, 4.0)
         r = self.context_rate
         self.context = (1 - r) * self.context + r / (1.0 + np.exp(-odds))
-        self.context[self._box_cells] = 1.0  # the box is the object's, by definition
+        self.context[self.box_cells] = 1.0  # the box is the object's, by definition
         self._mask_cache = None
         self._last_seen = (feats, np.asarray(centre, float).copy(), scale, angle)
 
@@ -470,12 +482,6 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         y0, y1 = int(np.floor(cy)) - rad, int(np.ceil(cy)) + rad + 1
         x0, x1 = int(np.floor(cx)) - rad, int(np.ceil(cx)) + rad + 1
         return float(r[max(y0, 0):y1, max(x0, 0):x1].max())
-
-    def _cached(self, ctx: FrameContext, key: tuple, make):
-        """``make()`` once per frame for this factor. The entry holds the factor itself,
-        so its ``id`` (in the key) cannot be reused by another factor while the frame's
-        cache lives (a frame may be stepped by several engines in turn)."""
-        return ctx.cached((id(self),) + key, lambda: (self, make()))[1]
 
     # -- re-detection ------------------------------------------------------------------
     def detect(self, ctx: FrameContext, centre, scale: float, max_peaks: int = 3) -> Scan:
@@ -513,14 +519,11 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
             fshape = (sfft.next_fast_len(full[0], real=True),
                       sfft.next_fast_len(full[1], real=True))
             zf = sfft.rfft2(feats, s=fshape, axes=(-2, -1))
-            # the filter's cells over the object's box: its context (padding) learned the
-            # background around the object, which stays where the object was
-            ih = np.abs(np.arange(th) - (th - 1) / 2) <= th / (1 + self.padding) / 2
-            iw = np.abs(np.arange(tw) - (tw - 1) / 2) <= tw / (1 + self.padding) / 2
-            box_mask = (ih[:, None] & iw[None, :]).astype(float)
             num, den, peak = self.memory
             h = sfft.irfft2(np.conj(num) / self._regularised(den), s=(th, tw))
-            h = np.fft.fftshift(h, axes=(-2, -1)) * box_mask  # the object's part only
+            # the filter's cells over the object's box only: its context (padding)
+            # learned the background around the object, which stays where the object was
+            h = np.fft.fftshift(h, axes=(-2, -1)) * self.box_cells
             hf = sfft.rfft2(h, s=fshape, axes=(-2, -1))
             best = sfft.irfft2(np.sum(hf * zf, axis=0), s=fshape)
             best = best[th // 2:th // 2 + oh, tw // 2:tw // 2 + ow] / peak

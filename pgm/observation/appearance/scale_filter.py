@@ -36,12 +36,11 @@ import cv2
 import numpy as np
 import scipy.fft as sfft
 
-from pgm.core.boxes import mean_box_size
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
 
 from .base import BoxAppearanceLikelihood, bounded_int, grey_frame
-from .correlation import patch_features
+from .correlation import filter_of, patch_features, ridge
 
 __all__ = ["ScaleFilterLikelihood"]
 
@@ -125,10 +124,7 @@ class ScaleFilterLikelihood(BoxAppearanceLikelihood):
             # area-averaged resampling: a sample larger than the patch is smoothed first
             # (no aliasing, so larger and smaller samples are read alike)
             step = max(sx, sy)
-            src = grey
-            if step > 1.5:
-                k_ = int(2 * round(step / 2) + 1)
-                src = cv2.blur(grey, (k_, k_)) if k_ > 1 else grey
+            src = grey if step <= 1.5 else self._blurred(ctx, int(2 * round(step / 2) + 1))
             patch = cv2.warpAffine(src, m, (pw, ph),
                                    flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                                    borderMode=cv2.BORDER_REPLICATE)
@@ -136,15 +132,19 @@ class ScaleFilterLikelihood(BoxAppearanceLikelihood):
         feats *= self.hann[:, None].astype(np.float32)
         return sfft.fft(feats.T, axis=1)
 
+    @staticmethod
+    def _blurred(ctx: FrameContext, k: int) -> np.ndarray:
+        """The frame's grey levels under a ``k x k`` box filter, once per frame and ``k``
+        (the scoring and the learning stacks of a frame share them)."""
+        return ctx.cached(("grey-f32-box", k), lambda: cv2.blur(grey_frame(ctx), (k, k)))
+
     def _response(self, zf: np.ndarray) -> np.ndarray:
         """The response ``(S,)`` of a stack, over the offsets (``-(S-1)/2 … (S-1)/2``)."""
-        den = self.den + (self.reg * float(self.den.mean()) + 1e-12)
-        r = sfft.ifft(np.sum(np.conj(self.num) * zf, axis=0) / den).real
+        r = sfft.ifft(np.sum(np.conj(self.num) * zf, axis=0) / ridge(self.den, self.reg)).real
         return np.fft.fftshift(r)
 
     def _train(self, xf: np.ndarray, rate: float) -> None:
-        num = np.conj(self.gf)[None] * xf
-        den = np.sum((xf * np.conj(xf)).real, axis=0)
+        num, den = filter_of(self.gf, xf)
         if self.num is None or rate >= 1.0:
             self.num, self.den = num, den
         else:
@@ -182,13 +182,11 @@ class ScaleFilterLikelihood(BoxAppearanceLikelihood):
         b = self.boxes(x)
 
         def make():
-            centre = np.concatenate([b[:, :2].mean(axis=0), [0.0, 0.0]])
             mw, mh = np.exp(np.mean(np.log(np.maximum(b[:, 2:], 1e-12)), axis=0))
-            centre[2:] = mw, mh
-            return np.sqrt(mw * mh), self._response(self._stack(ctx, centre)) / self.peak
+            box = np.array([*b[:, :2].mean(axis=0), mw, mh])
+            return np.sqrt(mw * mh), self._response(self._stack(ctx, box)) / self.peak
 
-        key = (id(self), "scale-stack")
-        ref, resp = ctx.cached(key, lambda: (self, make()))[1]
+        ref, resp = self._cached(ctx, ("scale-stack",), make)
         pos = (np.log(np.sqrt(np.maximum(b[:, 2] * b[:, 3], 1e-24)) / ref)
                / np.log(self.scale_step) + self.n_scales // 2)
         inside = (pos >= 0) & (pos <= self.n_scales - 1)

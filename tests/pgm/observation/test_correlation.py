@@ -100,13 +100,19 @@ def test_peak_to_sidelobe_ratio_by_hand():
 
 
 def test_settings_are_checked_and_saved_with_the_model(tmp_path):
-    from pgm import FactorGraph, GaussianPrior, Variable
-
     for bad in ({"lam": float("nan")}, {"scales": 2}, {"padding": -1}, {"n_orient": 1},
                 {"scale_step": 0.9}):
         with pytest.raises(ValueError):
             CorrelationFilterLikelihood("object", **bad)
-    f = CorrelationFilterLikelihood("object", lam=7.0, padding=2.0, gate=0.3)
+    check_unlearned_refuses_and_saved_settings_load(
+        CorrelationFilterLikelihood("object", lam=7.0, padding=2.0, gate=0.3), tmp_path)
+
+
+def check_unlearned_refuses_and_saved_settings_load(f, tmp_path):
+    """A box factor with no model yet refuses to score (a ``ValueError`` naming the
+    model), and a graph holding it saves and loads with the same settings."""
+    from pgm import FactorGraph, GaussianPrior, Variable
+
     with pytest.raises(ValueError, match="no num"):
         f.log_likelihood(np.zeros((1, 4)), FrameContext(1, np.zeros((10, 10), np.uint8)))
     g = FactorGraph([Variable("object", 4)],
@@ -150,7 +156,7 @@ def test_context_learns_which_cells_move_with_the_object(collar):
     u = np.abs(xx - (tw - 1) / 2) / (tw / 3 / 2)
     v = np.abs(yy - (th - 1) / 2) / (th / 3 / 2)
     ring = (np.maximum(u, v) > 1.2) & (np.maximum(u, v) < 1.8)
-    assert np.all(f.context[f._box_cells] == 1.0)
+    assert np.all(f.context[f.box_cells] == 1.0)
     if collar:
         assert f.context[ring].mean() > 0.7
     else:

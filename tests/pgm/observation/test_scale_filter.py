@@ -9,7 +9,10 @@ import pytest
 from pgm.core.frame import FrameContext
 from pgm.observation.appearance.scale_filter import ScaleFilterLikelihood
 
-from test_correlation import scene  # same folder: on sys.path
+from test_correlation import (  # same folder: on sys.path
+    check_unlearned_refuses_and_saved_settings_load,
+    scene,
+)
 
 
 @pytest.mark.parametrize("factor", [0.91, 1.0, 1.06, 1.12])
@@ -42,20 +45,12 @@ def test_reading_is_the_same_whichever_size_the_particles_are_centred_on():
 
 
 def test_settings_are_checked_and_saved_with_the_model(tmp_path):
-    from pgm import FactorGraph, GaussianPrior, Variable
-
     for bad in ({"lam": float("nan")}, {"n_scales": 16}, {"n_scales": 1},
                 {"scale_step": 1.0}, {"patch_px": 0}, {"sigma": -1}):
         with pytest.raises(ValueError):
             ScaleFilterLikelihood("object", **bad)
-    f = ScaleFilterLikelihood("object", lam=7.0, n_scales=9)
-    with pytest.raises(ValueError, match="no num"):
-        f.log_likelihood(np.zeros((1, 4)), FrameContext(1, np.zeros((10, 10), np.uint8)))
-    g = FactorGraph([Variable("object", 4)],
-                    [GaussianPrior("object", mean=[50.0, 40, 20, 20], cov=1.0), f], name="t")
-    g.save(tmp_path / "g.json")
-    loaded = FactorGraph.load(tmp_path / "g.json").factors[f.name]
-    assert loaded.params() == f.params()
+    check_unlearned_refuses_and_saved_settings_load(
+        ScaleFilterLikelihood("object", lam=7.0, n_scales=9), tmp_path)
 
 
 def test_the_size_does_not_drift_over_a_long_video():
