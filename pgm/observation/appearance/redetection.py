@@ -44,7 +44,8 @@ class RedetectionProposal(ProposalFactor):
         The object's box variable ``(cx, cy, w, h, ...)``.
     cue : str
         Name of the likelihood factor that scans the frame: it has
-        ``detect(ctx, centre, scale, max_peaks) -> (centres, values)`` and
+        ``detect(ctx, centre, scale, max_peaks) ->``
+        :class:`~pgm.observation.appearance.correlation.Scan` and
         ``ref_scale`` (the first box's ``sqrt(w h)``), as the correlation filter does.
     fraction : float
         Share of the particles proposed in a frame where the proposal is on.
