@@ -4,12 +4,13 @@ filter.
 :func:`pgm.synthetic.scenes.desk_scene` renders a textured cube turned by hand under a
 desk lamp (320x240 grey, 1344 frames: lighting, in- and out-of-plane rotation, scale
 change), the kind of sequence the shared data lacks. Each seed is one video; every
-config runs on it from the first ground-truth box (one run per video: the video's seed
-is the tracker's), and OpenCV CSRT and MIL run on the same frames (written to a
-temporary folder; the peer virtualenv, ``bash benchmarks/peers/setup_env.sh``; without
-it, MIL alone runs in this process). Success AUC per video and its mean.
+config runs on it from the first ground-truth box (``--seeds`` runs per video, tracker
+seeds 0..S-1, a video's AUC their mean), and OpenCV CSRT and MIL run on the same frames
+(written to a temporary folder; the peer virtualenv,
+``bash benchmarks/peers/setup_env.sh``; without it, MIL alone runs in this process).
+Success AUC per video and its mean.
 
-    python benchmarks/desk_eval.py [--videos 4] [--frames 1344] [--background 0.3]
+    python benchmarks/desk_eval.py [--videos 4] [--seeds 1] [--frames 1344] [--background 0.3]
 """
 
 from __future__ import annotations
@@ -35,6 +36,7 @@ from pgm.io.annotations import SingleTrack  # noqa: E402
 from pgm.synthetic.scenes import desk_scene  # noqa: E402
 
 CONFIGS = [("DEFAULT: cf, scale levels, jumps", ae.DEFAULT),
+           (ae.CONTEXT, ae.DEFAULT | dict(appearance="cf(context_rate=0.05)")),
            ("  + scale filter (cf+scale)", ae.DEFAULT | dict(appearance="cf+scale")),
            ("  size by the scale filter alone (cf(scales=1)+scale)",
             ae.DEFAULT | dict(appearance="cf(scales=1)+scale"))]
@@ -44,6 +46,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--videos", type=int, default=4, help="seeds 0..N-1, one video each")
     ap.add_argument("--frames", type=int, default=1344)
+    ap.add_argument("--seeds", type=int, default=1,
+                    help="tracker seeds per video (0..S-1; a video's AUC is their mean)")
     ap.add_argument("--background", type=float, default=0.3,
                     help="the desk's texture (1: as strong as the cube's)")
     ap.add_argument("--appearance", action="append", default=[], metavar="CUES",
@@ -69,8 +73,8 @@ def main() -> None:
         per: dict[str, list] = {}  # row label -> [(AUC, fps) per video]
         for label, overrides in configs:
             for task in tasks:
-                auc, _, fps = ae.run_config([task], overrides, 1)  # tracker seed 0
-                per.setdefault(label, []).append((float(auc[0]), fps))
+                auc, _, fps = ae.run_config([task], overrides, args.seeds)
+                per.setdefault(label, []).append((float(auc.mean()), fps))
         if not args.no_peers:
             if peer_python() is None:
                 print(ae.SETUP_HINT + "; MIL alone runs here")
@@ -83,7 +87,8 @@ def main() -> None:
                    float(np.median([f for _, f in vals]))] for label, vals in per.items()]
     print_table(["tracker"] + [f"video {s}" for s in range(args.videos)] + ["mean", "frames/s"],
                 rows, title=f"desk_scene: {args.videos} videos x {args.frames} frames, "
-                            f"background {args.background:g}; success AUC")
+                            f"background {args.background:g}; success AUC (tracker seeds "
+                            f"0-{args.seeds - 1})")
 
 
 if __name__ == "__main__":

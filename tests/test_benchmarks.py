@@ -172,7 +172,7 @@ def test_desk_benchmark_prints_a_row_per_tracker():
                          cwd=root, capture_output=True, text=True, timeout=300, check=True).stdout
     rows = [line for line in out.splitlines() if line.strip().startswith(("DEFAULT", "+", "size",
                                                                           "appearance"))]
-    assert len(rows) == 4
+    assert len(rows) == 5
     for row in rows:
         auc = float(row.split()[-3])
         assert 0.0 <= auc <= 1.0

@@ -21,6 +21,12 @@ filter is blended towards that window only when the score reaches ``gate · r̄`
 tracker's own confidence relative to its own history: an occluder or a drift does not
 get learned), with ``adapt_rate`` as the learning rate.
 
+With ``context_rate > 0`` (the default single-object tracker's setting) the factor also
+learns, from the object's motion, which cells of its window move with the object and
+weights the filter by that probability, so that a static, textured background the
+object moves over stops holding the response; on a moving camera it is dropped
+(``CorrelationFilterLikelihood``, ``context_rate``).
+
 After each frame the factor also records the **peak-to-sidelobe ratio** of the response
 map at the estimate (MOSSE's failure signal [#bolme2010]: the peak's height above the
 rest of the map, ``(max r − μ_side) / σ_side`` with the ``11 × 11`` cells around the
@@ -57,6 +63,8 @@ from pgm.core.boxes import mean_box_size
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
 
+from pgm.observation.camera_motion import CameraMotionEstimator
+
 from .likelihoods import BoxAppearanceLikelihood, bounded_int, grey_frame
 
 __all__ = ["CorrelationFilterLikelihood", "window_features", "patch_features",
@@ -65,6 +73,9 @@ __all__ = ["CorrelationFilterLikelihood", "window_features", "patch_features",
 #: widest search window, in template pixels per side (``target_px · (1 + padding)``):
 #: the window's features and spectra are ``(1 + n_orient) ·`` its area, per scale level
 MAX_WINDOW_PX = 512
+#: frames are checked for a still camera (while the context is learned) at most this
+#: many pixels wide: the verdicts on the shared sequences are those at 640
+CAMERA_CHECK_PX = 320
 
 
 def peak_to_sidelobe(response: np.ndarray, radius: int) -> float:
@@ -209,6 +220,31 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         frames as the filter, ``memory_rate`` at a time (0: the first frame's filter
         kept). :meth:`detect` scans the frame with it: a target the short-term filter
         drifted away from is still recognised.
+    context_rate : float
+        Learn which cells of the window move with the object (0: none, every cell
+        counts; the default single-object model uses 0.2). The filter is trained on a
+        window three times the object's size, so on a static, textured background the
+        learned background can hold the response where the window sits while the object
+        moves away. With ``context_rate > 0`` each cell carries the probability that it
+        moves with the object (:attr:`context`: the box's cells 1, the others starting
+        at even odds) and the filter is weighted cell by cell by it. After each learned
+        frame the last learned window is compared with this frame at the object's new
+        place and at the window's old place: the squared feature differences of the two
+        (pooled 3 x 3, over their window's typical one) give each cell's log-odds
+        (clipped at ±4), blended in at ``context_rate``. Where the estimate moved less
+        than a cell (a tracker held by the background does not move), the window is
+        compared instead at the place the filter's box cells alone put the object (their
+        response's peak; the object is taken to have been at the last window's centre).
+        A frame is used only when the box's own cells bear the move out (their mean
+        log-odds is positive) and their response at the estimate passes the ``gate`` of
+        their own running peak (the whole window's response stays high while it rests on
+        learned background, the box's alone does not). The comparison needs a still
+        camera: the frames are checked for camera motion
+        (:class:`~pgm.observation.camera_motion.CameraMotionEstimator` at most
+        :data:`CAMERA_CHECK_PX` wide: each of the first 20 frames on its own, a corner
+        moved by a pixel being enough; then ``auto``'s verdict, 16 of the last 20
+        frames), and once the camera is found moving the context is dropped for good
+        (:attr:`camera_moved_at`; every cell counts again, as with ``context_rate=0``).
     angle_index : int, optional
         The state's in-plane rotation component (radians; None: no rotation, the
         default). The filter then learns the window turned by the estimate's angle (it
@@ -280,6 +316,12 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         self.last_psr = None  # peak-to-sidelobe ratio of the map at the last estimate
         self.memory = None  # the long-term filter: (num, den, peak)
         self.context = None  # (th, tw) probability that a cell moves with the object
+        self.object_peak = None  # running mean peak of the filter's box cells alone
+        self.camera_moved_at = None  # the frame where the camera was found moving
+        self._first_frames = None  # the check of each of the first frames (see update)
+        self._checked = 0  # frames it checked: the context weights the filter from one on
+        self._checked_index = None  # the last frame checked
+        self._camera = None  # the still-camera check while the context is learned
         self._mask_cache = None
         self._last_seen = None  # (features, centre, scale, angle) of the last learned frame
 
@@ -363,7 +405,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
     def _response(self, zf: np.ndarray, num=None, den=None) -> np.ndarray:
         """The response map of the window with spectrum ``zf`` (of the short-term filter,
         or of the filter ``num, den``)."""
-        if num is None and den is None and self.context is not None:
+        if num is None and den is None and self.context is not None and self._checked:
             return sfft.irfft2(np.sum(self._masked_filter() * zf, axis=0), s=self.hann.shape)
         num = self.num if num is None else num
         den = self.den if den is None else den
@@ -419,6 +461,15 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         self.context = (np.where(self.box_cells, 1.0, 0.5) if self.context_rate > 0
                         else None)
         self._last_seen = (feats, box[:2].copy(), scale, angle)
+        self.camera_moved_at = None
+        self._camera = self._first_frames = None
+        if self.context is not None:
+            self._camera = CameraMotionEstimator("auto", max_side=CAMERA_CHECK_PX)
+            self._first_frames = CameraMotionEstimator("on", max_side=CAMERA_CHECK_PX)
+            self._checked = 0
+            for check in (self._camera, self._first_frames):
+                check(ctx.image)
+            self._checked_index = ctx.index
         self._train(xf, 1.0)
         response = self._response(xf)
         self.peak = max(float(response.max()), 1e-12)
@@ -426,11 +477,14 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         self.last_psr = peak_to_sidelobe(response, self._psr_radius)
         self.memory = None
         self._learn_memory(xf, None)
+        self.object_peak = (self._centre_max(self._object_response(xf))
+                            if self.context is not None else None)
 
     def update(self, estimates, scores, frame=None) -> None:
         """Score the estimate's window, then learn from it if the score passes the gate."""
         if frame is None or self.num is None:
             return
+        self._check_camera(frame)
         est = np.asarray(estimates[self.variables[0]], float)
         box = est[list(self.box_indices)]
         scale = np.sqrt(max(box[2] * box[3], 1e-12)) / self.ref_scale
@@ -441,37 +495,92 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         here = self._centre_max(response)
         self.last_response = here / self.peak
         self.last_psr = peak_to_sidelobe(response, self._psr_radius)
-        if here >= self.gate * self.peak:
-            if self.context is not None:
-                self._learn_context(frame, feats, box[:2], scale, angle)
-            if self.adapt_rate > 0:
-                self._train(xf, self.adapt_rate)
-                self.peak = (1 - self.adapt_rate) * self.peak + self.adapt_rate * here
-            self._learn_memory(xf, here)
+        if here < self.gate * self.peak:
+            return
+        if self.context is not None:
+            # the box's own cells must pass the gate too: the full window's response
+            # stays high while the filter rests on a static context it has learned
+            obj = self._object_response(xf)
+            here_obj = self._centre_max(obj)
+            if here_obj < self.gate * self.object_peak:
+                return
+            self.object_peak = ((1 - self.adapt_rate) * self.object_peak
+                                + self.adapt_rate * here_obj)
+            self._learn_context(frame, feats, box[:2], scale, angle, obj)
+        if self.adapt_rate > 0:
+            self._train(xf, self.adapt_rate)
+            self.peak = (1 - self.adapt_rate) * self.peak + self.adapt_rate * here
+        self._learn_memory(xf, here)
+
+    def _check_camera(self, frame: FrameContext) -> None:
+        """Once per frame, before the frame's response is read (and at the latest in
+        :meth:`update`): on a moving camera the background moves in the image, and "did
+        this cell stay where it was?" no longer tells it from the object, so the context
+        is dropped for good."""
+        if (self._camera is not None and frame.index != self._checked_index
+                and self._camera_moved(frame)):
+            self.context = self._camera = self._first_frames = self._mask_cache = None
+            self.camera_moved_at = frame.index
+
+    def _camera_moved(self, frame: FrameContext) -> bool:
+        """Is the camera moving? The still-camera check's verdict (``auto``: 16 of the
+        last 20 frames moved by a pixel or more); until it can have one (the first 20
+        frames), each frame is checked on its own and one that moved is enough."""
+        self._checked_index = frame.index
+        image = frame.image
+        if self._camera(image) is not None:
+            return True
+        if self._first_frames is None:
+            return False
+        w, h = image.shape[1], image.shape[0]
+        a = self._first_frames(image)
+        self._checked += 1
+        if self._checked >= self._camera.window:
+            self._first_frames = None
+        return a is not None and self._camera.corner_shift(a, w, h) >= self._camera.min_shift
 
     def _learn_context(self, frame: FrameContext, feats: np.ndarray, centre, scale: float,
-                       angle: float) -> None:
-        """Which cells of the window move with the object: compared with the last learned
-        frame's window, does a cell's content now sit at the object's new place (it moved
-        with it: the object, or context carried along) or where the window was (the
-        static background)? Each frame's log-odds of the two (squared feature
-        differences over their window's typical one) blend into :attr:`context` at
-        ``context_rate``. A move under one cell tells the two apart nowhere and is not
-        used (the older frame stays the reference)."""
+                       angle: float, obj: np.ndarray) -> None:
+        """Which cells of the window move with the object (the class docstring,
+        ``context_rate``): compared with the last learned frame's window, does a cell's
+        content now sit at the object's new place or where the window was? ``obj`` is
+        this frame's response of the filter's box cells alone at the estimate, whose
+        peak places the object when the estimate did not move."""
         seen, c0, s0, a0 = self._last_seen
         step = self.ref_size * s0 / np.array(self.shape, float)  # image px per cell
-        if np.hypot(*((np.asarray(centre) - c0) / step)) < 1.0:
-            return
+        here = np.asarray(centre, float)
+        if np.hypot(*((here - c0) / step)) >= 1.0:
+            new = feats  # the estimate followed the object
+        else:  # the estimate stayed: the box's own cells place the object in the window
+            th, tw = obj.shape
+            iy, ix = np.unravel_index(int(np.argmax(obj)), obj.shape)
+            d = np.array([ix - (tw - 1) / 2, iy - (th - 1) / 2]) + (here - c0) / step
+            if np.hypot(*d) < 1.0:
+                return  # no move seen: the two places cannot be told apart
+            c, s = np.cos(a0), np.sin(a0)
+            off = np.array([c * d[0] * step[0] - s * d[1] * step[1],
+                            s * d[0] * step[0] + c * d[1] * step[1]])
+            new = self._features(frame, c0 + off, s0, a0)
         still = self._features(frame, c0, s0, a0)  # this frame where the window was
-        moved = cv2.boxFilter(np.sum((feats - seen) ** 2, axis=0), -1, (3, 3))
+        moved = cv2.boxFilter(np.sum((new - seen) ** 2, axis=0), -1, (3, 3))
         stayed = cv2.boxFilter(np.sum((still - seen) ** 2, axis=0), -1, (3, 3))
         typical = float(np.median(np.minimum(moved, stayed))) + 1e-12
         odds = np.clip((stayed - moved) / typical, -4.0, 4.0)
+        if float(odds[self.box_cells].mean()) <= 0.0:
+            return  # the box's own content does not bear the move out
         r = self.context_rate
         self.context = (1 - r) * self.context + r / (1.0 + np.exp(-odds))
         self.context[self.box_cells] = 1.0  # the box is the object's, by definition
         self._mask_cache = None
-        self._last_seen = (feats, np.asarray(centre, float).copy(), scale, angle)
+        self._last_seen = (feats, here.copy(), scale, angle)
+
+    def _object_response(self, xf: np.ndarray) -> np.ndarray:
+        """The response map of the filter's cells over the object's box alone, on the
+        window of spectrum ``xf`` (the context's cells left out)."""
+        th, tw = self.hann.shape
+        h = sfft.irfft2(np.conj(self.num) / self._regularised(self.den), s=(th, tw))
+        hf = sfft.rfft2(h * np.fft.ifftshift(self.box_cells), axes=(-2, -1))
+        return sfft.irfft2(np.sum(hf * xf, axis=0), s=(th, tw))
 
     def _centre_max(self, r: np.ndarray) -> float:
         """The best response within a tenth of the target of the window centre (where the
@@ -574,6 +683,7 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         (around their mean scale) and maps (computed at the first call in a frame and
         cached on it)."""
         def make():
+            self._check_camera(ctx)
             b = self.boxes(x)
             base = mean_box_size(b) / self.ref_scale
             levels = base * self.scale_step ** (np.arange(self.scales) - self.scales // 2)

@@ -150,12 +150,7 @@ def test_context_learns_which_cells_move_with_the_object(collar):
     for t in range(1, 26):
         img, box = _moving_scene(t, collar)
         f.update({"object": box}, None, FrameContext(t + 1, img))
-    th, tw = f.context.shape
-    yy, xx = np.mgrid[0:th, 0:tw]
-    # cells between the box and twice its size (inside the window's Hann taper)
-    u = np.abs(xx - (tw - 1) / 2) / (tw / 3 / 2)
-    v = np.abs(yy - (th - 1) / 2) / (th / 3 / 2)
-    ring = (np.maximum(u, v) > 1.2) & (np.maximum(u, v) < 1.8)
+    ring = _ring(f)
     assert np.all(f.context[f.box_cells] == 1.0)
     if collar:
         assert f.context[ring].mean() > 0.7
@@ -165,3 +160,68 @@ def test_context_learns_which_cells_move_with_the_object(collar):
     plain = CorrelationFilterLikelihood("object")
     plain.initialize(FrameContext(1, img), box)
     assert plain.context is None
+
+
+def _ring(f):
+    """The cells between the box and twice its size (inside the window's Hann taper)."""
+    th, tw = f.context.shape
+    yy, xx = np.mgrid[0:th, 0:tw]
+    u = np.abs(xx - (tw - 1) / 2) / (tw / 3 / 2)
+    v = np.abs(yy - (th - 1) / 2) / (th / 3 / 2)
+    return (np.maximum(u, v) > 1.2) & (np.maximum(u, v) < 1.8)
+
+
+def test_context_is_learned_while_the_estimate_rests_on_the_desk():
+    """A tracker held by the static desk does not move, so the estimate's own motion
+    cannot tell the desk from the object. The box's own cells then place the object
+    (their response's peak), and the window there is compared: the desk reads as static
+    (below the even odds it started at). Once the object has left the box, its cells
+    fail the gate and nothing more is learned: neither the context nor the filter."""
+    f = CorrelationFilterLikelihood("object", context_rate=0.2)
+    img, box0 = _moving_scene(0, False)
+    f.initialize(FrameContext(1, img), box0)
+    history = []
+    for t in range(1, 12):  # the object moves 3 px a frame; the estimate stays
+        img, _ = _moving_scene(t, False)
+        f.update({"object": box0}, None, FrameContext(t + 1, img))
+        history.append((f.context[_ring(f)].mean(), f.num.copy()))
+    # the first frame's move (3 px, two cells) is seen: the desk reads as static, where
+    # the estimate's own (null) motion would have left it at even odds
+    assert history[0][0] < 0.45
+    assert all(ring <= history[0][0] for ring, _ in history)
+    # the object 15 px out of its 40 px box and further: no more learning
+    for ring, num in history[5:]:
+        assert ring == history[4][0] and np.array_equal(num, history[4][1])
+
+
+def test_context_is_dropped_when_the_camera_moves():
+    """Learning which cells stay where they were needs a still camera. A camera that
+    follows the object moves the whole background: from the start, the first frame's
+    check finds it (each of the first 20 frames is checked on its own); later, the
+    still-camera check's verdict (16 of 20 frames moving:
+    :class:`~pgm.observation.camera_motion.CameraMotionEstimator`, ``auto``). The
+    context is then dropped (every cell counts, as without ``context_rate``); on the
+    still camera of the same scene it is kept."""
+    desk = texture(np.random.default_rng(100), (200, 500), 2.0) * 160 + 40
+    obj = texture(np.random.default_rng(101), (56, 40), 1.5) * 200 + 30
+
+    def frame(t, pan_from):
+        p = max(0, t - pan_from)  # frames the camera has followed the object
+        img = desk[:, 3 * p:3 * p + 300].copy()
+        cx = 120 + 2 * (t - p)
+        img[72:128, cx - 20:cx + 20] = obj
+        img = img + np.random.default_rng(t).normal(0, 2, img.shape)
+        return np.clip(img, 0, 255).astype(np.uint8), np.array([cx, 100, 40.0, 56.0])
+
+    for pan_from, moved_at in ((0, (2, 2)), (30, (47, 52)), (None, None)):
+        f = CorrelationFilterLikelihood("object", context_rate=0.2)
+        img, box = frame(0, pan_from or 99)
+        f.initialize(FrameContext(1, img), box)
+        for t in range(1, 60):
+            img, box = frame(t, 99 if pan_from is None else pan_from)
+            f.update({"object": box}, None, FrameContext(t + 1, img))
+        if moved_at:
+            assert f.context is None and moved_at[0] <= f.camera_moved_at <= moved_at[1]
+        else:
+            assert f.context is not None and f.camera_moved_at is None
+            assert f.context[_ring(f)].mean() < 0.3
