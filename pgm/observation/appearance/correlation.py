@@ -21,8 +21,8 @@ filter is blended towards that window only when the score reaches ``gate · r̄`
 tracker's own confidence relative to its own history: an occluder or a drift does not
 get learned), with ``adapt_rate`` as the learning rate.
 
-With ``context_rate > 0`` (the default single-object tracker's setting) the factor also
-learns, from the object's motion, which cells of its window move with the object and
+With ``context_rate > 0`` (an option: the default single-object tracker leaves it at 0)
+the factor also learns, from the object's motion, which cells of its window move with the object and
 weights the filter by that probability, so that a static, textured background the
 object moves over stops holding the response; on a moving camera it is dropped
 (``CorrelationFilterLikelihood``, ``context_rate``).
@@ -62,7 +62,6 @@ import scipy.fft as sfft
 from pgm.core.boxes import mean_box_size
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
-
 from pgm.observation.camera_motion import CameraMotionEstimator
 
 from .likelihoods import BoxAppearanceLikelihood, bounded_int, grey_frame
@@ -221,8 +220,8 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         kept). :meth:`detect` scans the frame with it: a target the short-term filter
         drifted away from is still recognised.
     context_rate : float
-        Learn which cells of the window move with the object (0: none, every cell
-        counts; the default single-object model uses 0.2). The filter is trained on a
+        Learn which cells of the window move with the object (0, the default: none,
+        every cell counts; ``docs/results.md`` measures 0.05 and 0.2). The filter is trained on a
         window three times the object's size, so on a static, textured background the
         learned background can hold the response where the window sits while the object
         moves away. With ``context_rate > 0`` each cell carries the probability that it
@@ -416,11 +415,16 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
         """The short-term filter's spectrum with each cell weighted by the probability
         that it moves with the object (:attr:`context`), cached until either changes."""
         if self._mask_cache is None:
-            th, tw = self.hann.shape
-            h = sfft.irfft2(np.conj(self.num) / self._regularised(self.den), s=(th, tw))
-            # the filter's cell (0, 0) is the window centre's: the mask is centred likewise
-            self._mask_cache = sfft.rfft2(h * np.fft.ifftshift(self.context), axes=(-2, -1))
+            self._mask_cache = self._weighted_filter(self.context)
         return self._mask_cache
+
+    def _weighted_filter(self, weights: np.ndarray) -> np.ndarray:
+        """The short-term filter's spectrum with its cell ``(i, j)`` of the window
+        weighted by ``weights[i, j]``."""
+        th, tw = self.hann.shape
+        h = sfft.irfft2(np.conj(self.num) / self._regularised(self.den), s=(th, tw))
+        # the filter's cell (0, 0) is the window centre's: the weights are centred likewise
+        return sfft.rfft2(h * np.fft.ifftshift(weights), axes=(-2, -1))
 
     def _learn_memory(self, xf: np.ndarray, here: float | None) -> None:
         """The long-term filter: the first frame's, then blended at ``memory_rate``."""
@@ -577,10 +581,8 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
     def _object_response(self, xf: np.ndarray) -> np.ndarray:
         """The response map of the filter's cells over the object's box alone, on the
         window of spectrum ``xf`` (the context's cells left out)."""
-        th, tw = self.hann.shape
-        h = sfft.irfft2(np.conj(self.num) / self._regularised(self.den), s=(th, tw))
-        hf = sfft.rfft2(h * np.fft.ifftshift(self.box_cells), axes=(-2, -1))
-        return sfft.irfft2(np.sum(hf * xf, axis=0), s=(th, tw))
+        hf = self._weighted_filter(self.box_cells)
+        return sfft.irfft2(np.sum(hf * xf, axis=0), s=self.hann.shape)
 
     def _centre_max(self, r: np.ndarray) -> float:
         """The best response within a tenth of the target of the window centre (where the
