@@ -1,6 +1,7 @@
 """Run the peer trackers in their own virtualenv and read their output back.
 
-The peers (OpenCV CSRT / KCF / MIL; SORT / ByteTrack / OC-SORT from ``trackers`` 2.6.1) are
+The peers (OpenCV CSRT / KCF / MIL; SORT / ByteTrack / OC-SORT, and BoT-SORT / C-BIoU / McByte
+on request, from ``trackers`` 2.6.1) are
 not toolkit dependencies: ``trackers`` pulls ``opencv-python``, which clashes with the
 toolkit's ``opencv-python-headless``, and CSRT / KCF need the contrib build. They live in
 ``.venv-peers/`` (``bash benchmarks/peers/setup_env.sh``) and run as subprocesses
@@ -15,6 +16,7 @@ toolkit's 0-based ones, as for ``gt.txt``). Single-object boxes are exchanged in
 toolkit's 0-based top-left ``(x, y, w, h)``, which are OpenCV's pixel coordinates.
 
     from _peers import SETUP_HINT, frame_paths, peer_python, run_mot_peers, run_sot_peers
+    run_mot_peers(seq, trackers="all")  # + BoT-SORT, C-BIoU, McByte (frames read for CMC)
 """
 
 from __future__ import annotations
@@ -32,14 +34,20 @@ import numpy as np
 from pgm.io.annotations import load_mot
 from pgm.io.video import FrameSource, ImageSequenceSource, open_source
 
-__all__ = ["SETUP_HINT", "PEERS_DIR", "peer_python", "run_mot_peers", "run_sot_peers",
-           "frame_paths"]
+__all__ = ["SETUP_HINT", "PEERS_DIR", "MOT_PEERS", "DEFAULT_MOT_PEERS", "peer_python",
+           "run_mot_peers", "run_sot_peers", "frame_paths"]
 
 REPO = Path(__file__).resolve().parents[1]
 PEERS_DIR = Path(__file__).resolve().parent / "peers"
 SETUP_HINT = ("peer trackers not installed: run `bash benchmarks/peers/setup_env.sh` "
               "(creates .venv-peers/ with trackers 2.6.1 and opencv-contrib-python-headless)")
 _CHECK = "import trackers, cv2; cv2.TrackerCSRT_create"
+#: every tracker ``mot_peers.py`` runs (``trackers="all"``), as its ``TRACKERS``: ``botsort``
+#: and ``mcbyte`` (no mask manager, its default) take the frames for their camera-motion
+#: compensation, the others the detections alone
+MOT_PEERS = ("sort", "bytetrack", "ocsort", "botsort", "cbiou", "mcbyte")
+#: what :func:`run_mot_peers` runs by default (the three the engine's configs reproduce)
+DEFAULT_MOT_PEERS = ("sort", "bytetrack", "ocsort")
 
 
 @functools.lru_cache(maxsize=None)
@@ -111,10 +119,12 @@ def _collect(names, data: dict, script: str, code: int, log: str, read) -> dict[
 
 
 def run_mot_peers(sequence_dir: str | Path, last_frame: int | None = None,
-                  trackers: Sequence[str] = ("sort", "bytetrack", "ocsort"),
+                  trackers: Sequence[str] | str = DEFAULT_MOT_PEERS,
                   workdir: str | Path | None = None,
-                  timeout: float | None = 1800.0) -> dict[str, dict]:
-    """Run SORT / ByteTrack / OC-SORT on a MOTChallenge sequence's public detections.
+                  timeout: float | None = 1800.0,
+                  frames: str | Path | None = None) -> dict[str, dict]:
+    """Run the ``trackers`` package's MOT trackers on a MOTChallenge sequence's public
+    detections (default: SORT / ByteTrack / OC-SORT).
 
     Parameters
     ----------
@@ -122,24 +132,38 @@ def run_mot_peers(sequence_dir: str | Path, last_frame: int | None = None,
         A MOTChallenge folder with ``det/det.txt`` (and ``seqinfo.ini`` for the frame rate).
     last_frame : int, optional
         Track frames ``1..last_frame`` (default: ``seqLength``).
-    trackers : sequence of str
-        Names understood by ``mot_peers.py`` (``sort``, ``bytetrack``, ``ocsort``; also
-        ``botsort``, ``cbiou``).
+    trackers : sequence of str, or str
+        Names understood by ``mot_peers.py``: ``sort``, ``bytetrack``, ``ocsort``,
+        ``botsort``, ``cbiou``, ``mcbyte`` (:data:`MOT_PEERS`); ``"all"`` (or a
+        comma-separated string, which may contain ``all``) for every one of them.
     workdir : path, optional
         Where the result files go (``<tracker>.txt``, ``timing.json``); default a new
         temporary folder, left in place so the returned paths stay valid.
     timeout : float, optional
         Seconds for the whole subprocess.
+    frames : str or path, optional
+        The images for the trackers whose ``update`` takes the frame (``botsort``,
+        ``mcbyte``: camera-motion compensation): None / ``"auto"`` finds them in the
+        sequence (``<imDir>/``, else its video file), ``"none"`` runs those trackers
+        without frames (no CMC), a path names an image folder or a video file.
 
     Returns
     -------
     dict
         ``{name: {"table": MotTable, "fps": float, "path": Path, "frames": int,
-        "seconds": float}}``, or ``{name: {"error": str}}`` for a tracker that failed (or
-        for all of them when the peer venv is missing: the error is :data:`SETUP_HINT`).
-        ``fps`` counts ``tracker.update`` time only.
+        "seconds": float}}`` (plus ``"images"``: the folder or video the frames were read
+        from, None when none, for the trackers that take frames), or
+        ``{name: {"error": str}}`` for a tracker that failed (or for all of them when the
+        peer venv is missing: the error is :data:`SETUP_HINT`). ``fps`` counts
+        ``tracker.update`` time only (CMC included; decoding the frames is not).
     """
-    names = [str(n).lower() for n in trackers]
+    if isinstance(trackers, str):
+        trackers = [t for t in trackers.split(",") if t.strip()]
+    names: list[str] = []
+    for n in (str(t).strip().lower() for t in trackers):
+        for m in (MOT_PEERS if n == "all" else (n,)):
+            if m not in names:
+                names.append(m)
     py = peer_python()
     if py is None:
         return {n: {"error": SETUP_HINT} for n in names}
@@ -151,13 +175,19 @@ def run_mot_peers(sequence_dir: str | Path, last_frame: int | None = None,
            "--trackers", ",".join(names)]
     if last_frame is not None:
         cmd += ["--last-frame", str(int(last_frame))]
+    if frames is not None:
+        cmd += ["--frames", frames if frames in ("auto", "none")
+                else str(Path(frames).expanduser().resolve())]
     code, log = _run(cmd, timeout)
     timing_path = out / "timing.json"
     timing = json.loads(timing_path.read_text()) if timing_path.is_file() else {}
     def read(name, entry):
         path = out / f"{name}.txt"
-        return {"table": load_mot(path, kind="det"), "path": path,
-                "frames": int(entry["frames"]), "seconds": float(entry["seconds"])}
+        res = {"table": load_mot(path, kind="det"), "path": path,
+               "frames": int(entry["frames"]), "seconds": float(entry["seconds"])}
+        if "images" in entry:
+            res["images"] = entry["images"]
+        return res
 
     results = _collect(names, timing, "mot_peers.py", code, log, read)
     return results

@@ -41,7 +41,11 @@ from pgm.core.boxes import box_coding, encode_boxes, state_boxes
 from pgm.core.frame import FrameContext
 from pgm.core.motion import linear_state_warp
 from pgm.factors import GaussianPrior, LinearGaussianTransition
-from pgm.factors.association import AssignedDetectionLikelihood, DetectionAssociation
+from pgm.factors.association import (
+    LEARNED_SCORE_MAPS,
+    AssignedDetectionLikelihood,
+    DetectionAssociation,
+)
 from pgm.factors.multitarget import VBNoise
 
 from .engine import Engine
@@ -263,7 +267,14 @@ def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, 
     replica's weighted mean."""
     var = factor.variables[0]
     pred = state_boxes(engine.graph.variables[var].labels, _means(engine.beliefs[var]))
-    boxes, scores = detection_boxes(frame), factor.scores(frame)
+    boxes = detection_boxes(frame)
+    model = None
+    if factor.score_map in LEARNED_SCORE_MAPS:  # the run's score model, kept with the engine
+        aux = engine.aux.setdefault(factor.name, {})
+        model = aux.get("score_model")
+        if model is None:
+            model = aux["score_model"] = factor.score_model()
+    scores = factor.scores(frame, model)
     looks = _appearance(engine, factor, frame, boxes)
     extra = {} if looks is None else {"appearance": looks,
                                       "appearance_weight": factor.appearance_weight}

@@ -357,6 +357,10 @@ def step(engine: Engine, frame: FrameContext, record: StepRecord, lifecycle: boo
             reps.est = dict(record.estimates)
         else:
             engine._run(engine.schedule.phases, frame, record, skip=("associate",))
+    elif not missing:  # no replica yet: the association still reads the frame's detections
+        # (a score model learned on the video sees every frame; births read mapped scores)
+        engine._run([p for p in engine.schedule.phases if p[0] == "assign"], frame, record,
+                    hooks=False)
     info = record.info.setdefault(engine.plate.name, {})
     if lifecycle and not missing:
         engine._run([("associate", [engine.plate.name])], frame, record)

@@ -59,6 +59,7 @@ from pgm.core.numerics import check_finite_param
 from pgm.core.plate import Lifecycle, Plate
 from pgm.core.variable import Variable
 from pgm.factors.association import (
+    LEARNED_SCORE_MAPS,
     SCORE_MAPS,
     AssignedDetectionLikelihood,
     BoxPrior,
@@ -72,6 +73,7 @@ from pgm.inference.settings import EngineSettings
 from . import config as _config
 
 __all__ = ["CONFIG", "Params", "build_graph", "lost_frames", "score_map_for", "video_build",
+           "with_score_threshold",
            "OPTIONS", "appearance_factors"]
 
 #: the box (cx, cy, w, h) the declaration's prior is written for; births re-centre it
@@ -132,9 +134,18 @@ class Params:
         SORT: one, IoU ≥ 0.3).
     activation : float
         Score a detection needs to start a track (0.25).
-    score_map : {"none", "logistic", "constant"}
-        How scores reach [0, 1] before the thresholds (:func:`score_map_for`; for a video,
-        ``"constant"`` when the detector's scores have no known scale).
+    score_map : {"none", "logistic", "constant", "learned"}
+        How scores reach [0, 1] before the thresholds. The package's cores read the
+        detector's own numbers (:func:`score_map_for` picks ``"none"`` or ``"logistic"``
+        for a video; ``"constant"`` when the detector's scores have no known scale);
+        ``"learned"`` makes each score the probability that its detection is of a
+        target, learned on the video (:class:`~pgm.factors.scores.PersistenceScoreModel`:
+        the same tracks for any strictly increasing map of the scores), and every
+        threshold below a probability.
+    score_threshold : float, optional
+        Set every score threshold — the rounds' split between confident and other
+        detections and ``activation`` — to this value (:func:`with_score_threshold`;
+        with ``"learned"``, a probability).
     recover_hits : int
         Matches in a row before a track found again after a miss is reported (1; OC-SORT:
         ``min_hits``).
@@ -194,6 +205,7 @@ class Params:
     rounds: tuple[dict[str, float], ...] = field(default_factory=lambda: ({"iou": 0.3},))
     activation: float = 0.25
     score_map: str = "none"
+    score_threshold: float | None = None
     recover_hits: int = 1
     keep_tentative: bool = False
     birth_counts: bool = True
@@ -262,6 +274,20 @@ def score_map_for(scores: np.ndarray) -> str:
     return "logistic" if s.size and (s.min() < 0.0 or s.max() > 1.0) else "none"
 
 
+def with_score_threshold(rounds, threshold: float) -> tuple[dict, ...]:
+    """``rounds`` with every finite ``min_score`` and ``max_score`` at ``threshold``
+    (ByteTrack's confident and other detections split there; OC-SORT's rounds take the
+    confident ones)."""
+    out = []
+    for r in rounds:
+        r = dict(r)
+        for key in ("min_score", "max_score"):
+            if r.get(key) is not None and math.isfinite(float(r[key])):
+                r[key] = float(threshold)
+        out.append(r)
+    return tuple(out)
+
+
 def _check(p: Params) -> None:
     if p.box_state not in BOX_STATES:
         raise ValueError(f"box_state must be one of {BOX_STATES}, got {p.box_state!r}")
@@ -284,6 +310,11 @@ def _check(p: Params) -> None:
         raise ValueError(f"score_map must be one of {SCORE_MAPS}, got {p.score_map!r}")
     check_finite_param("fps", p.fps, positive=True)
     check_finite_param("activation", p.activation)
+    if p.score_threshold is not None:
+        check_finite_param("score_threshold", p.score_threshold)
+        if p.score_map in LEARNED_SCORE_MAPS and not 0.0 <= p.score_threshold <= 1.0:
+            raise ValueError(f"score_threshold is in [0, 1] with the {p.score_map} score map, "
+                             f"got {p.score_threshold}")
     for name in ("lost_buffer", "min_hits"):
         v = getattr(p, name)
         if isinstance(v, bool) or int(v) != v or v < (1 if name == "min_hits" else 0):
@@ -297,6 +328,9 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
     """The plate graph of ``params``: one target's Kalman box state, replicated."""
     p = params or Params()
     _check(p)
+    if p.score_threshold is not None:
+        p = replace(p, rounds=with_score_threshold(p.rounds, p.score_threshold),
+                    activation=float(p.score_threshold), score_threshold=None)
     if p.motion != "kalman":
         return _particle_graph(p, name)
     q, r, p0 = _noise(p)
@@ -424,6 +458,18 @@ OPTIONS = (
                         "innovation stds are taken as hidden (corner states; default: off)"),
     _config.Option("--vb-noise", "vb_noise", flag_only=True,
                    help="seed 000's variational-Bayes measurement noise per target"),
+    _config.Option("--scores", "score_map", choices=("detector",) + LEARNED_SCORE_MAPS,
+                   help="what the score thresholds read: detector (the detector's own numbers, "
+                        "mapped through the logistic when outside [0, 1]: the trackers "
+                        "package), learned (the probability that a detection is of a target, "
+                        "learned on the video from which detections are found again) or "
+                        "quantile (the score's quantile among the video's scores); the last "
+                        "two give the same tracks for any increasing map of the scores. "
+                        "Default: the model's"),
+    _config.Option("--score-threshold", "score_threshold",
+                   type=_config.finite_float("--score-threshold"), metavar="P",
+                   help="every score threshold (the confident detections' and a new track's) "
+                        "at P (with --scores learned a probability; default: the model's)"),
 )
 
 
@@ -440,8 +486,15 @@ def video_build(config: _config.ModelConfig, values: dict[str, Any],
     # detections from a file have scores whose scale the file tells (score_map_for); a
     # detector without one (background subtraction: fill fractions) says nothing of
     # confidence, so its detections are all taken as confident
-    kw["score_map"] = ("constant" if video.score_range is None
-                       else score_map_for(np.asarray(video.score_range)))
+    choice = kw.pop("score_map", None)  # --scores: detector | learned | the model's
+    learned = choice in LEARNED_SCORE_MAPS or (choice is None
+                                               and params.score_map in LEARNED_SCORE_MAPS)
+    if video.score_range is None:
+        kw["score_map"] = "constant"
+    elif not learned:
+        kw["score_map"] = score_map_for(np.asarray(video.score_range))
+    else:
+        kw["score_map"] = choice or params.score_map
     return config.module.build_graph(replace(params, **kw), name=config.name)
 
 

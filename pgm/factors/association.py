@@ -44,17 +44,28 @@ from pgm.core.numerics import check_finite_param
 from pgm.core.variable import Variable
 from pgm.factors.gaussian import GaussianPrior, LinearGaussianTransition, _as_cov
 from pgm.factors.kinds import LikelihoodFactor
+from pgm.factors.scores import PersistenceScoreModel, ScoreQuantiles
 
 __all__ = ["BoxPrior", "BoxTransition", "DetectionAssociation", "AssignedDetectionLikelihood",
-           "SCORE_MAPS", "map_scores", "constant_velocity", "axis_sizes", "X_LABELS"]
+           "SCORE_MAPS", "LEARNED_SCORE_MAPS", "map_scores", "constant_velocity", "axis_sizes",
+           "X_LABELS"]
 
 #: how detection scores are brought to [0, 1] before the rounds' thresholds: ``"none"``
 #: (as given), ``"logistic"`` (``1 / (1 + e^{-s})``: one monotone map for a detector whose
 #: scores are margins or unbounded, as MOT15's and MOT16's public ones are), ``"constant"``
 #: (every detection 1: a detector whose scores say nothing of confidence, such as
 #: background subtraction's fill fractions — as the ``trackers`` package treats
-#: detections without scores)
-SCORE_MAPS = ("none", "logistic", "constant")
+#: detections without scores), ``"learned"`` (the probability that the detection is of a
+#: target, learned on the video from which detections are found again and read from the
+#: score's rank: :class:`~pgm.factors.scores.PersistenceScoreModel`; the same for any
+#: strictly increasing map of the detector's scores, so thresholds are statements about
+#: the detections, not about a number on the detector's scale), ``"quantile"`` (the
+#: score's quantile among the video's scores so far: a threshold is a share of the
+#: detections, :class:`~pgm.factors.scores.ScoreQuantiles`; also the same for any
+#: strictly increasing map)
+SCORE_MAPS = ("none", "logistic", "constant", "learned", "quantile")
+#: the score maps learned on the video (kept per run by the association rule)
+LEARNED_SCORE_MAPS = ("learned", "quantile")
 
 
 def map_scores(scores: np.ndarray, score_map: str) -> np.ndarray:
@@ -66,6 +77,9 @@ def map_scores(scores: np.ndarray, score_map: str) -> np.ndarray:
         return 0.5 * (1.0 + np.tanh(0.5 * s))  # the logistic, without overflow
     if score_map == "constant":
         return np.ones_like(s)
+    if score_map in LEARNED_SCORE_MAPS:
+        raise ValueError(f"the {score_map!r} score map is learned on the video: "
+                         "DetectionAssociation.score_model() keeps it per run")
     raise ValueError(f"unknown score map {score_map!r} (choose from {SCORE_MAPS})")
 
 
@@ -201,9 +215,12 @@ class DetectionAssociation(Factor):
         ``[{"iou": 0.3}]``; ByteTrack: ``[{"iou": 0.1, "min_score": 0.6}, {"iou": 0.1,
         "max_score": 0.6}]``; OC-SORT: ``[{"iou": 0.3, "min_score": 0.6, "direction":
         true}, {"iou": 0.3, "min_score": 0.6, "against": "last"}]``.
-    score_map : {"none", "logistic"}
+    score_map : {"none", "logistic", "constant", "learned"}
         Map applied to the detection scores first (:data:`SCORE_MAPS`); the mapped scores
-        are also what the plate's ``birth_min_score`` compares.
+        are also what the plate's ``birth_min_score`` compares. ``"learned"``: each
+        score becomes the probability that its detection is of a target, learned on the
+        run's video (:class:`~pgm.factors.scores.PersistenceScoreModel`), and every
+        threshold is on that probability.
     direction_weight : float
         Weight of the momentum term (OC-SORT: 0.2).
     delta_t : int
@@ -314,10 +331,27 @@ class DetectionAssociation(Factor):
     def check(self, variables: dict[str, Variable]) -> None:
         _box_labels(self, variables, self.variables[0])
 
-    def scores(self, ctx: FrameContext) -> np.ndarray:
-        """The frame's detection scores, mapped."""
+    def scores(self, ctx: FrameContext, model: PersistenceScoreModel | None = None
+               ) -> np.ndarray:
+        """The frame's detection scores, mapped; with the ``"learned"`` map, ``model`` (a
+        run's :meth:`score_model`) sees the frame and gives its probabilities."""
         d = ctx.detections
+        if self.score_map in LEARNED_SCORE_MAPS:
+            if model is None:
+                raise ValueError(f"factor {self.name!r}: the {self.score_map} score map "
+                                 f"needs the run's score model (score_model())")
+            if d is None:
+                return model.update(np.zeros((0, 4)), np.zeros(0))
+            from pgm.core.boxes import xywh_to_cxcywh
+
+            return model.update(xywh_to_cxcywh(np.asarray(d.boxes, dtype=float)), d.scores)
         return np.zeros(0) if d is None else map_scores(d.scores, self.score_map)
+
+    def score_model(self) -> PersistenceScoreModel | None:
+        """A new run's score model (the ``"learned"`` and ``"quantile"`` maps), or None."""
+        if self.score_map == "learned":
+            return PersistenceScoreModel()
+        return ScoreQuantiles() if self.score_map == "quantile" else None
 
 
 class AssignedDetectionLikelihood(LikelihoodFactor):

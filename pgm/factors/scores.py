@@ -47,11 +47,11 @@ from typing import Any
 
 import numpy as np
 
-from pgm.core.boxes import iou_xywh
+from pgm.core.boxes import cxcywh_to_xywh, iou_xywh
 from pgm.core.numerics import check_finite_param
 
 __all__ = ["ScoreSettings", "ScoreMixture", "ScoreCalibration", "SCORE_MODELS", "PERSISTING",
-           "shadowed"]
+           "shadowed", "PersistenceScoreModel", "ScoreQuantiles", "mid_ranks"]
 
 SCORE_MODELS = ("off", "mixture")
 PERSISTING = ("target", "all")
@@ -331,3 +331,178 @@ class ScoreCalibration:
         if not (self.settings.clutter_from_scores and self.mixture is not None):
             return default
         return (1.0 - self.mixture.weight) * self.count / max(self.frames, 1)
+
+
+def mid_ranks(sorted_scores: np.ndarray, scores: np.ndarray) -> np.ndarray:
+    """``(M,)`` each of ``scores`` as its mid-rank quantile in ``sorted_scores`` (sorted,
+    ``n`` values): ``(#{< s} + #{≤ s}) / 2n``, in ``[0, 1]`` (0.5 for every score when
+    ``n`` is 0). Any strictly increasing map of all the scores leaves it unchanged."""
+    s = np.asarray(scores, dtype=float).reshape(-1)
+    n = sorted_scores.size
+    if n == 0:
+        return np.full(s.size, 0.5)
+    lo = np.searchsorted(sorted_scores, s, side="left")
+    hi = np.searchsorted(sorted_scores, s, side="right")
+    return (lo + hi) / (2.0 * n)
+
+
+def _pool_adjacent(p: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """The weighted least-squares non-decreasing fit to ``p`` (pool adjacent violators;
+    a few bins, so a loop over blocks)."""
+    vals, wts, sizes = [], [], []
+    for v, x in zip(p.tolist(), w.tolist(), strict=True):
+        vals.append(v)
+        wts.append(x)
+        sizes.append(1)
+        while len(vals) > 1 and vals[-2] > vals[-1]:
+            x2, x1 = wts.pop(), wts.pop()
+            v2, v1 = vals.pop(), vals.pop()
+            n2, n1 = sizes.pop(), sizes.pop()
+            vals.append((v1 * x1 + v2 * x2) / (x1 + x2))
+            wts.append(x1 + x2)
+            sizes.append(n1 + n2)
+    return np.repeat(np.array(vals), sizes)
+
+
+class PersistenceScoreModel:
+    r"""What a detection's score says about the detection, learned on the video itself.
+
+    A detector's score is a number on its own scale (a probability, a logit, an SVM
+    margin, a rank); a tracker's thresholds must not depend on which. This model turns
+    each score into a probability with a meaning that is the same for every detector:
+    **the probability that the detection is found again in the next frame** — that a
+    detection of the next frame overlaps it (buffered IoU: both boxes widened by
+    ``buffer`` of their size on each side, as C-BIoU's, so that a fast or low-frame-rate
+    target still counts; IoU at least ``gate``). A person is detected again; most false
+    detections are not. The probability is a function of the score's *rank* among every
+    score the video has shown so far (its mid-rank quantile, :func:`mid_ranks`), so any
+    strictly increasing map of the scores gives the same probabilities, exactly.
+
+    The function is learned online, frame by frame, from the detections themselves (no
+    ground truth, no tracker output, so no feedback from the thresholds it serves): the
+    previous frame's detections are labelled found-again or not by this frame's boxes;
+    the labelled detections are counted in ``bins`` equal bins of their (current) rank
+    quantile; each bin's rate is shrunk towards the video's overall rate with
+    ``prior_weight`` pseudo-detections (a Beta prior centred on it) and the bins are made
+    non-decreasing in the score (pool adjacent violators: a higher score never says
+    less); a score's probability is the linear interpolation between bin centres. Before
+    any detection is labelled every probability is 1 (each detection taken as it comes).
+
+    Deterministic; one instance per video (the association rule keeps it per run).
+
+    Parameters
+    ----------
+    bins : int
+        Quantile bins of the score (20).
+    prior_weight : float
+        Pseudo-detections per bin at the video's overall rate (5).
+    buffer : float
+        Widening of both boxes on each side, a fraction of the box's width and height
+        (0.25).
+    gate : float
+        Buffered IoU a detection of the next frame needs to count (0.3).
+    """
+
+    def __init__(self, bins: int = 20, prior_weight: float = 5.0, buffer: float = 0.25,
+                 gate: float = 0.3):
+        if isinstance(bins, bool) or int(bins) != bins or bins < 1:
+            raise ValueError(f"bins must be a positive integer, got {bins!r}")
+        self.bins = int(bins)
+        self.prior_weight = float(check_finite_param("prior_weight", prior_weight, nonneg=True))
+        self.buffer = float(check_finite_param("buffer", buffer, nonneg=True))
+        self.gate = float(check_finite_param("gate", gate, nonneg=True))
+        self.history = np.zeros(0)  # every score so far, sorted
+        self.labelled = np.zeros(0)  # scores of the labelled detections
+        self.found = np.zeros(0, dtype=bool)  # ... and whether each was found again
+        self._previous: tuple[np.ndarray, np.ndarray] | None = None  # boxes, scores
+        self.curve = np.ones(self.bins)  # the fitted probability at each bin's centre
+
+    def _widened(self, boxes: np.ndarray) -> np.ndarray:
+        b = cxcywh_to_xywh(np.asarray(boxes, dtype=float).reshape(-1, 4))
+        k = self.buffer
+        return np.concatenate([b[:, :2] - k * b[:, 2:], b[:, 2:] * (1.0 + 2.0 * k)], axis=1)
+
+    def update(self, boxes: np.ndarray, scores: np.ndarray) -> np.ndarray:
+        """Add a frame's detections (centre boxes ``(M, 4)``, raw scores ``(M,)``): label
+        the previous frame's, refit, and return this frame's target probabilities ``(M,)``
+        (:meth:`probability`)."""
+        b = np.asarray(boxes, dtype=float).reshape(-1, 4)
+        s = np.asarray(scores, dtype=float).reshape(-1)
+        if s.size != b.shape[0]:
+            raise ValueError(f"{b.shape[0]} boxes but {s.size} scores")
+        s = np.where(np.isfinite(s), s, np.nan)
+        if self._previous is not None and self._previous[1].size:
+            pb, ps = self._previous
+            if b.shape[0]:
+                overlap = iou_xywh(self._widened(pb)[:, None, :], self._widened(b)[None, :, :])
+                again = overlap.max(axis=1) >= self.gate
+            else:
+                again = np.zeros(ps.size, dtype=bool)
+            ok = ~np.isnan(ps)
+            self.labelled = np.concatenate([self.labelled, ps[ok]])
+            self.found = np.concatenate([self.found, again[ok]])
+        good = s[~np.isnan(s)]
+        if good.size:
+            self.history = np.sort(np.concatenate([self.history, good]))
+        self._previous = (b, s)
+        self._fit()
+        return self.probability(s)
+
+    def _fit(self) -> None:
+        n = self.labelled.size
+        if n == 0:
+            self.curve = np.ones(self.bins)
+            return
+        u = mid_ranks(self.history, self.labelled)
+        k = np.minimum((u * self.bins).astype(int), self.bins - 1)
+        count = np.bincount(k, minlength=self.bins).astype(float)
+        hits = np.bincount(k, weights=self.found.astype(float), minlength=self.bins)
+        overall = (hits.sum() + 1.0) / (n + 1.0)
+        w = self.prior_weight
+        rate = (hits + w * overall) / np.maximum(count + w, 1e-12)
+        self.curve = _pool_adjacent(rate, count + w)
+
+    def found_again(self, scores: np.ndarray) -> np.ndarray:
+        """``(M,)`` the probability that each detection is found again in the next frame
+        (NaN scores: the lowest bin's)."""
+        s = np.asarray(scores, dtype=float).reshape(-1)
+        u = mid_ranks(self.history, np.where(np.isnan(s), -np.inf, s))
+        centres = (np.arange(self.bins) + 0.5) / self.bins
+        return np.interp(u, centres, self.curve)
+
+    def probability(self, scores: np.ndarray) -> np.ndarray:
+        """``(M,)`` the probability that each detection is of a target: its found-again
+        rate over the best-scored detections' (the curve's top), in ``[0, 1]``.
+
+        If a target's detection is found again at a rate ``ρ_T`` and a false one at
+        ``ρ_F``, the found-again rate at a score is ``ρ_F + (ρ_T − ρ_F) π(s)``, with
+        ``π(s)`` the share of target detections there. The best-scored detections are
+        taken as targets (``π = 1`` at the top: what makes a detector worth using), so
+        ``ρ_T`` is the curve's top; with false detections not found again (``ρ_F = 0``)
+        the ratio is ``π(s)`` — where they are, it is an upper bound. The ratio removes
+        what the detector's miss rate and the scene's occlusions do to every detection
+        alike, so a threshold on it means the same on a detector that misses often.
+        """
+        top = float(self.curve[-1])
+        return self.found_again(scores) / top if top > 0 else np.ones(np.size(scores))
+
+
+class ScoreQuantiles:
+    """Each detection's score as its quantile among every score the video has shown so
+    far, this frame's included (:func:`mid_ranks`): a threshold on it is a share of the
+    sequence's detections ("the top 40 %"), the same for any strictly increasing map of
+    the scores. Online and deterministic; one instance per video."""
+
+    def __init__(self) -> None:
+        self.history = np.zeros(0)
+
+    def update(self, boxes: np.ndarray, scores: np.ndarray) -> np.ndarray:
+        """Add a frame's scores; returns their quantiles ``(M,)`` (NaN scores: 0)."""
+        s = np.asarray(scores, dtype=float).reshape(-1)
+        if s.size != np.asarray(boxes).reshape(-1, 4).shape[0]:
+            raise ValueError(f"{np.asarray(boxes).reshape(-1, 4).shape[0]} boxes but "
+                             f"{s.size} scores")
+        good = s[np.isfinite(s)]
+        if good.size:
+            self.history = np.sort(np.concatenate([self.history, good]))
+        return np.where(np.isfinite(s), mid_ranks(self.history, np.nan_to_num(s)), 0.0)

@@ -168,3 +168,117 @@ def test_score_settings_are_saved_with_the_factor_and_loaded_without_code(tmp_pa
     assert "scores" not in phd_of(graph(None)).params()
     with pytest.raises(ValueError, match="unknown setting"):
         graph({"model": "mixture", "gamma": 1.0})
+
+
+# -- the learned score map of the tracking-by-detection cores --------------------------
+
+MAPS = {
+    "affine": lambda s: 3.0 * s - 7.0,
+    "power": lambda s: np.sqrt(s - s.min() + 1.0),
+    "probability": lambda s: 1.0 / (1.0 + np.exp(-(s - 40.0) / 20.0)),
+    "logit": lambda s: (s - 40.0) / 20.0,
+    "rank": lambda s: np.searchsorted(np.sort(s), s, side="right") / s.size,
+}
+
+
+def persistent_scene(rng, frames=150, people=6, pi_false=0.35, target=(2.0, 1.0),
+                     clutter=(0.0, 1.0)):
+    """Per frame: ``people`` walkers detected with probability 0.9 (their boxes move a
+    little each frame) and a Poisson number of false detections placed anywhere (never
+    found again), scores from two known Gaussians. Returns the frames' (centre boxes,
+    scores, is_true)."""
+    pos = rng.uniform(100, 900, (people, 2))
+    vel = rng.normal(0, 2, (people, 2))
+    out = []
+    n_false = people * pi_false / (1 - pi_false)
+    for _ in range(frames):
+        pos = pos + vel
+        seen = rng.random(people) < 0.9
+        tb = np.column_stack([pos[seen], np.full((seen.sum(), 2), [40.0, 100.0])])
+        k = rng.poisson(n_false)
+        fb = np.column_stack([rng.uniform(0, 1000, (k, 2)), np.full((k, 2), [40.0, 100.0])])
+        boxes = np.concatenate([tb, fb])
+        truth = np.r_[np.ones(len(tb), bool), np.zeros(k, bool)]
+        scores = np.where(truth, rng.normal(*target, len(truth)), rng.normal(*clutter, len(truth)))
+        out.append((boxes, scores, truth))
+    return out
+
+
+def test_score_ranks_are_the_same_for_any_increasing_map():
+    from pgm.factors.scores import mid_ranks
+
+    s = np.array([3.0, 1.0, 2.0, 2.0, 10.0])
+    u = mid_ranks(np.sort(s), s)
+    np.testing.assert_allclose(u, [0.7, 0.1, 0.4, 0.4, 0.9])
+    for f in MAPS.values():
+        np.testing.assert_array_equal(mid_ranks(np.sort(f(s)), f(s)), u)
+    np.testing.assert_array_equal(mid_ranks(np.zeros(0), s), np.full(5, 0.5))
+
+
+def test_the_learned_probability_is_invariant_to_the_detectors_scale():
+    """Fed the same detections with scores through any strictly increasing map, the model
+    gives the same probabilities, exactly."""
+    from pgm.factors.scores import PersistenceScoreModel
+
+    scene = persistent_scene(np.random.default_rng(3), frames=60)
+    all_scores = np.concatenate([s for _, s, _ in scene]) * 20 + 40  # positive, MOT15-like
+    split = np.cumsum([len(s) for _, s, _ in scene])[:-1]
+    ref = None
+    for name, f in [("none", lambda s: s)] + list(MAPS.items()):
+        mapped = np.split(f(all_scores), split)
+        m = PersistenceScoreModel()
+        p = np.concatenate([m.update(b, s) for (b, _, _), s in zip(scene, mapped, strict=True)])
+        if ref is None:
+            ref = p
+        np.testing.assert_array_equal(p, ref, err_msg=name)
+
+
+def test_the_learned_probability_recovers_the_true_share_of_targets():
+    """Oracle: with ``ρ_T`` and ``ρ_F`` the rates at which the scene's target and false
+    detections are found again (measured from the model's own labels and the scene's
+    truth), the model's probability is ``(ρ_F + (ρ_T − ρ_F) P(target | s)) / ρ_T``, with
+    the posterior in closed form from the scene's two known score densities — near the
+    posterior itself when false detections are seldom found again. Checked in score
+    quintiles, within four binomial standard errors of each quintile's count."""
+    from scipy.stats import norm
+
+    from pgm.factors.scores import PersistenceScoreModel
+
+    rng = np.random.default_rng(7)
+    scene = persistent_scene(rng, frames=300, people=8)
+    m = PersistenceScoreModel(buffer=0.25, gate=0.3)
+    for boxes, scores, _ in scene:
+        m.update(boxes, scores)
+    s = np.concatenate([x for _, x, _ in scene])
+    truth = np.concatenate([t for _, _, t in scene])
+    pi = truth.mean()
+    post = pi * norm.pdf(s, 2, 1) / (pi * norm.pdf(s, 2, 1) + (1 - pi) * norm.pdf(s, 0, 1))
+    labelled = np.concatenate([t for _, _, t in scene[:-1]])
+    rho_t, rho_f = m.found[labelled].mean(), m.found[~labelled].mean()
+    assert 0.85 < rho_t < 0.95 and rho_f < 0.15  # the detector's 0.9; chance overlaps
+    post = (rho_f + (rho_t - rho_f) * post) / rho_t
+    p = m.probability(s)
+    assert np.all(np.diff(m.curve) >= -1e-12)  # a higher score never says less
+    edges = np.quantile(s, np.linspace(0, 1, 6))
+    for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+        inside = (s >= lo) & (s <= hi)
+        se = np.sqrt(post[inside].mean() * (1 - post[inside].mean()) / inside.sum())
+        # + 0.03: the curve is read in 20 quantile bins and its top bin stands for ρ_T
+        # (measured here: 0.015 to 0.028 above the posterior in the lower quintiles)
+        assert abs(p[inside].mean() - post[inside].mean()) < 4 * se + 0.03, (lo, hi)
+    # and it separates the classes it was never told about
+    assert np.mean((p >= 0.5) == truth) > 0.8
+
+
+def test_before_anything_is_labelled_every_detection_is_taken_as_it_comes():
+    from pgm.factors.scores import PersistenceScoreModel
+
+    m = PersistenceScoreModel()
+    b = np.array([[10.0, 10.0, 4.0, 8.0], [50.0, 50.0, 4.0, 8.0]])
+    np.testing.assert_array_equal(m.update(b, np.array([0.1, 0.9])), [1.0, 1.0])
+    with pytest.raises(ValueError, match="scores"):
+        m.update(b, np.array([0.5]))
+    with pytest.raises(ValueError, match="bins"):
+        PersistenceScoreModel(bins=0)
+    with pytest.raises(ValueError, match="buffer"):
+        PersistenceScoreModel(buffer=float("nan"))

@@ -1,0 +1,317 @@
+"""The multi-target models under what a new detector or camera changes, against six peers.
+
+    python benchmarks/robustness.py [--sequences A,B] [--kinds K,L] [--candidates C,D]
+                                    [--jobs 2] [--no-peers] [--cache FILE] [--work DIR]
+
+Each shared MOT sequence (PETS09-S2L1, TUD-Campus, TUD-Stadtmitte, MOT16-11 and the
+PETS09-S2L1 video with its own detections) is perturbed by each kind of
+:mod:`pgm.evaluation.perturb` (score maps: probability, logit, rank, affine, power; frame
+rate ÷2 and ÷3; 20 % of the detections dropped; box jitter of 5 % of the size; 20 % more
+false positives; boxes shifted and scaled as another detector's), seeded and
+deterministic, and written as a sequence folder. On each, every candidate model of
+:data:`CANDIDATES` runs as ``pgm track`` runs it (the frames decoded for the colour
+models, the camera's motion estimated and compensated where it moves) and so do the six
+trackers of the ``trackers`` package (SORT, ByteTrack, OC-SORT, BoT-SORT, C-BIoU, McByte;
+default settings, their own venv: ``bash benchmarks/peers/setup_env.sh``), all scored by
+:func:`pgm.evaluation.mot.evaluate_mot` (MOTA, IDF1, HOTA).
+
+Tables: per kind, each sequence's MOTA / IDF1 / HOTA of every candidate and the best of
+the peers in each metric. Then the default **chosen leave one sequence out**: for each
+held-out sequence, the candidate with the best mean of (MOTA + IDF1 + HOTA) / 3 over the
+other sequences and every kind (a fold leaves out a sequence with all its
+perturbations), scored on the held-out sequence's kinds against the best peer; and per
+kind, the worst margin over the held-out sequences. Runs are cached as JSON lines in
+``--cache`` (default ``benchmarks/results/robustness.jsonl``), so an interrupted run
+resumes and a second call prints the tables at once.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import SHARED_DATA, machine_note, print_table, single_thread  # noqa: E402
+
+SEQUENCES = ("PETS09-S2L1", "TUD-Campus", "TUD-Stadtmitte", "MOT16-11", "PETS09-S2L1-video")
+PEERS = ("sort", "bytetrack", "ocsort", "botsort", "cbiou", "mcbyte")
+METRICS = ("mota", "idf1", "hota")
+
+#: OC-SORT's rounds with ByteTrack's low-score round after them: the detections below the
+#: threshold may extend a track (IoU at least 0.5, as BoT-SORT's second round), never
+#: start one
+OCSORT_LOW = ({"iou": 0.3, "min_score": 0.6, "direction": True},
+              {"iou": 0.3, "min_score": 0.6, "against": "last"},
+              {"iou": 0.5, "max_score": 0.6})
+COLOUR = {"report": "estimate", "appearance": "colour", "appearance_weight": 1.0}
+
+#: candidate models: label -> (model module name, Params fields)
+CANDIDATES: dict[str, tuple[str, dict]] = {
+    "ocsort-colour (detector scores)": ("ocsort_colour", {"score_map": "detector"}),
+    "ocsort-colour learned 0.5": ("ocsort_colour", {"score_map": "learned",
+                                                    "score_threshold": 0.5}),
+    "ocsort-colour learned 0.8": ("ocsort_colour", {"score_map": "learned",
+                                                    "score_threshold": 0.8}),
+    "ocsort-colour quantile 0.2": ("ocsort_colour", {"score_map": "quantile",
+                                                     "score_threshold": 0.2}),
+    "ocsort-colour quantile 0.4": ("ocsort_colour", {"score_map": "quantile",
+                                                     "score_threshold": 0.4}),
+    "ocsort-colour+low quantile 0.4": ("ocsort_colour", {"score_map": "quantile",
+                                                         "score_threshold": 0.4,
+                                                         "rounds": OCSORT_LOW}),
+    "ocsort-colour+low quantile 0.6": ("ocsort_colour", {"score_map": "quantile",
+                                                         "score_threshold": 0.6,
+                                                         "rounds": OCSORT_LOW}),
+    "ocsort-colour+low learned 0.8": ("ocsort_colour", {"score_map": "learned",
+                                                        "score_threshold": 0.8,
+                                                        "rounds": OCSORT_LOW}),
+    "bytetrack-colour quantile": ("bytetrack", {"score_map": "quantile", **COLOUR}),
+}
+
+
+def _frames_of(name: str, work: Path) -> list[Path] | None:
+    """The image files of a shared sequence (a video's frames written once as JPEG under
+    ``work``); None for an image folder (``perturb_sequence`` finds them)."""
+    src = SHARED_DATA / name
+    videos = sorted(src.glob("*.avi")) + sorted(src.glob("*.mp4"))
+    if (src / "img1").is_dir() or not videos:
+        return None
+    import cv2
+
+    out = work / "_frames" / name
+    done = out / "done"
+    if not done.is_file():
+        out.mkdir(parents=True, exist_ok=True)
+        cap = cv2.VideoCapture(str(videos[0]))
+        k = 0
+        while True:
+            ok, image = cap.read()
+            if not ok:
+                break
+            k += 1
+            cv2.imwrite(str(out / f"{k:06d}.jpg"), image, [cv2.IMWRITE_JPEG_QUALITY, 95])
+        cap.release()
+        done.write_text(str(k))
+    return sorted(out.glob("*.jpg"))
+
+
+def prepare(name: str, kind: str, work: Path) -> Path:
+    """The perturbed folder of ``name`` under ``work`` (written once)."""
+    from pgm.evaluation.perturb import perturb_sequence
+
+    dst = work / name / kind.replace("/", "-")
+    if not (dst / "seqinfo.ini").is_file():
+        perturb_sequence(SHARED_DATA / name, dst, kind, seed=0, frames=_frames_of(name, work))
+    return dst
+
+
+def camera_motion(folder: Path, num_frames: int) -> dict[int, np.ndarray]:
+    """Frame number → the camera's image motion, as ``pgm track --camera-motion auto``."""
+    from pgm.io.video import open_source
+    from pgm.observation.camera_motion import CameraMotionEstimator
+
+    est = CameraMotionEstimator("auto")
+    out = {}
+    for k, (number, image) in enumerate(open_source(folder).frames()):
+        if k >= num_frames:
+            break
+        m = est(image)
+        if m is not None:
+            out[int(number)] = m
+    return out
+
+
+def run_candidate(label: str, folder: Path, motion: dict) -> dict:
+    """One candidate on one perturbed folder: its metrics and inference frames/s."""
+    import importlib
+
+    from classic_trackers import run_graph
+
+    from pgm.evaluation.mot import evaluate_mot
+    from pgm.io.annotations import load_mot
+    from pgm.io.video import open_source
+    from pgm.models import sort
+    from pgm.observation.detections import PublicDetections
+
+    module_name, fields = CANDIDATES[label]
+    module = importlib.import_module(f"pgm.models.{module_name}")
+    src = open_source(folder)
+    det = PublicDetections(folder / "det" / "det.txt")
+    gt = load_mot(folder / "gt" / "gt.txt", kind="gt")
+    n = len(src)
+    kw = dict(fields)
+    if kw.get("score_map") == "detector":
+        kw["score_map"] = sort.score_map_for(det.table.conf)
+    p = replace(module.Params(), fps=float(src.fps), **kw)
+    images = src if p.appearance else None
+    table, secs, _ = run_graph(module.build_graph(p), det, n, motion=motion, images=images)
+    m = evaluate_mot(gt.until(n), table, num_frames=n)
+    return {**{k: float(m[k]) for k in METRICS}, "fps": n / secs if secs > 0 else None}
+
+
+def run_peers(folder: Path, n: int) -> dict[str, dict]:
+    from _peers import run_mot_peers
+
+    from pgm.evaluation.mot import evaluate_mot
+    from pgm.io.annotations import load_mot
+
+    gt = load_mot(folder / "gt" / "gt.txt", kind="gt")
+    out = {}
+    for name, r in run_mot_peers(folder, trackers=PEERS, workdir=folder / "_peers").items():
+        if "error" in r:
+            out[name] = {"error": r["error"]}
+            continue
+        m = evaluate_mot(gt.until(n), r["table"], num_frames=n)
+        out[name] = {**{k: float(m[k]) for k in METRICS}, "fps": r.get("fps")}
+    return out
+
+
+def task(name: str, kind: str, labels: list[str], peers: bool, work: str) -> list[dict]:
+    """Every candidate (and the peers) on one sequence under one kind: result rows."""
+    single_thread()
+    from pgm.io.video import open_source
+
+    folder = prepare(name, kind, Path(work))
+    n = len(open_source(folder))
+    motion = camera_motion(folder, n) if labels else {}
+    rows = []
+    for label in labels:
+        t0 = time.perf_counter()
+        r = run_candidate(label, folder, motion)
+        rows.append({"sequence": name, "kind": kind, "model": label, **r,
+                     "seconds": time.perf_counter() - t0})
+    if peers:
+        for peer, r in run_peers(folder, n).items():
+            rows.append({"sequence": name, "kind": kind, "model": f"peer:{peer}", **r})
+    return rows
+
+
+def load_cache(path: Path) -> dict[tuple[str, str, str], dict]:
+    out = {}
+    if path.is_file():
+        for line in path.read_text().splitlines():
+            if line.strip():
+                r = json.loads(line)
+                out[(r["sequence"], r["kind"], r["model"])] = r
+    return out
+
+
+def best_peer(results: dict, seq: str, kind: str) -> dict[str, float] | None:
+    """Per metric, the best of the peers on ``seq`` under ``kind`` (None: none ran)."""
+    rows = [r for (q, k, m), r in results.items() if q == seq and k == kind
+            and m.startswith("peer:") and "error" not in r]
+    if not rows:
+        return None
+    return {k: max(r[k] for r in rows) for k in METRICS}
+
+
+def objective(results: dict, label: str, seqs, kinds) -> float:
+    vals = [np.mean([results[(q, k, label)][m] for m in METRICS])
+            for q in seqs for k in kinds if (q, k, label) in results]
+    return float(np.mean(vals)) if vals else float("-inf")
+
+
+def loso(results: dict, labels: list[str], seqs: list[str], kinds: list[str]
+         ) -> tuple[list[list], list[list]]:
+    """The leave-one-sequence-out choice: per held-out sequence and kind, the chosen
+    candidate's metrics and its margins over the best peer; and per kind the worst
+    margins over the held-out sequences."""
+    rows, worst = [], {k: [np.inf, np.inf, np.inf] for k in kinds}
+    for held in seqs:
+        train = [q for q in seqs if q != held]
+        chosen = max(labels, key=lambda c: objective(results, c, train, kinds))
+        for k in kinds:
+            r = results.get((held, k, chosen))
+            peer = best_peer(results, held, k)
+            if r is None:
+                continue
+            margin = [r[m] - peer[m] for m in METRICS] if peer else [np.nan] * 3
+            if peer:
+                worst[k] = [min(a, b) for a, b in zip(worst[k], margin, strict=True)]
+            rows.append([held, k, chosen] + [f"{r[m]:.3f}" for m in METRICS]
+                        + [f"{x:+.3f}" for x in margin])
+    worst_rows = [[k] + [f"{x:+.3f}" if np.isfinite(x) else "-" for x in worst[k]]
+                  for k in kinds]
+    return rows, worst_rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    from pgm.evaluation.perturb import KINDS
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--sequences", default=",".join(SEQUENCES))
+    ap.add_argument("--kinds", default=",".join(KINDS))
+    ap.add_argument("--candidates", default=None,
+                    help=f"comma-separated labels (default: all of {list(CANDIDATES)})")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--no-peers", action="store_true")
+    ap.add_argument("--cache", type=Path,
+                    default=Path(__file__).resolve().parent / "results" / "robustness.jsonl")
+    ap.add_argument("--work", type=Path, default=None,
+                    help="where the perturbed folders go (default: a folder beside the cache)")
+    args = ap.parse_args(argv)
+    seqs = [q for q in args.sequences.split(",") if (SHARED_DATA / q).is_dir()]
+    if not seqs:
+        sys.exit(f"none of {args.sequences} under {SHARED_DATA}")
+    kinds = args.kinds.split(",")
+    bad = [k for k in kinds if k not in KINDS]
+    if bad:
+        sys.exit(f"unknown kinds {bad} (choose from {KINDS})")
+    labels = list(CANDIDATES) if args.candidates is None else args.candidates.split(",")
+    bad = [c for c in labels if c not in CANDIDATES]
+    if bad:
+        sys.exit(f"unknown candidates {bad} (choose from {list(CANDIDATES)})")
+    work = args.work or args.cache.parent / "robustness-work"
+    work.mkdir(parents=True, exist_ok=True)
+    args.cache.parent.mkdir(parents=True, exist_ok=True)
+    results = load_cache(args.cache)
+    todo = []
+    for q in seqs:
+        for k in kinds:
+            missing = [c for c in labels if (q, k, c) not in results]
+            peers = not args.no_peers and not any(
+                (q, k, f"peer:{p}") in results for p in PEERS)
+            if missing or peers:
+                todo.append((q, k, missing, peers))
+    print(machine_note())
+    print(f"{len(todo)} sequence x kind tasks to run ({len(results)} results cached)")
+    with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+        futures = [pool.submit(task, q, k, c, p, str(work)) for q, k, c, p in todo]
+        for f in futures:
+            rows = f.result()
+            with open(args.cache, "a") as fh:
+                for r in rows:
+                    fh.write(json.dumps(r) + "\n")
+                    results[(r["sequence"], r["kind"], r["model"])] = r
+            if rows:
+                print(f"  done {rows[0]['sequence']} {rows[0]['kind']}", flush=True)
+
+    for k in kinds:
+        table = []
+        for q in seqs:
+            peer = best_peer(results, q, k)
+            row = [q]
+            for c in labels:
+                r = results.get((q, k, c))
+                row.append(" / ".join(f"{r[m]:.3f}" for m in METRICS) if r else "-")
+            row.append(" / ".join(f"{peer[m]:.3f}" for m in METRICS) if peer else "-")
+            table.append(row)
+        print_table(["sequence"] + labels + ["best peer"], table,
+                    title=f"kind {k}: MOTA / IDF1 / HOTA")
+    rows, worst = loso(results, labels, seqs, kinds)
+    print_table(["held out", "kind", "chosen", "MOTA", "IDF1", "HOTA", "dMOTA", "dIDF1",
+                 "dHOTA"], rows, title="leave one sequence out (d: minus the best peer)")
+    print_table(["kind", "worst dMOTA", "worst dIDF1", "worst dHOTA"], worst,
+                title="worst margin over the held-out sequences, per kind")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
