@@ -248,7 +248,7 @@ def main() -> None:
                     help="global-motion compensation (as pgm track; default auto)")
     ap.add_argument("--scale-aware", action="store_true",
                     help="scale-aware state and noise (lengths in each target's own height)")
-    ap.add_argument("--scores", choices=("off", "mixture"), default=None,
+    ap.add_argument("--scores", choices=("off", "mixture", "learned"), default=None,
                     help="detection scores in the measurement model (default: as pgm track)")
     ap.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
                     help="override a Params field of the (VB-)PHD rows, e.g. --set "

@@ -51,6 +51,7 @@ OCSORT_LOW = ({"iou": 0.3, "min_score": 0.6, "direction": True},
               {"iou": 0.3, "min_score": 0.6, "against": "last"},
               {"iou": 0.5, "max_score": 0.6})
 COLOUR = {"report": "estimate", "appearance": "colour", "appearance_weight": 1.0}
+HITS = {"recover_hits": 1, "consecutive": False}
 
 #: candidate models: label -> (model module name, Params fields)
 CANDIDATES: dict[str, tuple[str, dict]] = {
@@ -73,7 +74,23 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                                                         "score_threshold": 0.8,
                                                         "rounds": OCSORT_LOW}),
     "bytetrack-colour quantile": ("bytetrack", {"score_map": "quantile", **COLOUR}),
+    # OC-SORT's association with SORT's life cycle: a track found again after a miss is
+    # reported at once, and confirmation counts matches, not matches in a row
+    "ocsort-colour learned 0.5 hits": ("ocsort_colour", {"score_map": "learned",
+                                                         "score_threshold": 0.5,
+                                                         **HITS}),
+    "ocsort-colour quantile 0.2 hits": ("ocsort_colour", {"score_map": "quantile",
+                                                          "score_threshold": 0.2, **HITS}),
+    "ocsort-colour+low quantile 0.4 hits": ("ocsort_colour", {"score_map": "quantile",
+                                                              "score_threshold": 0.4,
+                                                              "rounds": OCSORT_LOW, **HITS}),
+    # the (VB-)PHD filters at their video defaults (models.phd.video_params), scores
+    # through the learned model
+    "phd learned": ("phd", {"score_model": "learned"}),
+    "vb-phd learned": ("vb_phd", {"score_model": "learned"}),
 }
+#: the candidates run through pgm.app.runner.track_multi (their own track layer)
+PHD_FAMILY = ("phd", "vb_phd")
 
 
 def _frames_of(name: str, work: Path) -> list[Path] | None:
@@ -142,6 +159,18 @@ def run_candidate(label: str, folder: Path, motion: dict) -> dict:
 
     module_name, fields = CANDIDATES[label]
     module = importlib.import_module(f"pgm.models.{module_name}")
+    if module_name in PHD_FAMILY:
+        from mot_sequences import run
+
+        from pgm.observation.detections import make_detector
+
+        t0 = time.perf_counter()
+        r = run(folder, module, make_detector("public", open_source(folder)), seed=0,
+                overrides=fields)
+        secs = time.perf_counter() - t0
+        n = len(open_source(folder))
+        return {**{k: float(r.metrics[k]) for k in METRICS},
+                "fps": getattr(r, "fps", None) or n / secs}
     src = open_source(folder)
     det = PublicDetections(folder / "det" / "det.txt")
     gt = load_mot(folder / "gt" / "gt.txt", kind="gt")

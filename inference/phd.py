@@ -131,7 +131,7 @@ def score_terms(engine: Engine, var: str, factor: PHDLikelihood, frame,
             cal = aux.get("score_calibration")
             if cal is None:
                 cal = aux["score_calibration"] = ScoreCalibration(settings)
-            cal.observe(s)
+            cal.observe(s, frame.detections.boxes if cal.persistence is not None else None)
             kappa = cal.clutter_rate(factor.clutter_rate) / factor._volume
             on_kappa, on_nu = cal.terms(s)
         if settings.shadow_iou > 0:

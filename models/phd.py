@@ -106,9 +106,12 @@ class Params:
         Scale-aware: the extent of log-heights where clutter and births appear.
     score_model : str
         How detection scores enter the measurement model (:mod:`pgm.factors.scores`):
-        ``"off"`` (score-blind, the filter before scores were used) or ``"mixture"``
+        ``"off"`` (score-blind, the filter before scores were used), ``"mixture"``
         (a per-detection clutter intensity from a two-class mixture fitted online to the
-        video's own scores; low-score detections only update existing targets).
+        video's own scores; low-score detections only update existing targets) or
+        ``"learned"`` (the same terms from the probability that a detection is of a
+        target, learned on the video from which detections are found again: the same
+        for any strictly increasing map of the scores).
     score_temper : float
         Exponent ``γ`` of the score likelihood ratio.
     score_max_ratio : float
@@ -162,7 +165,7 @@ class Params:
 
 #: score settings of :func:`video_params`, chosen leave-one-sequence-out
 #: (docs/phd_video_defaults.md)
-VIDEO_SCORE_SETTINGS = {"score_model": "mixture", "score_temper": 0.5,
+VIDEO_SCORE_SETTINGS = {"score_model": "learned", "score_temper": 0.5,
                         "score_birth_min_prob": 0.0, "score_persisting": "all",
                         "score_shadow_iou": 0.4}
 #: VB noise settings of :func:`video_params` (applied when ``cls`` has the fields, i.e.
@@ -316,11 +319,13 @@ PHD_OPTIONS = (
     _config.Option("--scale-aware", "scale_aware", flag_only=True,
                    help="track each box's scale; noise in units of each target's own height "
                         "(experimental: see docs/results.md)"),
-    _config.Option("--scores", "score_model", choices=("off", "mixture"),
-                   help="detection scores in the measurement model: 'mixture' (default: a "
-                        "two-class score mixture fitted on the video's own scores; confident "
-                        "detections start targets, a tracked target's low-score detections "
-                        "still update it) or 'off' (score-blind)"))
+    _config.Option("--scores", "score_model", choices=("off", "mixture", "learned"),
+                   help="detection scores in the measurement model: 'learned' (default: "
+                        "the probability that a detection is of a target, learned on the "
+                        "video from which detections are found again, read from the score's "
+                        "rank: the same for any increasing map of the scores), 'mixture' (a "
+                        "two-class score mixture fitted on the video's own scores: the same "
+                        "for any affine map) or 'off' (score-blind)"))
 
 #: what the application sees of this model (:mod:`pgm.models.config`)
 CONFIG = _config.ModelConfig(

@@ -53,7 +53,7 @@ from pgm.core.numerics import check_finite_param
 __all__ = ["ScoreSettings", "ScoreMixture", "ScoreCalibration", "SCORE_MODELS", "PERSISTING",
            "shadowed", "PersistenceScoreModel", "ScoreQuantiles", "mid_ranks"]
 
-SCORE_MODELS = ("off", "mixture")
+SCORE_MODELS = ("off", "mixture", "learned")
 PERSISTING = ("target", "all")
 
 
@@ -66,7 +66,12 @@ class ScoreSettings:
     model : str
         ``"off"``: scores ignored (the score-blind filter); ``"mixture"``: the
         per-detection clutter intensity ``κ(s)`` from a two-class mixture fitted online
-        to the video's own scores (:class:`ScoreMixture`).
+        to the video's own scores (:class:`ScoreMixture`; the same for any affine map of
+        the scores); ``"learned"``: the ratio from the probability that a detection is of
+        a target, learned on the video from which detections are found again and read
+        from the score's rank (:class:`PersistenceScoreModel`; the same for any strictly
+        increasing map of the scores): ``f_T/f_C = [p/(1−p)] / [π/(1−π)]`` with ``π``
+        the mean probability over the video's detections so far.
     temper : float
         ``γ ≥ 0``: exponent of the score likelihood ratio (0: scores ignored in the
         corrector; the birth gate still applies).
@@ -265,8 +270,18 @@ class ScoreCalibration:
         self.count = 0
         self.frames = 0
         self.mixture: ScoreMixture | None = None
+        #: the ``"learned"`` model: the video's score model, this frame's probabilities
+        #: and the sum of every probability so far
+        self.persistence = PersistenceScoreModel() if settings.model == "learned" else None
+        self._p: np.ndarray | None = None
+        self._p_sum = 0.0
 
-    def observe(self, scores: np.ndarray) -> None:
+    def observe(self, scores: np.ndarray, boxes: np.ndarray | None = None) -> None:
+        """Add a frame's scores (and, for the ``"learned"`` model, its top-left ``(x, y,
+        w, h)`` boxes) and refit."""
+        if self.persistence is not None:
+            self._observe_learned(scores, boxes)
+            return
         s = np.asarray(scores, dtype=float).reshape(-1)
         s = s[np.isfinite(s)]
         self.frames += 1
@@ -282,21 +297,53 @@ class ScoreCalibration:
         elif s.size:
             self.mixture.fit(all_s, self.settings.em_iter)
 
+    def _observe_learned(self, scores: np.ndarray, boxes: np.ndarray | None) -> None:
+        if boxes is None:
+            raise ValueError("the learned score model needs the detections' boxes")
+        b = np.asarray(boxes, dtype=float).reshape(-1, 4)
+        centre = np.concatenate([b[:, :2] + b[:, 2:] / 2.0, b[:, 2:]], axis=1)
+        self._p = self.persistence.update(centre, scores)
+        self.frames += 1
+        self.count += self._p.size
+        self._p_sum += float(self._p.sum())
+
     @property
     def ready(self) -> bool:
+        if self.persistence is not None:
+            return self.count >= self.settings.min_samples
         return self.mixture is not None
+
+    def _share(self) -> float:
+        """``π``: the target class's share of the video's detections so far."""
+        if self.persistence is not None:
+            return self._p_sum / max(self.count, 1)
+        return float(self.mixture.weight)
+
+    def _probability(self, s: np.ndarray) -> np.ndarray:
+        """``P(target | s)`` of this frame's detections (the learned model: the
+        probabilities of the frame just observed)."""
+        if self.persistence is not None:
+            if self._p is None or self._p.size != s.size:
+                raise ValueError("the learned score model reads the frame it observed last")
+            return self._p
+        return self.mixture.responsibility(s)
 
     def clutter_scale(self, scores: np.ndarray) -> np.ndarray:
         """``(f_C(s) / f_T(s))^γ`` per detection, clipped (1 before the first fit)."""
         s = np.asarray(scores, dtype=float).reshape(-1)
-        if self.mixture is None:
+        if not self.ready:
             return np.ones(s.size)
         return np.exp(-self.settings.temper * self._log_ratio(s))
 
     def _log_ratio(self, s: np.ndarray) -> np.ndarray:
-        """``log f_T(s)/f_C(s)`` of the fitted mixture, clipped to ``± log max_ratio``
-        (a missing score reads as the clutter class's mean)."""
+        """``log f_T(s)/f_C(s)``, clipped to ``± log max_ratio``: of the fitted mixture (a
+        missing score reads as the clutter class's mean), or of the learned probability
+        against the video's share of targets."""
         c = np.log(self.settings.max_ratio)
+        if self.persistence is not None:
+            p = np.clip(self._probability(s), 1e-9, 1 - 1e-9)
+            pi = float(np.clip(self._share(), 1e-9, 1 - 1e-9))
+            return np.clip(np.log(p / (1 - p)) - np.log(pi / (1 - pi)), -c, c)
         m = self.mixture
         return np.clip(m.log_ratio(np.nan_to_num(s, nan=m.mean[0])), -c, c)
 
@@ -309,12 +356,12 @@ class ScoreCalibration:
         """
         s = np.asarray(scores, dtype=float).reshape(-1)
         mask = self.birth_mask(s).astype(float)
-        if self.mixture is None:
+        if not self.ready:
             return np.ones(s.size), mask
         if self.settings.persisting == "target":
             return self.clutter_scale(s), mask
         lr = self._log_ratio(s)  # log f_T/f_C
-        pi = float(np.clip(self.mixture.weight, 1e-12, 1 - 1e-12))
+        pi = float(np.clip(self._share(), 1e-12, 1 - 1e-12))
         log_f_over_fc = np.logaddexp(np.log(pi) + lr, np.log1p(-pi))  # log f/f_C
         g = self.settings.temper
         return np.exp(-g * log_f_over_fc), mask * np.exp(g * (lr - log_f_over_fc))
@@ -322,15 +369,15 @@ class ScoreCalibration:
     def birth_mask(self, scores: np.ndarray) -> np.ndarray:
         """Which detections may spawn newborn particles (all before the first fit)."""
         s = np.asarray(scores, dtype=float).reshape(-1)
-        if self.mixture is None or self.settings.birth_min_prob <= 0:
+        if not self.ready or self.settings.birth_min_prob <= 0:
             return np.ones(s.size, dtype=bool)
-        return self.mixture.responsibility(s) >= self.settings.birth_min_prob
+        return self._probability(s) >= self.settings.birth_min_prob
 
     def clutter_rate(self, default: float) -> float:
         """The calibrated ``λ_c`` (``default`` unless ``clutter_from_scores`` and fitted)."""
-        if not (self.settings.clutter_from_scores and self.mixture is not None):
+        if not (self.settings.clutter_from_scores and self.ready):
             return default
-        return (1.0 - self.mixture.weight) * self.count / max(self.frames, 1)
+        return (1.0 - self._share()) * self.count / max(self.frames, 1)
 
 
 def mid_ranks(sorted_scores: np.ndarray, scores: np.ndarray) -> np.ndarray:

@@ -300,7 +300,7 @@ def test_multi_target_scores_flag_is_saved_in_the_model(mot_dir, tmp_path, capsy
             list(model["factors"].values())
         return next(f["params"] for f in facs if f["type"] == "PHDLikelihood")
 
-    for choice in ("off", "mixture"):
+    for choice in ("off", "mixture", "learned"):
         out = tmp_path / choice
         code, _, err = run_cli(capsys, "track", mot_dir, "--model", "phd", "--out", out,
                                "--quiet", "--no-video", "--scores", choice)
@@ -309,7 +309,7 @@ def test_multi_target_scores_flag_is_saved_in_the_model(mot_dir, tmp_path, capsy
         if choice == "off":
             assert "scores" not in p
         else:
-            assert p["scores"]["model"] == "mixture"
+            assert p["scores"]["model"] == choice
     with pytest.raises(SystemExit) as exc:
         main(["track", str(mot_dir), "--model", "phd", "--out", str(tmp_path / "x"),
               "--scores", "logistic"])

@@ -282,3 +282,33 @@ def test_before_anything_is_labelled_every_detection_is_taken_as_it_comes():
         PersistenceScoreModel(bins=0)
     with pytest.raises(ValueError, match="buffer"):
         PersistenceScoreModel(buffer=float("nan"))
+
+
+def test_the_phd_learned_score_terms_are_invariant_and_favour_confident_detections():
+    """The PHD's ``"learned"`` score model: per-detection clutter and birth terms that
+    are the same for any strictly increasing map of the scores, with more clutter
+    written against a low-score detection than a high-score one."""
+    scene = persistent_scene(np.random.default_rng(5), frames=80)
+    all_scores = np.concatenate([s for _, s, _ in scene])
+    split = np.cumsum([len(s) for _, s, _ in scene])[:-1]
+    settings = ScoreSettings(model="learned", birth_min_prob=0.5, min_samples=50)
+    ref = None
+    for name, f in [("none", lambda s: s)] + list(MAPS.items()):
+        cal = ScoreCalibration(settings)
+        terms = []
+        for (b, _, _), s in zip(scene, np.split(f(all_scores * 20 + 40), split), strict=True):
+            xywh = np.concatenate([b[:, :2] - b[:, 2:] / 2, b[:, 2:]], axis=1)
+            cal.observe(s, xywh)
+            on_kappa, on_nu = cal.terms(s)
+            terms.append(np.stack([on_kappa, on_nu]))
+        terms = np.concatenate(terms, axis=1)
+        if ref is None:
+            ref = terms
+        np.testing.assert_array_equal(terms, ref, err_msg=name)
+    assert cal.ready
+    truth = np.concatenate([t for _, _, t in scene])
+    on_kappa = ref[0]
+    # clutter is written more readily against false detections than against targets
+    assert np.median(on_kappa[~truth]) > 2 * np.median(on_kappa[truth])
+    with pytest.raises(ValueError, match="boxes"):
+        ScoreCalibration(settings).observe(np.ones(2))
