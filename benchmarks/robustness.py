@@ -16,7 +16,11 @@ default settings, their own venv: ``bash benchmarks/peers/setup_env.sh``), all s
 :func:`pgm.evaluation.mot.evaluate_mot` (MOTA, IDF1, HOTA).
 
 Tables: per kind, each sequence's MOTA / IDF1 / HOTA of every candidate and the best of
-the peers in each metric. Then the default **chosen leave one sequence out**: for each
+the peers in each metric. A candidate that reads scores only through their ranks (the
+learned and quantile score maps) gives the same tracks under every score map — exactly,
+as ``tests/models/test_score_invariance.py`` checks on every shared sequence — so its
+unperturbed row stands for the score-map kinds unless ``--run-invariant`` is given.
+Then the default **chosen leave one sequence out**: for each
 held-out sequence, the candidate with the best mean of (MOTA + IDF1 + HOTA) / 3 over the
 other sequences and every kind (a fold leaves out a sequence with all its
 perturbations), scored on the held-out sequence's kinds against the best peer; and per
@@ -58,21 +62,11 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
     "ocsort-colour (detector scores)": ("ocsort_colour", {"score_map": "detector"}),
     "ocsort-colour learned 0.5": ("ocsort_colour", {"score_map": "learned",
                                                     "score_threshold": 0.5}),
-    "ocsort-colour learned 0.8": ("ocsort_colour", {"score_map": "learned",
-                                                    "score_threshold": 0.8}),
     "ocsort-colour quantile 0.2": ("ocsort_colour", {"score_map": "quantile",
                                                      "score_threshold": 0.2}),
-    "ocsort-colour quantile 0.4": ("ocsort_colour", {"score_map": "quantile",
-                                                     "score_threshold": 0.4}),
     "ocsort-colour+low quantile 0.4": ("ocsort_colour", {"score_map": "quantile",
                                                          "score_threshold": 0.4,
                                                          "rounds": OCSORT_LOW}),
-    "ocsort-colour+low quantile 0.6": ("ocsort_colour", {"score_map": "quantile",
-                                                         "score_threshold": 0.6,
-                                                         "rounds": OCSORT_LOW}),
-    "ocsort-colour+low learned 0.8": ("ocsort_colour", {"score_map": "learned",
-                                                        "score_threshold": 0.8,
-                                                        "rounds": OCSORT_LOW}),
     "bytetrack-colour quantile": ("bytetrack", {"score_map": "quantile", **COLOUR}),
     # OC-SORT's association with SORT's life cycle: a track found again after a miss is
     # reported at once, and confirmation counts matches, not matches in a row
@@ -222,6 +216,31 @@ def task(name: str, kind: str, labels: list[str], peers: bool, work: str) -> lis
     return rows
 
 
+def invariant(label: str) -> bool:
+    """Whether a candidate reads scores only through their ranks (a learned or quantile
+    map): its tracks under a score map are its tracks on the sequence as it is
+    (``tests/models/test_score_invariance.py`` holds every core to that, exactly)."""
+    module_name, fields = CANDIDATES[label]
+    return fields.get("score_map", fields.get("score_model")) in ("learned", "quantile")
+
+
+def with_invariant_copies(results: dict, labels: list[str], seqs, kinds) -> dict:
+    """``results`` plus, for each invariant candidate, its row of the unperturbed
+    sequence under each score-map kind (marked ``"copied"``)."""
+    from pgm.evaluation.perturb import SCORE_KINDS
+
+    out = dict(results)
+    for c in labels:
+        if not invariant(c):
+            continue
+        for q in seqs:
+            base = results.get((q, "none", c))
+            for k in kinds:
+                if k in SCORE_KINDS and (q, k, c) not in out and base is not None:
+                    out[(q, k, c)] = {**base, "kind": k, "copied": True}
+    return out
+
+
 def load_cache(path: Path) -> dict[tuple[str, str, str], dict]:
     out = {}
     if path.is_file():
@@ -281,6 +300,10 @@ def main(argv: list[str] | None = None) -> int:
                     help=f"comma-separated labels (default: all of {list(CANDIDATES)})")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--no-peers", action="store_true")
+    ap.add_argument("--run-invariant", dest="copy_invariant", action="store_false",
+                    help="also run the candidates that read scores through their ranks under "
+                         "the score maps (default: their unperturbed rows stand for them, "
+                         "which tests/models/test_score_invariance.py holds exactly)")
     ap.add_argument("--cache", type=Path,
                     default=Path(__file__).resolve().parent / "results" / "robustness.jsonl")
     ap.add_argument("--work", type=Path, default=None,
@@ -301,10 +324,13 @@ def main(argv: list[str] | None = None) -> int:
     work.mkdir(parents=True, exist_ok=True)
     args.cache.parent.mkdir(parents=True, exist_ok=True)
     results = load_cache(args.cache)
+    from pgm.evaluation.perturb import SCORE_KINDS
+
     todo = []
     for q in seqs:
         for k in kinds:
-            missing = [c for c in labels if (q, k, c) not in results]
+            missing = [c for c in labels if (q, k, c) not in results
+                       and not (args.copy_invariant and k in SCORE_KINDS and invariant(c))]
             peers = not args.no_peers and not any(
                 (q, k, f"peer:{p}") in results for p in PEERS)
             if missing or peers:
@@ -322,6 +348,8 @@ def main(argv: list[str] | None = None) -> int:
             if rows:
                 print(f"  done {rows[0]['sequence']} {rows[0]['kind']}", flush=True)
 
+    if args.copy_invariant:
+        results = with_invariant_copies(results, labels, seqs, kinds)
     for k in kinds:
         table = []
         for q in seqs:
