@@ -15,8 +15,8 @@ detections ``det.txt`` (and, for the frame rate, of its frames and ground truth)
 * ``drop`` — 20 % of the detections removed;
 * ``jitter`` — each box's centre and size moved by a Gaussian of 5 % of its size;
 * ``false-positives`` — 20 % more detections, false: boxes (size and place) and scores
-  drawn from the sequence's own detections of other frames, shifted by at least a box
-  so they mark nobody;
+  drawn from the sequence's own detections of other frames, shifted by one to two
+  boxes so they mark nobody, kept inside the image;
 * ``shifted`` — every box 10 % taller, moved down by 5 % of its height and right by
   3 % of its width (another detector's box convention).
 
@@ -77,9 +77,11 @@ def score_transform(scores: np.ndarray, kind: str) -> np.ndarray:
     return p if kind == "probability" else z  # logit(p) = z, without the round trip
 
 
-def perturb_detections(det: np.ndarray, kind: str, rng: np.random.Generator) -> np.ndarray:
+def perturb_detections(det: np.ndarray, kind: str, rng: np.random.Generator,
+                       image_size: tuple[float, float] | None = None) -> np.ndarray:
     """Rows of ``det.txt`` (``frame, id, x, y, w, h, score, ...``) perturbed by ``kind``
-    (any of :data:`KINDS` but the frame rates, :func:`keep_frames`)."""
+    (any of :data:`KINDS` but the frame rates, :func:`keep_frames`). ``image_size``
+    ``(width, height)``: the false positives are kept inside it, as a detector's are."""
     d = np.array(det, dtype=float, copy=True)
     if d.ndim != 2 or d.shape[1] < 7:
         raise ValueError(f"detections need at least 7 columns, got shape {d.shape}")
@@ -113,6 +115,10 @@ def perturb_detections(det: np.ndarray, kind: str, rng: np.random.Generator) -> 
         dist = rng.uniform(1.0, 2.0, n)
         fp[:, 2] += np.cos(angle) * dist * fp[:, 4]
         fp[:, 3] += np.sin(angle) * dist * fp[:, 5]
+        if image_size is not None:  # 1-based top-left corners, the box inside the image
+            w, h = float(image_size[0]), float(image_size[1])
+            fp[:, 2] = np.clip(fp[:, 2], 1.0, np.maximum(w - fp[:, 4], 1.0))
+            fp[:, 3] = np.clip(fp[:, 3], 1.0, np.maximum(h - fp[:, 5], 1.0))
         fp[:, 6] = d[rng.integers(0, len(d), n), 6]
         out = np.concatenate([d, fp])
         return out[np.argsort(out[:, 0], kind="stable")]
@@ -178,7 +184,9 @@ def perturb_sequence(source: str | Path, out: str | Path, kind: str, seed: int =
     det = keep_frames(_read_rows(src / "det" / "det.txt"), step, n)
     gt = keep_frames(_read_rows(src / "gt" / "gt.txt"), step, n)
     if step == 1:
-        det = perturb_detections(det, kind, np.random.default_rng(seed))
+        size = ((float(info["imWidth"]), float(info["imHeight"]))
+                if "imWidth" in info and "imHeight" in info else None)
+        det = perturb_detections(det, kind, np.random.default_rng(seed), image_size=size)
     kept = frames[:n:step]
     _write_rows(dst / "det" / "det.txt", det)
     _write_rows(dst / "gt" / "gt.txt", gt)
