@@ -7,12 +7,15 @@ Gaussian})``; the factors are :mod:`pgm.factors.association`'s):
 * **predict** — :class:`~pgm.factors.LinearGaussianTransition` on every replica at once,
   ``m ← F m``, ``P ← F P Fᵀ + Q`` (a SORT ``cx, cy, s, r`` state whose area would turn
   non-positive has its area rate set to zero first, as SORT does); when the frame
-  carries the camera's image motion, the states are first moved through it
-  (:func:`pgm.core.motion.linear_state_warp`: ``m ← T m + c``, ``P ← T P Tᵀ``, the
-  camera-motion compensation of BoT-SORT);
+  carries the camera's image motion, the states are moved through it
+  (:func:`pgm.core.motion.linear_state_warp`: ``m ← T m + c``, ``P ← T P Tᵀ``), before
+  the predict or after it and the whole box or its centre only, as the
+  :class:`~pgm.factors.association.BoxTransition` says (``camera``, ``camera_order``);
 * **assign** — :class:`~pgm.factors.association.DetectionAssociation`: the predicted boxes
-  against the frame's detections, Hungarian assignment on IoU, round by round
-  (:class:`Assignment`, kept as ``engine.assignment`` for the frame);
+  against the frame's detections, Hungarian assignment on IoU (or on IoU × score, or on
+  the buffered IoU), round by round, each round on its pool of replicas (all, confirmed,
+  tracked, lost or tentative) (:class:`Assignment`, kept as ``engine.assignment`` for the
+  frame);
 * **weight** — :class:`~pgm.factors.association.AssignedDetectionLikelihood`: the Kalman
   update of each assigned replica with its detection (Joseph form), batched;
   with a :class:`~pgm.factors.multitarget.VBNoise` factor on it, the VB adaptive Kalman
@@ -95,27 +98,34 @@ def detection_boxes(frame: FrameContext) -> np.ndarray:
 def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
            rounds: list[dict[str, Any]], last: np.ndarray | None = None,
            direction: np.ndarray | None = None, direction_weight: float = 0.0,
-           appearance: np.ndarray | None = None, appearance_weight: float = 0.0
+           appearance: np.ndarray | None = None, appearance_weight: float = 0.0,
+           confirmed: np.ndarray | None = None, tracked: np.ndarray | None = None
            ) -> Assignment:
     """Assign detections ``boxes`` (centre, ``(M, 4)``) with mapped ``scores`` to predicted
     boxes ``pred`` ``(K, 4)`` in ``rounds`` (:class:`~pgm.factors.association.
-    DetectionAssociation`): in each, the Hungarian assignment between the replicas and
-    the detections still free maximising the IoU (with the replicas' ``last`` observed
-    boxes ``(K, 4)`` for a round ``"against": "last"``; plus ``direction_weight`` ×
-    ``direction`` ``(K, M)`` for a round with ``"direction"``, and ``appearance_weight`` ×
-    ``appearance`` ``(K, M)`` for one with ``"appearance"``); pairs below the round's IoU
-    gate are no match."""
+    DetectionAssociation`): in each, the Hungarian assignment between the replicas of the
+    round's pool no earlier round matched and the detections still free maximising the
+    IoU (with the replicas' ``last`` observed boxes ``(K, 4)`` for a round ``"against":
+    "last"``; of both boxes enlarged by the round's ``"buffer"``; times the detection's
+    score with ``"fuse_score"``; plus ``direction_weight`` × ``direction`` ``(K, M)`` for a
+    round with ``"direction"``, and ``appearance_weight`` × ``appearance`` ``(K, M)`` for
+    one with ``"appearance"``); pairs below the round's gate (on the IoU, or the fused
+    IoU × score) are no match. ``confirmed`` ``(K,)``: which replicas have an identity,
+    ``tracked`` ``(K,)``: which were matched in the previous frame (a round's
+    ``"tracks"`` pool: :data:`~pgm.factors.association.TRACK_POOLS`)."""
     from scipy.optimize import linear_sum_assignment
 
     K, M = len(pred), len(boxes)  # noqa: N806
     iou = iou_matrix(pred, boxes) if K and M else np.zeros((K, M))
-    if len(rounds) == 1 and rounds[0]["against"] == "prediction" and K and M and \
-            appearance is None and not rounds[0]["direction"] and \
-            rounds[0]["min_score"] == -np.inf and rounds[0]["max_score"] == np.inf:
+    r0 = rounds[0]
+    if len(rounds) == 1 and r0["against"] == "prediction" and K and M and \
+            appearance is None and not r0["direction"] and r0.get("tracks", "all") == "all" \
+            and not r0.get("fuse_score") and not r0.get("buffer") and \
+            r0["min_score"] == -np.inf and r0["max_score"] == np.inf:
         # SORT's one round over every detection: the assignment, gated (the loop below
         # gives the same, with more bookkeeping)
         a, b = linear_sum_assignment(iou, maximize=True)
-        ok = iou[a, b] >= rounds[0]["iou"]
+        ok = iou[a, b] >= r0["iou"]
         return Assignment(a[ok], b[ok], boxes, scores, iou, np.zeros(int(ok.sum()), dtype=int))
     free = np.ones(K, dtype=bool)
     unused = np.ones(M, dtype=bool)
@@ -123,16 +133,24 @@ def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
     cols: list[np.ndarray] = []
     made: list[np.ndarray] = []
     for i, r in enumerate(rounds):
-        ks = np.flatnonzero(free)
+        ks = np.flatnonzero(free & _pool(r.get("tracks", "all"), K, confirmed, tracked))
         js = np.flatnonzero(unused & (scores >= r["min_score"]) & (scores < r["max_score"]))
         if not len(ks) or not len(js):
             continue
-        if r["against"] == "last":
-            if last is None:
+        buffer = r.get("buffer", 0.0)
+        if r["against"] == "last" or buffer:
+            if r["against"] == "last" and last is None:
                 raise ValueError("a round against the last observations needs them")
-            gate = iou_matrix(last[ks], boxes[js])
+            mine = last[ks] if r["against"] == "last" else pred[ks]
+            if buffer:  # C-BIoU: both boxes enlarged about their centres
+                grow = np.array([1.0, 1.0, 1.0 + 2.0 * buffer, 1.0 + 2.0 * buffer])
+                gate = iou_matrix(mine * grow, boxes[js] * grow)
+            else:
+                gate = iou_matrix(mine, boxes[js])
         else:
             gate = iou if len(ks) == K and len(js) == M else iou[np.ix_(ks, js)]
+        if r.get("fuse_score"):  # BoT-SORT: IoU times the detection's score, gated so
+            gate = gate * scores[js][None, :]
         cost = gate
         if r["direction"] and direction is not None and direction_weight:
             cost = gate + direction_weight * direction[np.ix_(ks, js)]
@@ -147,6 +165,23 @@ def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
         unused[js[b[ok]]] = False
     cat = lambda xs: np.concatenate(xs) if xs else np.zeros(0, dtype=int)  # noqa: E731
     return Assignment(cat(rows), cat(cols), boxes, scores, iou, cat(made))
+
+
+def _pool(tracks: str, K: int, confirmed: np.ndarray | None,  # noqa: N803
+          tracked: np.ndarray | None) -> np.ndarray | bool:
+    """The mask ``(K,)`` of the replicas in a round's pool ``tracks`` (True: all)."""
+    if tracks == "all":
+        return True
+    if confirmed is None or (tracks in ("tracked", "lost") and tracked is None):
+        raise ValueError(f"a round on the {tracks} tracks needs the replicas' status "
+                         f"(confirmed, tracked)")
+    confirmed = np.asarray(confirmed, dtype=bool).reshape(K)
+    if tracks == "confirmed":
+        return confirmed
+    if tracks == "tentative":
+        return ~confirmed
+    tracked = np.asarray(tracked, dtype=bool).reshape(K)
+    return confirmed & tracked if tracks == "tracked" else confirmed & ~tracked
 
 
 def _centres(b: np.ndarray) -> np.ndarray:
@@ -232,11 +267,18 @@ def predict_gaussians(engine: Engine, factor, frame: FrameContext) -> None:
     b: BatchedGaussian = engine.beliefs[var]
     m, P = b.mean, b.cov
     labels = engine.graph.variables[var].labels
-    warp = linear_state_warp(labels, frame.camera_motion)
-    if warp is not None:  # the camera moved: last frame's states into this frame's image
+    camera = getattr(factor, "camera", "box")
+    warp = None if camera == "none" else linear_state_warp(
+        labels, frame.camera_motion, sizes="keep" if camera == "centre" else "scale")
+    after = getattr(factor, "camera_order", "before") == "after"
+    if warp is not None and not after:  # last frame's states into this frame's image
         T, c = warp
         m, P = m @ T.T + c, T @ P @ T.T
-    engine.beliefs[var] = BatchedGaussian(*_predict(factor, labels, m, P))
+    m, P = _predict(factor, labels, m, P)
+    if warp is not None and after:  # the prediction into this frame's image (BoT-SORT)
+        T, c = warp
+        m, P = m @ T.T + c, T @ P @ T.T
+    engine.beliefs[var] = BatchedGaussian(m, P)
 
 
 def _predict(factor, labels, m: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -276,8 +318,12 @@ def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, 
             model = aux["score_model"] = factor.score_model()
     scores = factor.scores(frame, model)
     looks = _appearance(engine, factor, frame, boxes)
-    extra = {} if looks is None else {"appearance": looks,
-                                      "appearance_weight": factor.appearance_weight}
+    extra: dict[str, Any] = {} if looks is None else {
+        "appearance": looks, "appearance_weight": factor.appearance_weight}
+    if factor.uses_pools:  # which replicas have an identity, which were matched last frame
+        tracks = engine.replicas.tracks
+        extra.update(confirmed=np.array([t.track_id is not None for t in tracks], dtype=bool),
+                     tracked=np.array([t.misses == 0 for t in tracks], dtype=bool))
     if not factor.keeps_observations:
         a = assign(pred, boxes, scores, factor.rounds, **extra)
     else:
@@ -301,7 +347,12 @@ def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, 
         for k, j in zip(a.rows, a.cols, strict=True):
             histories[k].observe(boxes[j])
     if factor.appearance is not None and frame.image is not None:  # learn from the match
+        h, w = frame.image.shape[:2]
+        half = boxes[:, 2:] / 2.0  # a detection wholly outside the image shows nothing
+        seen = np.all((boxes[:, :2] + half > 0) & (boxes[:, :2] - half < (w, h)), axis=1)
         for k, j in zip(a.rows, a.cols, strict=True):
+            if not seen[j]:
+                continue
             aux = engine.replicas.aux[int(k)]
             models = aux.get("appearance")
             if models is None:

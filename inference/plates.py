@@ -475,7 +475,11 @@ def associate(engine: Engine, frame: FrameContext, record: StepRecord) -> None:
                                           if k not in PLATE_KEYS}, keep, len(births)))
     info["births"] = len(births)
     if births:
-        add(engine, det_boxes[sorted(births)], frame)
+        first = lc.activate_first and engine.t == 0  # the first frame's births: confirmed
+        new = add(engine, det_boxes[sorted(births)], frame, confirmed=first)
+        if first:  # and reported now, with their birth boxes
+            for k in new:
+                engine.replicas.tracks[k].matched = True
 
 def _iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """IoU of centre boxes ``a`` and ``b``, broadcasting over the leading axes."""

@@ -21,16 +21,18 @@ from .config import ModelConfig
 
 __all__ = ["BUILTIN", "model_names", "get_config", "get_model", "registry", "option_owners",
            "DEFAULT_SINGLE_OBJECT", "DEFAULT_MULTI_TARGET", "ENTRY_POINT_GROUP", "config",
-           "ModelConfig", "bytetrack", "colour_pf", "gpdm", "linear_gaussian", "multi_pf",
-           "ocsort", "ocsort_colour", "part_graph", "phd", "single_object", "sort", "vb_phd",
-           "vb_sort"]
+           "ModelConfig", "botsort", "bytetrack", "cbiou", "colour_pf", "gpdm",
+           "linear_gaussian", "multi_pf", "ocsort", "ocsort_colour", "part_graph", "phd",
+           "single_object", "sort", "vb_phd", "vb_sort"]
 
 #: the entry-point group where packages declare models
 ENTRY_POINT_GROUP = "pgm.models"
 #: the toolkit's own models: name → ``module:attribute`` of their :class:`ModelConfig`
 #: (also declared as entry points in the toolkit's ``pyproject.toml``)
 BUILTIN = {
+    "botsort": "pgm.models.botsort:CONFIG",
     "bytetrack": "pgm.models.bytetrack:CONFIG",
+    "cbiou": "pgm.models.cbiou:CONFIG",
     "colour-pf": "pgm.models.colour_pf:CONFIG",
     "gpdm": "pgm.models.gpdm:CONFIG",
     "linear-gaussian": "pgm.models.linear_gaussian:CONFIG",
@@ -49,8 +51,9 @@ DEFAULT_SINGLE_OBJECT = "single-object"
 #: what ``pgm track`` runs on a video with detections when no ``--model`` is given
 DEFAULT_MULTI_TARGET = "ocsort-colour"
 
-_SUBMODULES = ("bytetrack", "colour_pf", "gpdm", "linear_gaussian", "multi_pf", "ocsort",
-               "ocsort_colour", "part_graph", "phd", "single_object", "sort", "vb_phd", "vb_sort")
+_SUBMODULES = ("botsort", "bytetrack", "cbiou", "colour_pf", "gpdm", "linear_gaussian",
+               "multi_pf", "ocsort", "ocsort_colour", "part_graph", "phd", "single_object",
+               "sort", "vb_phd", "vb_sort")
 
 
 def __getattr__(name: str) -> Any:

@@ -183,6 +183,15 @@ class Params:
         detector's noise is a property of the detector, steady over a track's life (seed
         000's 0.8 forgets a shared noise that drifts; per track it makes each track's gain
         follow its last few residuals: PETS09-S2L1 IDF1 0.399 against 0.454).
+    activate_first : bool
+        The tracks born in the video's first frame are confirmed and reported at once
+        (BoT-SORT, C-BIoU; :class:`~pgm.core.plate.Lifecycle` ``activate_first``).
+    camera_warp : {"box", "centre", "none"}
+        What the camera's image motion moves in the Kalman state: the whole box, its
+        centre and the centre's rate only (BoT-SORT), or nothing (C-BIoU)
+        (:class:`~pgm.factors.association.BoxTransition` ``camera``).
+    camera_order : {"before", "after"}
+        Whether the camera's motion is applied before the predict or after it (BoT-SORT).
     """
 
     box_state: str = "xyxy"
@@ -220,6 +229,9 @@ class Params:
     vb_noise: bool = False
     vb_rho: float = 0.99
     vb_alpha0: float = 10.0
+    activate_first: bool = False
+    camera_warp: str = "box"
+    camera_order: str = "before"
 
 
 def _noise(p: Params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -344,7 +356,8 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
     rel_r = [p.meas_std] * 4 if scaled else None
     factors: list[Any] = [
         BoxPrior("box", mean=mean, cov=np.diag(p0), relative_std=rel_p0),
-        BoxTransition("box", F=F, Q=np.diag(q), relative_std=rel_q),
+        BoxTransition("box", F=F, Q=np.diag(q), relative_std=rel_q, camera=p.camera_warp,
+                      camera_order=p.camera_order),
         _association(p),
         AssignedDetectionLikelihood("box", H=H, R=np.diag(r), relative_std=rel_r,
                                     reupdate=p.reupdate, occlusion_gate=p.occlusion_gate,
@@ -378,7 +391,8 @@ def _lifecycle(p: Params) -> Lifecycle:
                      recover_hits=int(p.recover_hits),
                      report="matched" if p.report == "estimate" else "detection",
                      tentative_lost=max_lost if p.keep_tentative else 0,
-                     warmup_frames=int(p.min_hits) if p.warmup else 0)
+                     warmup_frames=int(p.min_hits) if p.warmup else 0,
+                     activate_first=bool(p.activate_first))
 
 
 def _association(p: Params) -> DetectionAssociation:

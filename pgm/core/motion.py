@@ -68,7 +68,7 @@ def warp_states(x: np.ndarray, labels: Sequence[str] | None,
     return out
 
 
-def linear_state_warp(labels: Sequence[str], affine: np.ndarray | None
+def linear_state_warp(labels: Sequence[str], affine: np.ndarray | None, sizes: str = "scale"
                       ) -> tuple[np.ndarray, np.ndarray] | None:
     """The image motion ``affine`` as a linear map ``x ↦ T x + c`` of a box state (a
     Gaussian's mean moves so, its covariance to ``T P Tᵀ``: camera-motion compensation of
@@ -76,7 +76,15 @@ def linear_state_warp(labels: Sequence[str], affine: np.ndarray | None
     ``cx, cy``, and positions ``x, y`` ``↦ M p + t``; their rates (``v`` + label) ``↦ M v``;
     sizes ``w, h`` (and their rates) ``↦ s ·``; an area ``s`` (and its rate) ``↦ s² ·``,
     with ``s = sqrt(|det M|)``; anything else is unchanged. None when there is no motion
-    or no position in the labels."""
+    or no position in the labels.
+
+    ``sizes="keep"``: only the box's centre and its rate move (``M c + t``, ``M v``); its
+    width and height and their rates stay as they are — BoT-SORT's compensation of its
+    centre-and-size state. A corner state keeps its size so too: the map acts on the
+    corners' mean and difference (``T = J⁻¹ B J`` with ``J`` the corners' change to
+    centre and size)."""
+    if sizes not in ("scale", "keep"):
+        raise ValueError(f"sizes must be 'scale' or 'keep', got {sizes!r}")
     if affine is None or not labels:
         return None
     labels = list(labels)
@@ -85,7 +93,24 @@ def linear_state_warp(labels: Sequence[str], affine: np.ndarray | None
     d = len(labels)
     T, c = np.eye(d), np.zeros(d)
     moved = False
-    for a, b in (("x1", "y1"), ("x2", "y2"), ("cx", "cy"), ("px", "py"), ("x", "y")):
+    if sizes == "keep" and all(k in labels for k in ("x1", "y1", "x2", "y2")):
+        # corners: centre (x1 + x2) / 2 moves through the motion, the size x2 - x1 does not
+        for prefix in ("", "v"):
+            names = [prefix + k for k in ("x1", "y1", "x2", "y2")]
+            if not all(k in labels for k in names):
+                continue
+            idx = [labels.index(k) for k in names]
+            J = np.array([[0.5, 0, 0.5, 0], [0, 0.5, 0, 0.5], [-1, 0, 1, 0], [0, -1, 0, 1]])
+            B = np.eye(4)
+            B[:2, :2] = M
+            T[np.ix_(idx, idx)] = np.linalg.solve(J, B @ J)
+            if not prefix:
+                c[idx] = np.linalg.solve(J, np.r_[t, 0.0, 0.0])
+                moved = True
+        pairs = (("px", "py"), ("x", "y"))
+    else:
+        pairs = (("x1", "y1"), ("x2", "y2"), ("cx", "cy"), ("px", "py"), ("x", "y"))
+    for a, b in pairs:
         if a in labels and b in labels:
             i, j = labels.index(a), labels.index(b)
             T[np.ix_([i, j], [i, j])] = M
@@ -96,6 +121,8 @@ def linear_state_warp(labels: Sequence[str], affine: np.ndarray | None
                 T[np.ix_([vi, vj], [vi, vj])] = M
     if not moved:
         return None
+    if sizes == "keep":
+        return T, c
     scale = motion_scale(A)
     for name, power in (("w", 1), ("h", 1), ("s", 2)):
         for label in (name, f"v{name}"):
@@ -103,4 +130,3 @@ def linear_state_warp(labels: Sequence[str], affine: np.ndarray | None
                 k = labels.index(label)
                 T[k, k] = scale ** power
     return T, c
-

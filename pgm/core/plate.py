@@ -95,6 +95,11 @@ class Lifecycle:
     warmup_frames : int
         During the video's first ``warmup_frames + 1`` frames a matched replica is
         confirmed (and reported) at once (SORT's and OC-SORT's start-up rule).
+    activate_first : bool
+        The replicas born in the engine's first frame are confirmed at once (given
+        identities) and reported in that frame with their birth boxes (BoT-SORT's and
+        C-BIoU's first-frame activation; ``warmup_frames`` confirms matched replicas
+        only, and a replica is matched from its second frame on).
     """
 
     confirm_hits: int = 3
@@ -111,6 +116,7 @@ class Lifecycle:
     tentative_lost: int = 0
     warmup_frames: int = 0
     birth_counts: bool = True
+    activate_first: bool = False
 
     def __post_init__(self) -> None:
         _check_number("confirm_hits", self.confirm_hits, 1, integer=True)
@@ -131,9 +137,10 @@ class Lifecycle:
             _check_number("recover_hits", self.recover_hits, 1, integer=True)
         _check_number("tentative_lost", self.tentative_lost, 0, integer=True)
         _check_number("warmup_frames", self.warmup_frames, 0, integer=True)
-        if not isinstance(self.birth_counts, bool):
-            raise ValueError(f"plate lifecycle: birth_counts must be a bool, got "
-                             f"{self.birth_counts!r}")
+        for name in ("birth_counts", "activate_first"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"plate lifecycle: {name} must be a bool, got "
+                                 f"{getattr(self, name)!r}")
         if self.report not in ("estimate", "detection", "matched"):
             raise ValueError(f"plate lifecycle: report must be 'estimate', 'detection' or "
                              f"'matched', got {self.report!r}")

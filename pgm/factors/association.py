@@ -47,8 +47,8 @@ from pgm.factors.kinds import LikelihoodFactor
 from pgm.factors.scores import PersistenceScoreModel, ScoreQuantiles
 
 __all__ = ["BoxPrior", "BoxTransition", "DetectionAssociation", "AssignedDetectionLikelihood",
-           "SCORE_MAPS", "LEARNED_SCORE_MAPS", "map_scores", "constant_velocity", "axis_sizes",
-           "X_LABELS"]
+           "SCORE_MAPS", "LEARNED_SCORE_MAPS", "TRACK_POOLS", "map_scores", "constant_velocity",
+           "axis_sizes", "X_LABELS", "CAMERA_WARPS", "CAMERA_ORDERS"]
 
 #: how detection scores are brought to [0, 1] before the rounds' thresholds: ``"none"``
 #: (as given), ``"logistic"`` (``1 / (1 + e^{-s})``: one monotone map for a detector whose
@@ -66,6 +66,11 @@ __all__ = ["BoxPrior", "BoxTransition", "DetectionAssociation", "AssignedDetecti
 SCORE_MAPS = ("none", "logistic", "constant", "learned", "quantile")
 #: the score maps learned on the video (kept per run by the association rule)
 LEARNED_SCORE_MAPS = ("learned", "quantile")
+#: the replicas a round of :class:`DetectionAssociation` may take (``"tracks"``), of those
+#: no earlier round matched: every one; those with an identity (``"confirmed"``); those
+#: confirmed and matched (or born) in the previous frame (``"tracked"``); those confirmed
+#: and missed then (``"lost"``); those without an identity yet (``"tentative"``)
+TRACK_POOLS = ("all", "confirmed", "tracked", "lost", "tentative")
 
 
 def map_scores(scores: np.ndarray, score_map: str) -> np.ndarray:
@@ -205,16 +210,29 @@ class DetectionAssociation(Factor):
     direction from its observation ``delta_t`` frames back to the detection (the IoU
     alone is gated).
 
+    Three more keys make BoT-SORT's and C-BIoU's rounds (:mod:`pgm.models.botsort`,
+    :mod:`pgm.models.cbiou`): ``"tracks"`` restricts a round to a pool of the replicas
+    left (:data:`TRACK_POOLS`: ``"all"``, the default; ``"confirmed"``, with an identity;
+    ``"tracked"``, confirmed and matched in the previous frame; ``"lost"``, confirmed and
+    not; ``"tentative"``, without an identity); ``"fuse_score": true`` maximises the IoU
+    times the detection's (mapped) score, and the gate reads that product; ``"buffer":
+    b`` computes the IoU of both boxes enlarged about their centres to ``(1 + 2b) w ×
+    (1 + 2b) h`` (the buffered IoU of C-BIoU: boxes that do not touch may still match).
+
     Parameters
     ----------
     variable : str
         The plate's box state.
     rounds : list of dict
         ``{"iou": gate, "min_score": ..., "max_score": ..., "against": "prediction" |
-        "last", "direction": bool}`` per round (scores default to all). SORT:
-        ``[{"iou": 0.3}]``; ByteTrack: ``[{"iou": 0.1, "min_score": 0.6}, {"iou": 0.1,
-        "max_score": 0.6}]``; OC-SORT: ``[{"iou": 0.3, "min_score": 0.6, "direction":
-        true}, {"iou": 0.3, "min_score": 0.6, "against": "last"}]``.
+        "last", "direction": bool, "tracks": pool, "fuse_score": bool, "buffer": b}`` per
+        round (scores default to all, tracks to all, buffer to 0). SORT: ``[{"iou":
+        0.3}]``; ByteTrack: ``[{"iou": 0.1, "min_score": 0.6}, {"iou": 0.1, "max_score":
+        0.6}]``; OC-SORT: ``[{"iou": 0.3, "min_score": 0.6, "direction": true}, {"iou":
+        0.3, "min_score": 0.6, "against": "last"}]``; BoT-SORT: ``[{"iou": 0.2,
+        "min_score": 0.6, "tracks": "confirmed", "fuse_score": true}, {"iou": 0.5,
+        "min_score": 0.1, "max_score": 0.6, "tracks": "tracked"}, {"iou": 0.3,
+        "min_score": 0.6, "tracks": "tentative", "fuse_score": true}]``.
     score_map : {"none", "logistic", "constant", "learned"}
         Map applied to the detection scores first (:data:`SCORE_MAPS`); the mapped scores
         are also what the plate's ``birth_min_score`` compares. ``"learned"``: each
@@ -240,7 +258,8 @@ class DetectionAssociation(Factor):
     """
 
     kind = "association"
-    _KEYS = frozenset({"iou", "min_score", "max_score", "against", "direction", "appearance"})
+    _KEYS = frozenset({"iou", "min_score", "max_score", "against", "direction", "appearance",
+                       "tracks", "fuse_score", "buffer"})
 
     def __init__(self, variable: str, *, rounds: list[dict[str, Any]] | None = None,
                  score_map: str = "none", direction_weight: float = 0.2, delta_t: int = 3,
@@ -276,8 +295,8 @@ class DetectionAssociation(Factor):
         self.rounds: list[dict[str, Any]] = []
         for r in rounds:
             if not isinstance(r, dict) or set(r) - self._KEYS:
-                raise ValueError(f"factor {self.name!r}: a round is a dict of iou, min_score, "
-                                 f"max_score, against, direction; got {r!r}")
+                raise ValueError(f"factor {self.name!r}: a round is a dict of "
+                                 f"{', '.join(sorted(self._KEYS))}; got {r!r}")
             iou = float(r.get("iou", 0.3))
             lo = float(r.get("min_score", -math.inf) if r.get("min_score") is not None
                        else -math.inf)
@@ -290,9 +309,25 @@ class DetectionAssociation(Factor):
             if against not in ("prediction", "last"):
                 raise ValueError(f"factor {self.name!r}: a round's 'against' is 'prediction' "
                                  f"or 'last', got {against!r}")
+            tracks = r.get("tracks", "all")
+            if tracks not in TRACK_POOLS:
+                raise ValueError(f"factor {self.name!r}: a round's 'tracks' is one of "
+                                 f"{TRACK_POOLS}, got {tracks!r}")
+            buffer = r.get("buffer", 0.0)
+            if isinstance(buffer, bool) or not isinstance(buffer, (int, float)) or \
+                    not math.isfinite(buffer) or buffer < 0:
+                raise ValueError(f"factor {self.name!r}: a round's 'buffer' is a finite number "
+                                 f">= 0, got {buffer!r}")
             self.rounds.append({"iou": iou, "min_score": lo, "max_score": hi,
                                 "against": against, "direction": bool(r.get("direction")),
-                                "appearance": bool(r.get("appearance"))})
+                                "appearance": bool(r.get("appearance")), "tracks": tracks,
+                                "fuse_score": bool(r.get("fuse_score")),
+                                "buffer": float(buffer)})
+
+    @property
+    def uses_pools(self) -> bool:
+        """Whether a round takes a pool of the replicas (``"tracks"`` other than all)."""
+        return any(r["tracks"] != "all" for r in self.rounds)
 
     @property
     def keeps_observations(self) -> bool:
@@ -312,6 +347,12 @@ class DetectionAssociation(Factor):
                 d["direction"] = True
             if r["appearance"]:
                 d["appearance"] = True
+            if r["tracks"] != "all":
+                d["tracks"] = r["tracks"]
+            if r["fuse_score"]:
+                d["fuse_score"] = True
+            if r["buffer"]:
+                d["buffer"] = r["buffer"]
             rounds.append(d)
         p: dict[str, Any] = {"rounds": rounds, "score_map": self.score_map}
         if any(r["direction"] for r in self.rounds):
@@ -438,18 +479,51 @@ class AssignedDetectionLikelihood(LikelihoodFactor):
                          f"with a DetectionAssociation (its rules read the frame's assignment)")
 
 
+#: what of a box state the camera's image motion moves (:class:`BoxTransition`)
+CAMERA_WARPS = ("box", "centre", "none")
+#: where the camera's image motion enters a predict (:class:`BoxTransition`)
+CAMERA_ORDERS = ("before", "after")
+
+
 class BoxTransition(_RelativeStd, LinearGaussianTransition):
     """Constant-velocity box dynamics ``x_t = F x_{t-1} + N(0, Q)`` whose noise is fixed
     (``Q``) or, with ``relative_std`` (one std per state component), scale-aware:
     ``Q = diag((relative_std · size)²)`` with ``size`` the box's width or height along
     each component's axis at ``x_{t-1}`` (:func:`axis_sizes`; BoT-SORT's process noise).
+
+    When a frame carries the camera's image motion ``[M | t]``, ``camera`` says what it
+    moves (:func:`pgm.core.motion.linear_state_warp`): ``"box"`` (default) the whole box
+    — corners or centre through ``M p + t``, sizes scaled by ``sqrt|det M|``; ``"centre"``
+    the box's centre and its rate only, its width and height unchanged (BoT-SORT's camera
+    motion compensation); ``"none"`` nothing (a tracker without compensation, C-BIoU).
+    ``camera_order`` says when: ``"before"`` the predict (``x_t = F (T x_{t-1} + c) +
+    w``: the process noise is added in the new frame's image) or ``"after"`` it (``x_t =
+    T (F x_{t-1} + w) + c``: the noise is carried through the motion, ``P ← T (F P Fᵀ +
+    Q) Tᵀ``, as BoT-SORT applies it). The means agree; the covariances differ by ``Q``
+    against ``T Q Tᵀ``.
     """
 
-    def __init__(self, variable: str, *, F, Q, relative_std=None, name: str | None = None):
+    def __init__(self, variable: str, *, F, Q, relative_std=None, camera: str = "box",
+                 camera_order: str = "before", name: str | None = None):
         super().__init__(variable, F=F, Q=Q, name=name)
         self.relative_std = _relative_std(self, relative_std, self.F.shape[0])
+        if camera not in CAMERA_WARPS:
+            raise ValueError(f"factor {self.name!r}: camera must be one of {CAMERA_WARPS}, got "
+                             f"{camera!r}")
+        if camera_order not in CAMERA_ORDERS:
+            raise ValueError(f"factor {self.name!r}: camera_order must be one of "
+                             f"{CAMERA_ORDERS}, got {camera_order!r}")
+        self.camera, self.camera_order = camera, camera_order
         self._labels: tuple | None = None
         self._coding: str | None = None
+
+    def params(self) -> dict[str, Any]:
+        p = super().params()
+        if self.camera != "box":
+            p["camera"] = self.camera
+        if self.camera_order != "before":
+            p["camera_order"] = self.camera_order
+        return p
 
     def check(self, variables: dict[str, Variable]) -> None:
         super().check(variables)

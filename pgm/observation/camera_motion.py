@@ -30,6 +30,14 @@ reports (identical on the eight shared sequences), on a quarter of a still camer
 frames (PETS09-S2L1 59 of 240, estimator time 2.11 s -> 0.51 s; MOT16-11 299 of 300).
 The runners turn it on (``"auto"``) for multi-target models and leave it off for one
 object, whose camera usually follows it (see :func:`pgm.app.runner.track`).
+
+``method="botsort"`` estimates the motion as BoT-SORT's sparse optical flow does (the
+``trackers`` package's ``CMC(method="sparseOptFlow", downscale=2)``,
+:func:`estimate_sparse_flow`): grey images halved, up to 1000 Shi–Tomasi corners (quality
+0.01, 1 px apart, 3 px blocks), Lucas–Kanade with OpenCV's defaults, a partial affine fit
+by RANSAC with its defaults and none of the checks above — a fit is whatever the corners
+say, a still camera's included (a few tenths of a pixel of jitter per frame). With
+``mode="on"`` every frame gets it, as BoT-SORT applies it (:mod:`pgm.models.botsort`).
 """
 
 from __future__ import annotations
@@ -37,9 +45,16 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-__all__ = ["CameraMotionEstimator", "estimate_camera_motion", "MODES"]
+__all__ = ["CameraMotionEstimator", "estimate_camera_motion", "estimate_sparse_flow", "MODES",
+           "METHODS"]
 
 MODES = ("auto", "on", "off")
+#: how a frame's motion is estimated: the toolkit's checked similarity fit, or BoT-SORT's
+#: sparse optical flow (the ``trackers`` package's, every fit taken)
+METHODS = ("checked", "botsort")
+#: BoT-SORT's corners (``trackers`` 2.6.1 ``CMCConfig``: ``sof_*``)
+BOTSORT_CORNERS = {"maxCorners": 1000, "qualityLevel": 0.01, "minDistance": 1, "blockSize": 3,
+                   "useHarrisDetector": False, "k": 0.04}
 
 
 def _grey(image: np.ndarray, scale: float) -> np.ndarray:
@@ -85,6 +100,34 @@ def estimate_camera_motion(prev_grey: np.ndarray, grey: np.ndarray, *, max_corne
     return A.astype(float), n
 
 
+def sparse_flow_corners(grey: np.ndarray) -> np.ndarray | None:
+    """BoT-SORT's corners of a grey image (:data:`BOTSORT_CORNERS`; None: none found)."""
+    return cv2.goodFeaturesToTrack(grey, mask=None, **BOTSORT_CORNERS)
+
+
+def estimate_sparse_flow(prev_grey: np.ndarray, grey: np.ndarray,
+                         prev_corners: np.ndarray | None = None) -> np.ndarray | None:
+    """BoT-SORT's motion ``[M | t]`` ``(2, 3)`` taking ``prev_grey`` pixels to ``grey``
+    (the ``trackers`` package's sparse optical flow, float32 as it computes it): the
+    previous image's corners (``prev_corners``, else found now) followed by Lucas–Kanade,
+    a partial affine fit by RANSAC on those it followed; None where it has no fit (no
+    corners, at most four followed, a failed fit), which the package takes as the
+    identity."""
+    if prev_grey.shape != grey.shape:
+        return None
+    pts = sparse_flow_corners(prev_grey) if prev_corners is None else prev_corners
+    if pts is None:
+        return None
+    nxt, status, _ = cv2.calcOpticalFlowPyrLK(prev_grey, grey, pts, None)
+    if status is None or nxt is None:
+        return None
+    good = status.reshape(-1) != 0
+    if int(good.sum()) <= 4:
+        return None
+    A, _ = cv2.estimateAffinePartial2D(pts[good], nxt[good], method=cv2.RANSAC)
+    return None if A is None else A.astype(np.float32)
+
+
 class CameraMotionEstimator:
     """Estimates each frame's camera motion from the previous frame.
 
@@ -100,12 +143,27 @@ class CameraMotionEstimator:
         last ``window`` frames (this one included) moved by ``min_shift``.
     max_side : int
         Frames are analysed at most this many pixels wide.
+    method : {"checked", "botsort"}
+        ``"checked"``: the toolkit's similarity fit with its checks
+        (:func:`estimate_camera_motion`); ``"botsort"``: BoT-SORT's sparse optical flow
+        on frames shrunk ``downscale`` times (:func:`estimate_sparse_flow`; ``max_side``
+        unused).
+    downscale : int
+        ``"botsort"``: the integer factor frames are shrunk by (2, as the package).
     """
 
     def __init__(self, mode: str = "auto", *, min_shift: float = 1.0, window: int = 20,
-                 min_fraction: float = 0.8, max_side: int = 640):
+                 min_fraction: float = 0.8, max_side: int = 640, method: str = "checked",
+                 downscale: int = 2):
         if mode not in MODES:
             raise ValueError(f"camera motion mode must be one of {MODES}, got {mode!r}")
+        if method not in METHODS:
+            raise ValueError(f"camera motion method must be one of {METHODS}, got {method!r}")
+        if isinstance(downscale, bool) or int(downscale) != downscale or downscale < 1:
+            raise ValueError(f"downscale must be a positive integer, got {downscale!r}")
+        self.method, self.downscale = method, int(downscale)
+        #: ``"botsort"``: the corners of the newest analysed image (it, its corners)
+        self._corners: tuple[np.ndarray, np.ndarray | None] | None = None
         if not np.isfinite(min_shift) or min_shift < 0:
             raise ValueError(f"min_shift must be a non-negative number, got {min_shift!r}")
         if int(window) < 1 or not 0.0 <= float(min_fraction) <= 1.0:
@@ -128,11 +186,41 @@ class CameraMotionEstimator:
     def _estimate(self, prev: np.ndarray, grey: np.ndarray) -> np.ndarray | None:
         """The motion ``prev → grey`` in full-resolution pixels (None: not the camera's)."""
         self.frames_estimated += 1
+        if self.method == "botsort":
+            return self._sparse_flow(prev, grey)
         A, _ = estimate_camera_motion(prev, grey)
         if A is not None:
             A = A.copy()
             A[:, 2] /= self._scale  # translation back to full-resolution pixels
         return A
+
+    def _sparse_flow(self, prev: np.ndarray, grey: np.ndarray) -> np.ndarray | None:
+        """BoT-SORT's estimate ``prev → grey``, its translation in full-resolution pixels
+        (as the package: the float32 fit, its translation times ``downscale``). The
+        corners of ``grey`` are kept for the next frame; as the package, a frame without
+        corners of its own gets no motion."""
+        cached = self._corners
+        prev_corners = cached[1] if cached is not None and cached[0] is prev else \
+            sparse_flow_corners(prev)
+        corners = sparse_flow_corners(grey)
+        self._corners = (grey, corners)
+        if prev_corners is None or corners is None:
+            return None
+        A = estimate_sparse_flow(prev, grey, prev_corners)
+        if A is None:
+            return None
+        A[:, 2] *= np.float32(self.downscale)
+        return A.astype(float)
+
+    def _grey(self, image: np.ndarray) -> np.ndarray:
+        """The analysed grey image of ``image`` (``"botsort"``: shrunk as the package)."""
+        if self.method != "botsort":
+            return _grey(image, self._scale)
+        img = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        if self.downscale > 1:
+            h, w = img.shape[:2]
+            img = cv2.resize(img, (max(1, w // self.downscale), max(1, h // self.downscale)))
+        return img
 
     def _moved(self, A: np.ndarray | None) -> bool:
         w, h = self._size
@@ -150,9 +238,9 @@ class CameraMotionEstimator:
             self._recent, self._greys = [], []
             self._scale = min(1.0, self.max_side / max(w, h))
         else:
-            grey = _grey(image, self._scale)
+            grey = self._grey(image)
         if grey is None:
-            self._greys = [_grey(image, self._scale)]
+            self._greys = [self._grey(image)]
             return None
         if self.mode == "on":
             A = self._estimate(self._greys[-1], grey)

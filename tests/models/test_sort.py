@@ -421,3 +421,252 @@ def test_the_score_map_follows_what_is_known_of_the_detector():
         g = config.graph_for({}, VideoInfo(fps=25.0, score_range=score_range))
         assert g.factors["association"].score_map == expected
     np.testing.assert_array_equal(map_scores(np.array([0.1, 0.4]), "constant"), [1.0, 1.0])
+
+
+# ------------------------------------------------------------------------------------
+# BoT-SORT and C-BIoU: round pools, score fusion, buffered IoU, first-frame activation,
+# centre-only camera motion after the predict
+# ------------------------------------------------------------------------------------
+def _round(**kw):
+    """A round as :class:`DetectionAssociation` stores it."""
+    return DetectionAssociation("box", rounds=[kw]).rounds[0]
+
+
+def test_round_pools_fused_scores_and_buffers():
+    """A round's ``"tracks"`` pool limits the replicas it may match; ``"fuse_score"``
+    maximises and gates IoU × score; ``"buffer"`` matches boxes enlarged about their
+    centres (boxes apart by a few pixels overlap)."""
+    from pgm.inference.association import assign, iou_matrix
+
+    pred = np.array([[100.0, 100.0, 40.0, 100.0], [300.0, 100.0, 40.0, 100.0],
+                     [500.0, 100.0, 40.0, 100.0]])
+    confirmed = np.array([True, True, False])
+    tracked = np.array([True, False, True])
+    for pool, expected in (("all", [0, 1, 2]), ("confirmed", [0, 1]), ("tracked", [0]),
+                           ("lost", [1]), ("tentative", [2])):
+        a = assign(pred, pred.copy(), np.ones(3), [_round(iou=0.3, tracks=pool)],
+                   confirmed=confirmed, tracked=tracked)
+        assert sorted(a.rows.tolist()) == expected, pool
+        assert np.array_equal(a.rows, a.cols)
+    with pytest.raises(ValueError, match="status"):
+        assign(pred, pred.copy(), np.ones(3), [_round(tracks="confirmed")])
+    # one replica, two detections: the closer scores 0.3 (IoU ~0.82, fused ~0.25), the
+    # other 0.9 (IoU ~0.6, fused ~0.54): IoU takes the first, IoU x score the second
+    one = pred[:1]
+    dets = np.array([[104.0, 100.0, 40.0, 100.0], [110.0, 100.0, 40.0, 100.0]])
+    scores = np.array([0.3, 0.9])
+    iou = iou_matrix(one, dets)[0]
+    assert iou[0] > iou[1] and iou[0] * 0.3 < iou[1] * 0.9
+    assert assign(one, dets, scores, [_round(iou=0.2)]).cols.tolist() == [0]
+    assert assign(one, dets, scores, [_round(iou=0.2, fuse_score=True)]).cols.tolist() == [1]
+    # the gate reads the product: IoU ~0.82 passes 0.5, IoU x 0.3 does not
+    assert len(assign(one, dets[:1], scores[:1], [_round(iou=0.5)]).rows) == 1
+    assert len(assign(one, dets[:1], scores[:1], [_round(iou=0.5, fuse_score=True)]).rows) == 0
+    # buffered IoU: 5 px apart, no overlap; enlarged 1.6 times, IoU 7 / 57
+    a, b = np.array([[100.0, 100.0, 20.0, 20.0]]), np.array([[125.0, 100.0, 20.0, 20.0]])
+    assert iou_matrix(a, b)[0, 0] == 0.0
+    assert len(assign(a, b, np.ones(1), [_round(iou=0.1)]).rows) == 0
+    got = assign(a, b, np.ones(1), [_round(iou=0.1, buffer=0.3)])
+    assert got.cols.tolist() == [0]
+    np.testing.assert_allclose(iou_matrix(a * [1, 1, 1.6, 1.6], b * [1, 1, 1.6, 1.6]),
+                               [[7.0 / 57.0]])
+
+
+def test_botsort_rounds_and_life_cycle():
+    """BoT-SORT's life cycle: the first frame's tracks are reported at once; later births
+    (scores >= 0.7) at their second match, and end at their first miss before it; a
+    low-score detection updates a track matched in the previous frame but not a lost one,
+    which the confident round still finds under its identity."""
+    from pgm.models import botsort
+
+    eng = Engine(botsort.build_graph(botsort.Params(fps=30.0)), 0)
+    a, b, c = ([x, 100.0, 40.0, 100.0] for x in (100.0, 400.0, 250.0))
+
+    def step(t, boxes, scores):
+        rec = eng.step(_frame(t, boxes, scores))
+        info = rec.info["target"]
+        return {int(i) for i in info["ids"][info["reported"]]}
+
+    first = step(1, [a, b], [0.9, 0.9])
+    assert len(first) == 2 and eng.num_targets == 2  # reported in the first frame
+    id_a, id_b = (int(t.track_id) for t in eng.tracks)
+    assert step(2, [a, b], [0.9, 0.3]) == {id_a, id_b}  # b: the low round (tracked)
+    assert step(3, [a], [0.9]) == {id_a}  # b missed: lost
+    assert step(4, [a, b], [0.9, 0.3]) == {id_a}  # a lost track: not the low round
+    assert eng.num_targets == 2 and eng.tracks[1].misses == 2
+    assert step(5, [a, b], [0.9, 0.9]) == {id_a, id_b}  # the confident round finds it
+    assert step(6, [a, b, c], [0.9, 0.9, 0.9]) == {id_a, id_b}  # c tentative
+    assert eng.num_targets == 3
+    step(7, [a, b], [0.9, 0.9])
+    assert eng.num_targets == 2  # a tentative track ends at its first miss
+    step(8, [a, b, c], [0.9, 0.9, 0.9])
+    assert len(step(9, [a, b, c], [0.9, 0.9, 0.9])) == 3  # confirmed at its second match
+    step(10, [a, b, [600.0, 100.0, 40.0, 100.0]], [0.9, 0.9, 0.65])
+    assert eng.num_targets == 3  # confident (0.65 >= 0.6) but below activation 0.7
+    # without the first-frame flag the first frame's tracks wait for their second match
+    eng = Engine(botsort.build_graph(botsort.Params(fps=30.0, activate_first=False)), 0)
+    assert step(1, [a, b], [0.9, 0.9]) == set()
+    assert len(step(2, [a, b], [0.9, 0.9])) == 2
+
+
+def _xcycwh_oracle(boxes, motions, sp=1 / 20, sv=1 / 160, sm=1 / 20):
+    """BoT-SORT's Kalman filter as the ``trackers`` package writes it: state ``cx, cy,
+    w, h`` and rates, scale-aware ``Q``, ``R``, ``P0`` from the current width and height,
+    the camera's motion applied after the predict to the centre and its rate; the
+    posterior means per frame."""
+    F = np.eye(8)
+    F[:4, 4:] = np.eye(4)
+
+    def diag(w, h, a, b):
+        return np.diag(np.array([a * w, a * h, a * w, a * h, b * w, b * h, b * w, b * h]) ** 2)
+
+    x = np.r_[boxes[0], np.zeros(4)]
+    P = diag(boxes[0, 2], boxes[0, 3], 2 * sp, 10 * sv)
+    out = [x.copy()]
+    for z, A in zip(boxes[1:], motions[1:], strict=True):
+        Q = diag(x[2], x[3], sp, sv)
+        x, P = F @ x, F @ P @ F.T + Q
+        B = np.eye(8)
+        B[:2, :2] = B[4:6, 4:6] = A[:, :2]
+        x = B @ x + np.r_[A[:, 2], np.zeros(6)]
+        P = B @ P @ B.T
+        R = np.diag(np.array([sm * x[2], sm * x[3], sm * x[2], sm * x[3]]) ** 2)
+        S = P[:4, :4] + R
+        K = P[:, :4] @ np.linalg.inv(S)
+        x = x + K @ (z - x[:4])
+        P = (np.eye(8) - K[:, :4] @ np.eye(4, 8)[:, :4] @ np.eye(4, 8)) @ P
+        out.append(x.copy())
+    return np.array(out)
+
+
+def test_botsort_corner_state_is_the_centre_and_size_filter_under_camera_motion():
+    """BoT-SORT's state is centre and size; on the toolkit's corner state with the same
+    scale-aware stds (``noise="scale"``) and the camera's motion moving the centre and
+    its rate after the predict (``camera_warp="centre"``, ``camera_order="after"``), the
+    posterior means are the package's filter's exactly (the covariances differ by ½ on the
+    centre and 2 on the size, which no gain sees)."""
+    from pgm.core.motion import linear_state_warp
+    from pgm.models import botsort
+
+    rng = np.random.default_rng(1)
+    boxes = _walk(25, seed=2)
+    cx = boxes.copy()
+    cx[:, :2] += cx[:, 2:] / 2
+    th = rng.normal(0.0, 0.004, len(boxes))
+    s = 1.0 + rng.normal(0.0, 0.004, len(boxes))
+    motions = [np.c_[sk * np.array([[np.cos(t), -np.sin(t)], [np.sin(t), np.cos(t)]]),
+                     rng.normal(0.0, 1.5, 2)] for t, sk in zip(th, s, strict=True)]
+    eng = Engine(botsort.build_graph(botsort.Params(fps=30.0)), 0)
+    means = []
+    for t, (b, A) in enumerate(zip(boxes, motions, strict=True)):
+        ctx = _frame(t + 1, b, [0.9])
+        eng.step(FrameContext(t + 1, detections=ctx.detections,
+                              camera_motion=None if t == 0 else A))
+        assert eng.num_targets == 1
+        m = eng.beliefs["box"].mean[0]
+        means.append(np.r_[(m[:2] + m[2:4]) / 2, m[2:4] - m[:2], (m[4:6] + m[6:]) / 2,
+                           m[6:] - m[4:6]])
+    np.testing.assert_allclose(means, _xcycwh_oracle(cx, motions), rtol=1e-9, atol=1e-8)
+    # the centre-only warp of a corner state: the centre moves, the size does not
+    A = motions[3]
+    T, c = linear_state_warp(("x1", "y1", "x2", "y2"), A, sizes="keep")
+    box = np.array([80.0, 10.0, 120.0, 90.0])
+    moved = T @ box + c
+    np.testing.assert_allclose((moved[:2] + moved[2:]) / 2, A[:, :2] @ [100.0, 50.0] + A[:, 2])
+    np.testing.assert_allclose(moved[2:] - moved[:2], [40.0, 80.0])
+
+
+def test_botsort_and_cbiou_settings_save_load_and_check():
+    """The new round keys, the transition's camera settings and the life cycle's flag are
+    saved with the graph and load to the same run; bad values are one-line ValueErrors."""
+    from pgm.core.motion import linear_state_warp
+    from pgm.core.plate import Lifecycle, Plate
+    from pgm.factors.association import BoxTransition
+    from pgm.models import botsort, cbiou
+
+    f = DetectionAssociation("box", rounds=cbiou.rounds())
+    p = json.loads(json.dumps(f.params()))
+    assert p["rounds"][1] == {"iou": 0.5, "min_score": 0.1, "max_score": 0.6,
+                              "tracks": "tracked", "buffer": 0.5}
+    assert p["rounds"][0]["fuse_score"] is True and p["rounds"][2]["tracks"] == "tentative"
+    assert DetectionAssociation("box", **p).rounds == f.rounds
+    lc = Lifecycle(activate_first=True)
+    assert Plate.from_dict(Plate("t", ["box"], lifecycle=lc).to_dict()).lifecycle == lc
+    assert Lifecycle.from_dict({}).activate_first is False  # graphs saved before it
+    boxes = _walk(12)
+    for module in (botsort, cbiou):
+        g = module.build_graph(module.Params(fps=30.0))
+        loaded = FactorGraph.from_dict(json.loads(json.dumps(g.to_dict())))
+        assert loaded == g
+        tr = loaded.factors["transition:box"]
+        assert (tr.camera, tr.camera_order) == ((("centre", "after") if module is botsort
+                                                 else ("none", "before")))
+        assert loaded.plates[0].lifecycle.activate_first is True
+        runs = []
+        A = np.array([[1.0, 0.0, 2.0], [0.0, 1.0, -1.0]])
+        for graph in (g, loaded):
+            eng = Engine(graph, 0)
+            for t, b in enumerate(boxes):
+                ctx = _frame(t + 1, b)
+                eng.step(FrameContext(t + 1, detections=ctx.detections, camera_motion=A))
+            runs.append(eng.beliefs["box"].mean.copy())
+        np.testing.assert_array_equal(runs[0], runs[1])
+    with pytest.raises(ValueError, match="'tracks'"):
+        DetectionAssociation("box", rounds=[{"tracks": "old"}])
+    with pytest.raises(ValueError, match="'buffer'"):
+        DetectionAssociation("box", rounds=[{"buffer": -0.1}])
+    with pytest.raises(ValueError, match="round is a dict"):
+        DetectionAssociation("box", rounds=[{"buffered": 0.3}])
+    with pytest.raises(ValueError, match="camera must be"):
+        botsort.build_graph(botsort.Params(camera_warp="wobble"))
+    with pytest.raises(ValueError, match="camera_order"):
+        BoxTransition("box", F=np.eye(8), Q=np.eye(8), camera_order="during")
+    with pytest.raises(ValueError, match="activate_first"):
+        Lifecycle(activate_first=1)
+    with pytest.raises(ValueError, match="sizes"):
+        linear_state_warp(("cx", "cy", "w", "h"), np.eye(2, 3), sizes="grow")
+
+
+def test_botsort_score_threshold_moves_the_split_and_keeps_the_floor():
+    """``--score-threshold P`` sets the confident detections' split and the activation at
+    ``P``; the low band keeps its floor (0.1) and is dropped when ``P`` is not above it."""
+    from pgm.models import botsort, cbiou
+
+    r = botsort.with_score_threshold(botsort.rounds(), 0.5)
+    assert [(x.get("min_score"), x.get("max_score")) for x in r] == [(0.5, None), (0.1, 0.5),
+                                                                       (0.5, None)]
+    assert len(botsort.with_score_threshold(botsort.rounds(), 0.05)) == 2
+    g = cbiou.build_graph(cbiou.Params(score_threshold=0.4, score_map="learned"))
+    rounds = g.factors["association"].rounds
+    assert [x["min_score"] for x in rounds] == [0.4, 0.1, 0.4] and rounds[1]["buffer"] == 0.5
+    assert g.plates[0].lifecycle.birth_min_score == 0.4
+    with pytest.raises(ValueError, match="score_threshold"):
+        botsort.build_graph(botsort.Params(score_threshold=2.0, score_map="learned"))
+
+
+def test_botsort_camera_motion_estimate():
+    """``CameraMotionEstimator(method="botsort")``: BoT-SORT's sparse optical flow on the
+    halved grey frame finds an image shift, and with ``"on"`` gives every frame a motion,
+    a still camera's too (the toolkit's checked fit gives that frame none)."""
+    import cv2
+
+    from pgm.observation.camera_motion import CameraMotionEstimator
+
+    rng = np.random.default_rng(0)
+    image = cv2.GaussianBlur(rng.integers(0, 255, (240, 320, 3), dtype=np.uint8), (5, 5), 1.5)
+    shifted = cv2.warpAffine(image, np.array([[1.0, 0, 6.0], [0, 1.0, -4.0]]), (320, 240),
+                             borderMode=cv2.BORDER_REFLECT)
+    est = CameraMotionEstimator("on", method="botsort")
+    assert est(image) is None  # the first frame
+    A = est(shifted)
+    np.testing.assert_allclose(A[:, 2], [6.0, -4.0], atol=0.5)
+    np.testing.assert_allclose(A[:, :2], np.eye(2), atol=0.01)
+    still = est(shifted)
+    assert still is not None and np.abs(still - np.eye(2, 3)).max() < 0.1
+    checked = CameraMotionEstimator("on")
+    checked(shifted)
+    assert checked(shifted) is None
+    with pytest.raises(ValueError, match="method"):
+        CameraMotionEstimator("on", method="orb")
+    with pytest.raises(ValueError, match="downscale"):
+        CameraMotionEstimator("on", method="botsort", downscale=0)
