@@ -162,16 +162,17 @@ def cores():
             ("ocsort", ocsort, OCSORT_VARIANTS))
 
 
-def camera_motions(name: str, num_frames: int) -> dict[int, np.ndarray]:
+def camera_motions(name: str | Path, num_frames: int) -> dict[int, np.ndarray]:
     """Frame number → the camera's image motion since the previous frame, estimated from
     the frames as ``pgm track --camera-motion auto`` does (frames without significant
-    motion left out)."""
+    motion left out). ``name``: a shared sequence's name, or a sequence folder."""
     from pgm.io.video import open_source
     from pgm.observation.camera_motion import CameraMotionEstimator
 
     est = CameraMotionEstimator("auto")
     out = {}
-    for k, (number, image) in enumerate(open_source(SHARED_DATA / name).frames()):
+    folder = name if isinstance(name, Path) else SHARED_DATA / name
+    for k, (number, image) in enumerate(open_source(folder).frames()):
         if k >= num_frames:
             break
         m = est(image)

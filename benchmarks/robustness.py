@@ -80,6 +80,10 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
     "ocsort-colour+low quantile 0.4 hits": ("ocsort_colour", {"score_map": "quantile",
                                                               "score_threshold": 0.4,
                                                               "rounds": OCSORT_LOW, **HITS}),
+    # BoT-SORT's cascade (pooled rounds, IoU x score), its thresholds as quantiles
+    "botsort quantile": ("botsort", {"score_map": "quantile"}),
+    "botsort-colour quantile": ("botsort", {"score_map": "quantile", **COLOUR}),
+    "botsort-colour learned": ("botsort", {"score_map": "learned", **COLOUR}),
     # the (VB-)PHD filters at their video defaults (models.phd.video_params), scores
     # through the learned model
     "phd learned": ("phd", {"score_model": "learned"}),
@@ -123,22 +127,6 @@ def prepare(name: str, kind: str, work: Path) -> Path:
     if not (dst / "seqinfo.ini").is_file():
         perturb_sequence(SHARED_DATA / name, dst, kind, seed=0, frames=_frames_of(name, work))
     return dst
-
-
-def camera_motion(folder: Path, num_frames: int) -> dict[int, np.ndarray]:
-    """Frame number → the camera's image motion, as ``pgm track --camera-motion auto``."""
-    from pgm.io.video import open_source
-    from pgm.observation.camera_motion import CameraMotionEstimator
-
-    est = CameraMotionEstimator("auto")
-    out = {}
-    for k, (number, image) in enumerate(open_source(folder).frames()):
-        if k >= num_frames:
-            break
-        m = est(image)
-        if m is not None:
-            out[int(number)] = m
-    return out
 
 
 def run_candidate(label: str, folder: Path, motion: dict) -> dict:
@@ -199,13 +187,16 @@ def run_peers(folder: Path, n: int) -> dict[str, dict]:
 
 
 def task(name: str, kind: str, labels: list[str], peers: bool, work: str) -> list[dict]:
-    """Every candidate (and the peers) on one sequence under one kind: result rows."""
+    """Every candidate (and the peers) on one sequence under one kind: result rows (the
+    camera's motion estimated once, as ``pgm track --camera-motion auto``)."""
     single_thread()
+    from classic_trackers import camera_motions
+
     from pgm.io.video import open_source
 
     folder = prepare(name, kind, Path(work))
     n = len(open_source(folder))
-    motion = camera_motion(folder, n) if labels else {}
+    motion = camera_motions(folder, n) if labels else {}
     rows = []
     for label in labels:
         t0 = time.perf_counter()

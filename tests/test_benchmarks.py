@@ -176,3 +176,33 @@ def test_desk_benchmark_prints_a_row_per_tracker():
     for row in rows:
         auc = float(row.split()[-3])
         assert 0.0 <= auc <= 1.0
+
+
+@pytest.mark.slow
+def test_robustness_benchmark_prints_a_table_per_kind_and_the_choice(shared_data, tmp_path):
+    """``benchmarks/robustness.py`` on two sequences, three kinds, two candidates, without
+    the peers: a table per kind, a rank-reading candidate's score-map row the same as its
+    unperturbed row (copied, as the script says), the leave-one-out rows; the cache makes
+    a second call run nothing."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    cmd = [sys.executable, str(root / "benchmarks" / "robustness.py"), "--sequences",
+           "TUD-Campus,TUD-Stadtmitte", "--kinds", "none,rank,drop", "--candidates",
+           "ocsort-colour (detector scores),ocsort-colour quantile 0.2 hits", "--no-peers",
+           "--jobs", "1", "--cache", str(tmp_path / "cache.jsonl"), "--work", str(tmp_path)]
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=900, check=True).stdout
+    assert "kind none: MOTA / IDF1 / HOTA" in out and "kind drop: MOTA / IDF1 / HOTA" in out
+    tables = out.split("kind ")
+    none = next(t for t in tables if t.startswith("none:"))
+    rank = next(t for t in tables if t.startswith("rank:"))
+    row = lambda t: next(line for line in t.splitlines() if line.strip().startswith(  # noqa: E731
+        "TUD-Campus")).split()
+    # cells "MOTA / IDF1 / HOTA": tokens 1-5 the detector-score candidate, 6-10 the
+    # quantile one (the same under the rank map: its unperturbed row stands for it)
+    for t in (none, rank):
+        assert all(-1.0 <= float(v) <= 1.0 for v in row(t)[1:11] if v != "/")
+    assert row(none)[6:11] == row(rank)[6:11]
+    assert "leave one sequence out, criterion mean" in out
+    again = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=True).stdout
+    assert "0 sequence x kind tasks to run" in again

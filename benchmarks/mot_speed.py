@@ -1,0 +1,148 @@
+"""Speed of the multi-target default against the six peers, inference and end to end.
+
+    python benchmarks/mot_speed.py [--sequences MOT16-11,PETS09-S2L1] [--model NAME]
+                                   [--no-peers]
+
+On each sequence (public detections; MOT16-11 is 1920x1080), in one run:
+
+* the toolkit's model (default: the multi-target default, built as ``pgm track`` builds
+  it for the sequence): **inference** frames per second (``engine.step`` only; frames
+  decoded outside the timer, the camera's motion estimated as ``pgm track`` does and
+  timed apart) and peak traced memory of the inference; **end to end**, the wall time
+  of ``pgm track SEQ --no-video`` in a fresh process (start-up, decoding, camera motion,
+  inference, writing) and of the same with the annotated video;
+* the six trackers of the ``trackers`` package (their own venv): frames per second of
+  ``tracker.update`` (CMC included for BoT-SORT and McByte) and end to end (the wall
+  time of their subprocess per tracker, reading the detections and, for the two with
+  camera-motion compensation, decoding the frames).
+
+Columns: ms per frame, frames per second, peak memory (MiB; the toolkit's inference:
+traced Python heap; end to end: the process's maximum resident set), and the ratio of
+frames per second to the package's OC-SORT measured in this run (the baseline).
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import SHARED_DATA, PeakMemory, machine_note, print_table, single_thread  # noqa: E402
+
+single_thread()
+
+SEQUENCES = ("MOT16-11", "PETS09-S2L1")
+
+
+def toolkit_inference(name: str, model: str) -> dict:
+    """Inference frames/s and peak traced memory of ``model`` on ``name``."""
+    from classic_trackers import camera_motions
+
+    from pgm.core.frame import FrameContext
+    from pgm.inference import Engine
+    from pgm.io.video import open_source
+    from pgm.models import get_config
+    from pgm.models.config import VideoInfo
+    from pgm.observation.detections import PublicDetections
+
+    src = open_source(SHARED_DATA / name)
+    det = PublicDetections(SHARED_DATA / name / "det" / "det.txt")
+    n = len(src)
+    t0 = time.perf_counter()
+    motion = camera_motions(name, n)
+    motion_secs = time.perf_counter() - t0
+    graph = get_config(model).graph_for({}, VideoInfo(*src.size, fps=src.fps,
+                                                      score_range=det.score_range))
+    engine = Engine(graph, 0)
+    secs = 0.0
+    with PeakMemory() as mem:
+        for number, image in src.frames():
+            ctx = FrameContext(int(number), image, detections=det(int(number)),
+                               camera_motion=motion.get(int(number)))
+            t = time.perf_counter()
+            engine.step(ctx)
+            secs += time.perf_counter() - t
+    return {"frames": n, "seconds": secs, "peak_mib": mem.peak_mib,
+            "motion_seconds": motion_secs}
+
+
+def toolkit_end_to_end(name: str, model: str, video: bool) -> dict:
+    """Wall time and maximum resident set of ``pgm track`` in a fresh process."""
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [sys.executable, "-m", "pgm.app.cli", "track", str(SHARED_DATA / name),
+               "--model", model, "--out", tmp, "--quiet"] + ([] if video else ["--no-video"])
+        t0 = time.perf_counter()
+        before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        secs = time.perf_counter() - t0
+        rss = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    if r.returncode != 0:
+        raise SystemExit(f"pgm track failed: {r.stderr[-2000:]}")
+    return {"seconds": secs, "rss_mib": max(rss, before) / 1024.0}
+
+
+def peers(name: str, n: int) -> dict[str, dict]:
+    """The six peers: update-only frames/s and each subprocess's wall time."""
+    from _peers import MOT_PEERS, run_mot_peers
+
+    out = {}
+    for peer in MOT_PEERS:
+        with tempfile.TemporaryDirectory() as tmp:
+            t0 = time.perf_counter()
+            r = run_mot_peers(SHARED_DATA / name, last_frame=n, trackers=(peer,), workdir=tmp)
+            wall = time.perf_counter() - t0
+        res = r[peer]
+        out[peer] = {"error": res["error"]} if "error" in res else {
+            "fps": res["fps"], "wall": wall}
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    from pgm.models import DEFAULT_MULTI_TARGET
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--sequences", default=",".join(SEQUENCES))
+    ap.add_argument("--model", default=DEFAULT_MULTI_TARGET)
+    ap.add_argument("--no-peers", action="store_true", help="the toolkit's rows only")
+    args = ap.parse_args(argv)
+    print(machine_note())
+    for name in args.sequences.split(","):
+        if not (SHARED_DATA / name).is_dir():
+            print(f"{name}: not in {SHARED_DATA}, skipped")
+            continue
+        inf = toolkit_inference(name, args.model)
+        n = inf["frames"]
+        e2e = toolkit_end_to_end(name, args.model, video=False)
+        e2e_video = toolkit_end_to_end(name, args.model, video=True)
+        ps = {} if args.no_peers else peers(name, n)
+        base = ps.get("ocsort", {}).get("fps")
+        rows = []
+
+        def row(label, secs, mem="-", n=n, rows=rows, base=base):
+            fps = n / secs
+            rows.append([label, f"{1000 * secs / n:.2f}", f"{fps:.1f}", mem,
+                         f"{fps / base:.3f}" if base else "-"])
+
+        row(f"{args.model}: inference", inf["seconds"], f"{inf['peak_mib']:.0f}")
+        row(f"{args.model}: camera motion", inf["motion_seconds"])
+        row(f"{args.model}: end to end, no video", e2e["seconds"], f"{e2e['rss_mib']:.0f}")
+        row(f"{args.model}: end to end, with video", e2e_video["seconds"],
+            f"{e2e_video['rss_mib']:.0f}")
+        for peer, r in ps.items():
+            if "error" in r:
+                rows.append([f"{peer} (trackers)", "-", "-", "-", r["error"][:60]])
+                continue
+            row(f"{peer} (trackers): update", n / r["fps"])
+            row(f"{peer} (trackers): end to end", r["wall"])
+        print_table(["", "ms/frame", "frames/s", "peak MiB", "x OC-SORT (trackers)"], rows,
+                    title=f"{name}: {n} frames")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
