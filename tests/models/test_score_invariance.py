@@ -61,17 +61,18 @@ def _same(a, b, what):
 @pytest.mark.parametrize("name", SEQUENCES)
 def test_the_cores_with_learned_scores_give_the_same_tracks_under_any_score_map(
         shared_data, name):
-    """``sort``, ``bytetrack``, ``ocsort`` and the default's core (colour aside), each
-    with the learned score map, on the whole sequence."""
-    from pgm.models import DEFAULT_MULTI_TARGET, bytetrack, get_config, ocsort, sort
+    """``sort``, ``bytetrack``, ``ocsort``, ``botsort`` and ``ocsort-colour``'s core (colour
+    aside), each with the learned score map, and ``ocsort`` with the quantile map, on the
+    whole sequence."""
+    from pgm.models import botsort, bytetrack, ocsort, ocsort_colour, sort
 
     det, src = _detections(shared_data, name)
     n = len(src)
-    default = get_config(DEFAULT_MULTI_TARGET).module
     cores = [("sort", sort, {}), ("bytetrack", bytetrack, {}), ("ocsort", ocsort, {}),
-             (DEFAULT_MULTI_TARGET, default, {"appearance": None})]
+             ("botsort", botsort, {}), ("ocsort-colour", ocsort_colour, {"appearance": None}),
+             ("ocsort quantile", ocsort, {"score_map": "quantile"})]
     for label, module, extra in cores:
-        p = replace(module.Params(), fps=float(src.fps), score_map="learned", **extra)
+        p = replace(module.Params(), fps=float(src.fps), **{"score_map": "learned", **extra})
         graph = module.build_graph(p)
         ref = _tracks(graph, det, n)
         assert len(ref) > 0
@@ -81,24 +82,31 @@ def test_the_cores_with_learned_scores_give_the_same_tracks_under_any_score_map(
 
 @pytest.mark.parametrize("name", SEQUENCES)
 def test_the_default_gives_the_same_tracks_under_any_score_map(shared_data, name):
-    """The multi-target default as ``pgm track`` builds it for the sequence (colour
-    models on the decoded frames), on its first 60 frames."""
+    """The multi-target default as ``pgm track`` builds and runs it for the sequence
+    (:func:`pgm.app.runner.track_multi`: the camera's motion estimated, the sizes in the
+    detections' median height), on its first 60 frames; and the PHD filter with the same
+    score model."""
+    from pgm.app.runner import track_multi
     from pgm.io.video import open_source
     from pgm.models import DEFAULT_MULTI_TARGET, get_config
     from pgm.models.config import VideoInfo
 
     det, src = _detections(shared_data, name)
-    n = min(60, len(src))
-    config = get_config(DEFAULT_MULTI_TARGET)
-    ref = None
-    for kind in ("none",) + SCORE_KINDS:
-        d = det if kind == "none" else _mapped(det, kind)
-        graph = config.graph_for({}, VideoInfo(*src.size, fps=src.fps,
-                                               score_range=d.score_range))
-        assert graph.factors["association"].score_map == "learned"
-        table = _tracks(graph, d, n, images=open_source(shared_data / name))
-        if ref is None:
-            ref = table
-            assert len(ref) > 0
-        else:
-            _same(table, ref, kind)
+    for model in (DEFAULT_MULTI_TARGET, "phd"):
+        config = get_config(model)
+        ref = None
+        for kind in ("none",) + SCORE_KINDS:
+            d = det if kind == "none" else _mapped(det, kind)
+            video = VideoInfo(*src.size, fps=src.fps, score_range=d.score_range,
+                              typical_height=float(np.median(d.table.boxes[:, 3])))
+            graph = config.graph_for({}, video)
+            assert [f.scores.model for f in graph.factors.values()
+                    if hasattr(f, "scores") and hasattr(f.scores, "model")] == ["learned"]
+            result = track_multi(open_source(shared_data / name), graph, d, rng=0,
+                                 write_video=False, progress=False, max_frames=60)
+            table = result.table
+            if ref is None:
+                ref = table
+                assert len(ref) > 0
+            else:
+                _same(table, ref, (model, kind))
