@@ -1,4 +1,5 @@
-"""The default multi-target model: OC-SORT, its filtered boxes, and a colour model per track.
+"""OC-SORT, its filtered boxes, and a colour model per track (the multi-target default until
+issue 33).
 
 :mod:`pgm.models.ocsort`'s graph with two of the ideas this toolkit adds to the classic
 cores, each one setting:
@@ -14,10 +15,12 @@ cores, each one setting:
 It was chosen leave one sequence out among 40 variants of the SORT, ByteTrack and
 OC-SORT cores (``python benchmarks/classic_trackers.py --choose``): every fold picks it,
 and on every held-out sequence it is at or above the best of the ``trackers`` package's
-SORT, ByteTrack and OC-SORT in MOTA and IDF1 (numbers in ``docs/results.md``). It needs the
-frames (for the colour models) and, where the camera moves, compensates its motion as
-``pgm track`` does by default. ``pgm track`` runs it on a MOTChallenge folder with
-``det/det.txt`` when no ``--model`` is given.
+SORT, ByteTrack and OC-SORT in MOTA and IDF1 (numbers in ``docs/results.md``). Its
+thresholds read the detector's own numbers, so detections with probabilities for scores
+lose half their boxes to OC-SORT's 0.6; with ``--scores learned`` or ``quantile`` they do
+not, and the multi-target default is now ``vb-phd``, chosen over sequences and their
+perturbations (``benchmarks/robustness.py``). It needs the frames (for the colour
+models) and, where the camera moves, compensates its motion as ``pgm track`` does.
 
 >>> g = build_graph(Params())
 >>> g.factors["association"].appearance, g.plates[0].lifecycle.report
@@ -55,6 +58,6 @@ def build_graph(params: Params | None = None, name: str = "ocsort-colour") -> Fa
 #: what the application sees of this model (:mod:`pgm.models.config`)
 CONFIG = _config.ModelConfig(
     "ocsort-colour", "multi-target", sys.modules[__name__],
-    "the multi-target default: OC-SORT reporting its filtered boxes, with a colour model "
-    "per track in the association (chosen leave one sequence out)",
+    "OC-SORT reporting its filtered boxes, with a colour model per track in the "
+    "association (the multi-target default until issue 33)",
     options=sort.OPTIONS, build=sort.video_build)
