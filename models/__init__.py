@@ -51,7 +51,7 @@ DEFAULT_SINGLE_OBJECT = "single-object"
 #: what ``pgm track`` runs on a video with detections when no ``--model`` is given: chosen
 #: leave one sequence out over the shared MOT sequences and their perturbations
 #: (``benchmarks/robustness.py``; docs/results.md)
-DEFAULT_MULTI_TARGET = "vb-phd"
+DEFAULT_MULTI_TARGET = "ocsort-colour"
 
 _SUBMODULES = ("botsort", "bytetrack", "cbiou", "colour_pf", "gpdm", "linear_gaussian",
                "multi_pf", "ocsort", "ocsort_colour", "part_graph", "phd", "single_object",

@@ -145,10 +145,12 @@ print(f"{len(counts)} frames; VB σ̂ in the last 20 frames {sig[-20:].mean():.1
 # suppression lets a second, larger and weaker box on the same person through (DPM does
 # this on MOT16-11). Here every detection gets a twin √2 times its size reaching below
 # the feet: the detector's own boxes score N(0.75, 0.12²), the twins N(0.25, 0.1²).
-# The score-blind PHD starts a track on each twin; ``pgm track``'s default measurement
-# model fits a two-class mixture to the video's own scores (never to its ground truth)
-# and lets no detection that overlaps a better-scored one by IoU ≥ 0.4 start a target
-# (``pgm.factors.scores``).
+# The score-blind PHD starts a track on each twin. A two-class mixture fitted to the
+# video's own scores (never to its ground truth) tells the twins apart; ``pgm track``'s
+# default learns instead the probability that a detection is of a target from which
+# detections are found again in the next frame, read from the score's rank (the same
+# for any increasing map of the scores), and both let no detection that overlaps a
+# better-scored one by IoU ≥ 0.4 start a target (``pgm.factors.scores``).
 rng = np.random.default_rng(2)
 rows = []
 for f in range(1, n_frames + 1):
@@ -161,7 +163,9 @@ for f in range(1, n_frames + 1):
         rows.append((f, *box, score))
 scored = np.array(rows)
 settings = {"score-blind": dict(score_model="off"),
-            "scores + shadow rule": dict(phd.VIDEO_SCORE_SETTINGS)}  # pgm track's default
+            "mixture + shadow rule": dict(phd.VIDEO_SCORE_SETTINGS, score_model="mixture"),
+            "learned + shadow rule": dict(phd.VIDEO_SCORE_SETTINGS)}  # pgm track's default
+calibrations = {}
 for name, kw in settings.items():
     eng = Engine(phd.build_graph(phd.Params(**common, **kw)), rng=np.random.default_rng(0))
     rows = []
@@ -177,15 +181,21 @@ for name, kw in settings.items():
                                   np.ones(len(r))), num_frames=n_frames)
     print(f"{name:21s}: MOTA {m['mota']:.3f}  IDF1 {m['idf1']:.3f}  false positives "
           f"{m['fp']:.0f}  identities {len(np.unique(r[:, 1]))}")
-mix = eng.aux["targets"]["score_calibration"].mixture
+    calibrations[name] = eng.aux["targets"].get("score_calibration")
+mix = calibrations["mixture + shadow rule"].mixture
+learned = calibrations["learned + shadow rule"].persistence
 grid = np.linspace(scored[:, 5].min(), scored[:, 5].max(), 200)
 dens = np.exp(mix.log_densities(grid))
 fig, ax = plt.subplots(figsize=(5, 3))
 ax.hist(scored[:, 5], bins=40, density=True, color="0.8", label="all scores")
-ax.plot(grid, (1 - mix.weight) * dens[:, 0], label="fitted clutter class")
-ax.plot(grid, mix.weight * dens[:, 1], label="fitted target class")
+ax.plot(grid, (1 - mix.weight) * dens[:, 0], label="mixture: clutter class")
+ax.plot(grid, mix.weight * dens[:, 1], label="mixture: target class")
 ax.set_xlabel("detection score")
-ax.legend(fontsize=7)
+ax.legend(fontsize=7, loc="upper left")
+right = ax.twinx()
+right.plot(grid, learned.probability(grid), "k--", label="learned P(target | score)")
+right.set_ylim(0, 1.05)
+right.legend(fontsize=7, loc="upper right")
 fig.tight_layout()
 fig.savefig(out / "score_mixture.png", dpi=100)
 print(f"outputs in {out}")
