@@ -66,17 +66,23 @@ OCSORT_LOW = ({"iou": 0.3, "min_score": 0.6, "direction": True},
               {"iou": 0.5, "max_score": 0.6})
 COLOUR = {"report": "estimate", "appearance": "colour", "appearance_weight": 1.0}
 HITS = {"recover_hits": 1, "consecutive": False}
+#: OC-SORT's own life cycle (three matches in a row after a miss), pinned: the
+#: ``ocsort-colour`` model now has SORT's (the candidate chosen here)
+OCSORT_LIFE = {"recover_hits": 3, "consecutive": True}
 
 #: candidate models: label -> (model module name, Params fields)
 CANDIDATES: dict[str, tuple[str, dict]] = {
-    "ocsort-colour (detector scores)": ("ocsort_colour", {"score_map": "detector"}),
+    "ocsort-colour (detector scores)": ("ocsort_colour", {"score_map": "detector",
+                                                          "score_threshold": None,
+                                                          **OCSORT_LIFE}),
     "ocsort-colour learned 0.5": ("ocsort_colour", {"score_map": "learned",
-                                                    "score_threshold": 0.5}),
+                                                    "score_threshold": 0.5, **OCSORT_LIFE}),
     "ocsort-colour quantile 0.2": ("ocsort_colour", {"score_map": "quantile",
-                                                     "score_threshold": 0.2}),
+                                                     "score_threshold": 0.2, **OCSORT_LIFE}),
     "ocsort-colour+low quantile 0.4": ("ocsort_colour", {"score_map": "quantile",
                                                          "score_threshold": 0.4,
-                                                         "rounds": OCSORT_LOW}),
+                                                         "rounds": OCSORT_LOW,
+                                                         **OCSORT_LIFE}),
     "bytetrack-colour quantile": ("bytetrack", {"score_map": "quantile", **COLOUR}),
     # OC-SORT's association with SORT's life cycle: a track found again after a miss is
     # reported at once, and confirmation counts matches, not matches in a row

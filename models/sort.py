@@ -501,6 +501,8 @@ def video_build(config: _config.ModelConfig, values: dict[str, Any],
     # detector without one (background subtraction: fill fractions) says nothing of
     # confidence, so its detections are all taken as confident
     choice = kw.pop("score_map", None)  # --scores: detector | learned | the model's
+    if choice == "detector" and "score_threshold" not in kw:
+        kw["score_threshold"] = None  # the core's own thresholds, on the detector's numbers
     learned = choice in LEARNED_SCORE_MAPS or (choice is None
                                                and params.score_map in LEARNED_SCORE_MAPS)
     if video.score_range is None:
