@@ -408,18 +408,29 @@ def test_occlusion_gate_keeps_the_hidden_edges():
 
 
 def test_the_score_map_follows_what_is_known_of_the_detector():
-    """Built for a video, the SORT family reads the detector's score range: scores in
+    """Built for a video, the package's cores read the detector's score range: scores in
     [0, 1] are used as they are, scores outside through the logistic, and a detector
     without a score scale (background subtraction's fill fractions) has every detection
-    taken as confident."""
+    taken as confident. The default reads quantiles of the video's scores unless told to
+    read the detector's numbers."""
     from pgm.models import ocsort_colour
     from pgm.models.config import VideoInfo
 
-    config = ocsort_colour.CONFIG
+    from pgm.models import ocsort
+
     for score_range, expected in (((0.1, 0.95), "none"), ((-2.0, 1.5), "logistic"),
                                   ((3.0, 140.0), "logistic"), (None, "constant")):
-        g = config.graph_for({}, VideoInfo(fps=25.0, score_range=score_range))
+        g = ocsort.CONFIG.graph_for({}, VideoInfo(fps=25.0, score_range=score_range))
         assert g.factors["association"].score_map == expected
+        # the default reads quantiles of the video's own scores, whatever their range...
+        g = ocsort_colour.CONFIG.graph_for({}, VideoInfo(fps=25.0, score_range=score_range))
+        assert g.factors["association"].score_map == (
+            "constant" if score_range is None else "quantile")
+        # ... and with --scores detector the detector's numbers at OC-SORT's own thresholds
+        g = ocsort_colour.CONFIG.graph_for({"scores": "detector"},
+                                           VideoInfo(fps=25.0, score_range=score_range))
+        assert g.factors["association"].score_map == expected
+        assert [r["min_score"] for r in g.factors["association"].rounds] == [0.6, 0.6]
     np.testing.assert_array_equal(map_scores(np.array([0.1, 0.4]), "constant"), [1.0, 1.0])
 
 
