@@ -22,10 +22,10 @@ memory of a toolkit run with ``tracemalloc``.
 ``--variants``: also every variant of the cores (``--vb-noise``, ``--box-state``,
 ``--noise scale``, ``--report estimate``).
 
-``--misspecified``: seed 000's claim on the SORT core — ``sort --noise scale`` and
+``--misspecified``: Feng et al. (2015)'s claim on the SORT core — ``sort --noise scale`` and
 ``vb-sort`` with the detection noise (``meas_std``) set 0.1, 1 and 10 times its value.
 
-``--motions``: seed 003's idea on the cores — the box state as particles moved by constant
+``--motions``: Wang, Yin & Man (2008)'s idea on the cores — the box state as particles moved by constant
 velocity (``cv``), velocity averaged over three frames (``cv3``) or a GPDM learned on the
 *other* sequences' ground-truth trajectories (``gpdm``, ``benchmarks/plate_trackers.py``'s
 ``train_gpdm``), next to the Kalman core, for ``sort`` and ``ocsort --report estimate``
@@ -392,7 +392,7 @@ def main() -> None:
     if args.motions:
         print_table(["sequence", "core", "kalman", "cv", "cv3", "gpdm"], motions(seqs),
                     title="MOTA / IDF1 (frames per second) with the learned or averaged motion "
-                          "models of seed 003 in place of the Kalman filter's constant velocity")
+                          "models of Wang, Yin & Man (2008) in place of the Kalman filter's constant velocity")
     if args.vb_choose:
         print_table(["held out", "picked (rho, alpha0)", "MOTA / IDF1", "shipped MOTA / IDF1"],
                     vb_choose(seqs),

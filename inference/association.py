@@ -316,7 +316,7 @@ def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, 
         model = aux.get("score_model")
         if model is None:
             model = aux["score_model"] = factor.score_model()
-    scores = factor.scores(frame, model)
+    scores = factor.scores(frame, model, boxes)
     looks = _appearance(engine, factor, frame, boxes)
     extra: dict[str, Any] = {} if looks is None else {
         "appearance": looks, "appearance_weight": factor.appearance_weight}

@@ -134,14 +134,16 @@ class Params:
         SORT: one, IoU ≥ 0.3).
     activation : float
         Score a detection needs to start a track (0.25).
-    score_map : {"none", "logistic", "constant", "learned"}
+    score_map : {"none", "logistic", "constant", "learned", "quantile"}
         How scores reach [0, 1] before the thresholds. The package's cores read the
         detector's own numbers (:func:`score_map_for` picks ``"none"`` or ``"logistic"``
         for a video; ``"constant"`` when the detector's scores have no known scale);
         ``"learned"`` makes each score the probability that its detection is of a
-        target, learned on the video (:class:`~pgm.factors.scores.PersistenceScoreModel`:
-        the same tracks for any strictly increasing map of the scores), and every
-        threshold below a probability.
+        target, learned on the video (:class:`~pgm.factors.scores.PersistenceScoreModel`),
+        and ``"quantile"`` its quantile among the video's scores
+        (:class:`~pgm.factors.scores.ScoreQuantiles`): both give the same tracks for any
+        strictly increasing map of the scores, and every threshold below is then in
+        their units.
     score_threshold : float, optional
         Set every score threshold — the rounds' split between confident and other
         detections and ``activation`` — to this value (:func:`with_score_threshold`;
@@ -500,17 +502,16 @@ def video_build(config: _config.ModelConfig, values: dict[str, Any],
     # detections from a file have scores whose scale the file tells (score_map_for); a
     # detector without one (background subtraction: fill fractions) says nothing of
     # confidence, so its detections are all taken as confident
-    choice = kw.pop("score_map", None)  # --scores: detector | learned | the model's
+    choice = kw.pop("score_map", None)  # --scores: detector | learned | quantile
     if choice == "detector" and "score_threshold" not in kw:
         kw["score_threshold"] = None  # the core's own thresholds, on the detector's numbers
-    learned = choice in LEARNED_SCORE_MAPS or (choice is None
-                                               and params.score_map in LEARNED_SCORE_MAPS)
+    reading = choice or params.score_map
     if video.score_range is None:
         kw["score_map"] = "constant"
-    elif not learned:
-        kw["score_map"] = score_map_for(np.asarray(video.score_range))
+    elif reading in LEARNED_SCORE_MAPS:
+        kw["score_map"] = reading
     else:
-        kw["score_map"] = choice or params.score_map
+        kw["score_map"] = score_map_for(np.asarray(video.score_range))
     return config.module.build_graph(replace(params, **kw), name=config.name)
 
 

@@ -37,7 +37,14 @@ from typing import Any
 
 import numpy as np
 
-from pgm.core.boxes import BOX_CODINGS, box_code_columns, box_coding, decode_boxes, encode_boxes
+from pgm.core.boxes import (
+    BOX_CODINGS,
+    box_code_columns,
+    box_coding,
+    decode_boxes,
+    encode_boxes,
+    xywh_to_cxcywh,
+)
 from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
@@ -372,21 +379,22 @@ class DetectionAssociation(Factor):
     def check(self, variables: dict[str, Variable]) -> None:
         _box_labels(self, variables, self.variables[0])
 
-    def scores(self, ctx: FrameContext, model: PersistenceScoreModel | None = None
-               ) -> np.ndarray:
-        """The frame's detection scores, mapped; with the ``"learned"`` map, ``model`` (a
-        run's :meth:`score_model`) sees the frame and gives its probabilities."""
+    def scores(self, ctx: FrameContext, model: PersistenceScoreModel | None = None,
+               boxes: np.ndarray | None = None) -> np.ndarray:
+        """The frame's detection scores, mapped; with a map learned on the video
+        (:data:`LEARNED_SCORE_MAPS`), ``model`` (a run's :meth:`score_model`) sees the
+        frame — its detections' centre ``boxes`` ``(M, 4)``, computed here when not given
+        — and maps its scores."""
         d = ctx.detections
-        if self.score_map in LEARNED_SCORE_MAPS:
-            if model is None:
-                raise ValueError(f"factor {self.name!r}: the {self.score_map} score map "
-                                 f"needs the run's score model (score_model())")
-            if d is None:
-                return model.update(np.zeros((0, 4)), np.zeros(0))
-            from pgm.core.boxes import xywh_to_cxcywh
-
-            return model.update(xywh_to_cxcywh(np.asarray(d.boxes, dtype=float)), d.scores)
-        return np.zeros(0) if d is None else map_scores(d.scores, self.score_map)
+        if self.score_map not in LEARNED_SCORE_MAPS:
+            return np.zeros(0) if d is None else map_scores(d.scores, self.score_map)
+        if model is None:
+            raise ValueError(f"factor {self.name!r}: the {self.score_map} score map needs the "
+                             f"run's score model (score_model())")
+        if boxes is None:
+            boxes = (np.zeros((0, 4)) if d is None
+                     else xywh_to_cxcywh(np.asarray(d.boxes, dtype=float)))
+        return model.update(boxes, np.zeros(0) if d is None else d.scores)
 
     def score_model(self) -> PersistenceScoreModel | None:
         """A new run's score model (the ``"learned"`` and ``"quantile"`` maps), or None."""

@@ -47,7 +47,7 @@ from typing import Any
 
 import numpy as np
 
-from pgm.core.boxes import cxcywh_to_xywh, iou_xywh
+from pgm.core.boxes import cxcywh_to_xywh, iou_xywh, xywh_to_cxcywh
 from pgm.core.numerics import check_finite_param
 
 __all__ = ["ScoreSettings", "ScoreMixture", "ScoreCalibration", "SCORE_MODELS", "PERSISTING",
@@ -300,9 +300,8 @@ class ScoreCalibration:
     def _observe_learned(self, scores: np.ndarray, boxes: np.ndarray | None) -> None:
         if boxes is None:
             raise ValueError("the learned score model needs the detections' boxes")
-        b = np.asarray(boxes, dtype=float).reshape(-1, 4)
-        centre = np.concatenate([b[:, :2] + b[:, 2:] / 2.0, b[:, 2:]], axis=1)
-        self._p = self.persistence.update(centre, scores)
+        self._p = self.persistence.update(
+            xywh_to_cxcywh(np.asarray(boxes, dtype=float).reshape(-1, 4)), scores)
         self.frames += 1
         self.count += self._p.size
         self._p_sum += float(self._p.sum())
@@ -391,6 +390,12 @@ def mid_ranks(sorted_scores: np.ndarray, scores: np.ndarray) -> np.ndarray:
     lo = np.searchsorted(sorted_scores, s, side="left")
     hi = np.searchsorted(sorted_scores, s, side="right")
     return (lo + hi) / (2.0 * n)
+
+
+def _with_sorted(history: np.ndarray, scores: np.ndarray) -> np.ndarray:
+    """The sorted ``history`` with the finite ``scores`` merged in."""
+    new = np.sort(scores[np.isfinite(scores)])
+    return np.insert(history, np.searchsorted(history, new), new) if new.size else history
 
 
 def _pool_adjacent(p: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -488,9 +493,7 @@ class PersistenceScoreModel:
             ok = ~np.isnan(ps)
             self.labelled = np.concatenate([self.labelled, ps[ok]])
             self.found = np.concatenate([self.found, again[ok]])
-        good = s[~np.isnan(s)]
-        if good.size:
-            self.history = np.sort(np.concatenate([self.history, good]))
+        self.history = _with_sorted(self.history, s)
         self._previous = (b, s)
         self._fit()
         return self.probability(s)
@@ -549,7 +552,5 @@ class ScoreQuantiles:
         if s.size != np.asarray(boxes).reshape(-1, 4).shape[0]:
             raise ValueError(f"{np.asarray(boxes).reshape(-1, 4).shape[0]} boxes but "
                              f"{s.size} scores")
-        good = s[np.isfinite(s)]
-        if good.size:
-            self.history = np.sort(np.concatenate([self.history, good]))
+        self.history = _with_sorted(self.history, s)
         return np.where(np.isfinite(s), mid_ranks(self.history, np.nan_to_num(s)), 0.0)
