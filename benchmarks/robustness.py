@@ -94,6 +94,15 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
     "ocsort-colour+low quantile 0.4 hits": ("ocsort_colour", {"score_map": "quantile",
                                                               "score_threshold": 0.4,
                                                               "rounds": OCSORT_LOW, **HITS}),
+    # the same with its per-frame constants (confirmation, OC-SORT's momentum window, the
+    # Kalman noise) given at a reference frame rate and converted to the video's
+    # (models.sort.at_frame_rate): the choice sees the reference rate as the noise per second
+    **{f"ocsort-colour quantile 0.2 hits s{r:g}": (
+        "ocsort_colour", {"score_map": "quantile", "score_threshold": 0.2,
+                          "reference_fps": float(r), **HITS}) for r in (7.5, 15, 30)},
+    "ocsort-colour scale quantile 0.2 hits s30": (
+        "ocsort_colour", {"score_map": "quantile", "score_threshold": 0.2, "box_state": "xyxy",
+                          "noise": "scale", "reference_fps": 30.0, **HITS}),
     # BoT-SORT's cascade (pooled rounds, IoU x score), its thresholds as quantiles
     "botsort quantile": ("botsort", {"score_map": "quantile"}),
     "botsort-colour quantile": ("botsort", {"score_map": "quantile", **COLOUR}),

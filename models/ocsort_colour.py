@@ -23,9 +23,10 @@ cores, each one setting:
 
 Chosen **leave one sequence out** over the five shared MOT sequences and the toolkit's
 synthetic crossing scene, each under 11 kinds of perturbation (score maps, frame rate,
-dropped, jittered, extra and shifted detections), among 13 candidates of every core
-(``python benchmarks/robustness.py``; numbers in ``docs/results.md``): five folds of six
-pick it (the one holding out the synthetic scene picks ``vb-phd``). It needs the frames
+dropped, jittered, extra and shifted detections), among 17 candidates of every core
+(``python benchmarks/robustness.py``; numbers in ``docs/results.md``): four folds of six
+pick it, one the same model with its constants per frame (a tie on all cells), and the
+one holding out the synthetic scene picks ``vb-phd``. It needs the frames
 (for the colour models) and, where the camera moves, compensates its motion as ``pgm
 track`` does by default. ``pgm track`` runs it on a folder with detections when no
 ``--model`` is given.
@@ -35,6 +36,8 @@ track`` does by default. ``pgm track`` runs it on a folder with detections when 
 ['ColourHistogramLikelihood']
 >>> g.plates[0].lifecycle.report, g.plates[0].lifecycle.recover_hits
 ('matched', 1)
+>>> build_graph(Params(fps=7.0)).plates[0].lifecycle.confirm_hits
+1
 >>> g.factors["association"].score_map, [r["min_score"] for r in g.factors["association"].rounds]
 ('quantile', [0.2, 0.2])
 """
@@ -55,7 +58,8 @@ __all__ = ["CONFIG", "Params", "build_graph"]
 @dataclass(frozen=True)
 class Params(ocsort.Params):
     """:class:`pgm.models.ocsort.Params` reporting the filtered boxes, with colour
-    appearance in the association, score quantiles and SORT's life cycle."""
+    appearance in the association, score quantiles, SORT's life cycle and its per-frame
+    constants read at 30 frames/s."""
 
     report: str = "estimate"
     appearance: str | None = "colour"
@@ -64,6 +68,7 @@ class Params(ocsort.Params):
     score_threshold: float | None = 0.2
     recover_hits: int = 1
     consecutive: bool = False
+    reference_fps: float | None = 30.0
 
 
 def build_graph(params: Params | None = None, name: str = "ocsort-colour") -> FactorGraph:
@@ -75,6 +80,6 @@ def build_graph(params: Params | None = None, name: str = "ocsort-colour") -> Fa
 CONFIG = _config.ModelConfig(
     "ocsort-colour", "multi-target", sys.modules[__name__],
     "the multi-target default: OC-SORT's association reporting its filtered boxes, a colour "
-    "model per track, thresholds on score quantiles, SORT's life cycle (chosen leave one "
-    "sequence out over sequences and perturbations)",
+    "model per track, thresholds on score quantiles, SORT's life cycle, constants per second "
+    "(chosen leave one sequence out over sequences and perturbations)",
     options=sort.OPTIONS, build=sort.video_build)

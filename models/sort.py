@@ -72,8 +72,8 @@ from pgm.inference.settings import EngineSettings
 
 from . import config as _config
 
-__all__ = ["CONFIG", "Params", "build_graph", "lost_frames", "score_map_for", "video_build",
-           "with_score_threshold",
+__all__ = ["CONFIG", "Params", "at_frame_rate", "build_graph", "lost_frames", "score_map_for",
+           "video_build", "with_score_threshold",
            "OPTIONS", "appearance_factors"]
 
 #: the box (cx, cy, w, h) the declaration's prior is written for; births re-centre it
@@ -121,8 +121,17 @@ class Params:
     pos_std, vel_std, meas_std : float
         The scale-aware stds (1/20, 1/160, 1/20: BoT-SORT's published values, not tuned
         here).
+    initial_pos_std, initial_rate_std : float, optional
+        The scale-aware initial stds of the box's coordinates and of their rates (default
+        ``2 pos_std`` and ``10 vel_std``, BoT-SORT's).
     fps : float
         The video's frame rate (the lost-track buffer is in frames at 30 frames/s).
+    reference_fps : float, optional
+        Read the per-frame constants — ``min_hits``, ``recover_hits``, ``delta_t``, the
+        process noise and the initial rate uncertainty — as their values at this frame
+        rate, and convert them to the video's (:func:`at_frame_rate`), so that a 7 and a
+        30 frames/s video get the same behaviour per second. None (the classic cores, as
+        the ``trackers`` package): per frame of whatever rate the video has.
     lost_buffer : int
         Frames at 30 frames/s a confirmed track is kept without a match (30).
     min_hits : int
@@ -209,7 +218,10 @@ class Params:
     pos_std: float = 1.0 / 20.0
     vel_std: float = 1.0 / 160.0
     meas_std: float = 1.0 / 20.0
+    initial_pos_std: float | None = None
+    initial_rate_std: float | None = None
     fps: float = 30.0
+    reference_fps: float | None = None
     lost_buffer: int = 30
     min_hits: int = 3
     consecutive: bool = False
@@ -254,6 +266,45 @@ def _noise(p: Params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         check_finite_param(what, v, positive=True)
         out.append(v)
     return out[0], out[1], out[2]
+
+
+def at_frame_rate(p: Params) -> Params:
+    """``p`` with its per-frame constants, given at ``p.reference_fps``, converted to the
+    video's rate ``p.fps`` (``reference_fps`` None: ``p`` as it is).
+
+    With ``τ = reference_fps / fps`` reference frames per video frame:
+
+    * counts of frames (``min_hits``, ``recover_hits``, ``delta_t``) are windows of time:
+      ``max(1, round(n / τ))``;
+    * the constant-velocity state's noise is a continuous-time random walk sampled every
+      ``τ``: a box coordinate's process variance grows as ``τ``; a rate is per video
+      frame, ``τ`` times the reference frame's, so its variance grows as ``τ³`` and its
+      initial variance as ``τ²`` (the scale-aware stds: ``√τ``, ``τ^1.5`` and ``τ``).
+
+    The detector's noise ``R`` is per detection and does not change.
+
+    >>> q = at_frame_rate(replace(Params(), reference_fps=30.0, fps=10.0))
+    >>> q.min_hits, q.process_noise[:4], q.process_noise[4:]
+    (1, (0.03, 0.03, 0.03, 0.03), (0.27, 0.27, 0.27, 0.27))
+    """
+    if p.reference_fps is None:
+        return p
+    check_finite_param("reference_fps", p.reference_fps, positive=True)
+    check_finite_param("fps", p.fps, positive=True)
+    tau = float(p.reference_fps) / float(p.fps)
+    q, _, p0 = _noise(p)
+    n = 4  # the box's columns come first, their rates after them
+    q[:n] *= tau
+    q[n:] *= tau ** 3
+    p0[n:] *= tau ** 2
+    frames = lambda k: max(1, round(int(k) / tau))  # noqa: E731
+    return replace(p, reference_fps=None, min_hits=frames(p.min_hits),
+                   recover_hits=frames(p.recover_hits), delta_t=frames(p.delta_t),
+                   process_noise=tuple(float(v) for v in q),
+                   initial_cov=tuple(float(v) for v in p0),
+                   pos_std=p.pos_std * math.sqrt(tau), vel_std=p.vel_std * tau ** 1.5,
+                   initial_pos_std=p.initial_pos_std or 2.0 * p.pos_std,
+                   initial_rate_std=(p.initial_rate_std or 10.0 * p.vel_std) * tau)
 
 
 def appearance_factors(appearance: str | None) -> list | None:
@@ -316,6 +367,11 @@ def _check(p: Params) -> None:
         raise ValueError(f"noise must be one of {NOISES}, got {p.noise!r}")
     if p.noise == "scale" and p.box_state == "xysr":
         raise ValueError("scale-aware noise needs the corner state (box_state='xyxy')")
+    if p.reference_fps is not None:
+        check_finite_param("reference_fps", p.reference_fps, positive=True)
+    for name in ("initial_pos_std", "initial_rate_std"):
+        if getattr(p, name) is not None:
+            check_finite_param(name, getattr(p, name), positive=True)
     for name in ("pos_std", "vel_std", "meas_std"):
         check_finite_param(name, getattr(p, name), positive=True)
     if p.report not in REPORTS:
@@ -342,6 +398,7 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
     """The plate graph of ``params``: one target's Kalman box state, replicated."""
     p = params or Params()
     _check(p)
+    p = at_frame_rate(p)
     if p.score_threshold is not None:
         p = replace(p, rounds=with_score_threshold(p.rounds, p.score_threshold),
                     activation=float(p.score_threshold), score_threshold=None)
@@ -354,7 +411,8 @@ def build_graph(params: Params | None = None, name: str = "sort") -> FactorGraph
     mean[:4] = encode_boxes(REFERENCE_BOX, p.box_state)  # births re-centre it
     scaled = p.noise == "scale"
     rel_q = [p.pos_std] * 4 + [p.vel_std] * 4 if scaled else None
-    rel_p0 = [2 * p.pos_std] * 4 + [10 * p.vel_std] * 4 if scaled else None
+    rate0 = p.initial_rate_std or 10.0 * p.vel_std
+    rel_p0 = [p.initial_pos_std or 2.0 * p.pos_std] * 4 + [rate0] * 4 if scaled else None
     rel_r = [p.meas_std] * 4 if scaled else None
     factors: list[Any] = [
         BoxPrior("box", mean=mean, cov=np.diag(p0), relative_std=rel_p0),
@@ -482,6 +540,12 @@ OPTIONS = (
                         "quantile (the score's quantile among the video's scores); the last "
                         "two give the same tracks for any increasing map of the scores. "
                         "Default: the model's"),
+    _config.Option("--reference-fps", "reference_fps",
+                   type=_config.finite_float("--reference-fps"), metavar="FPS",
+                   help="read the per-frame constants (confirmation, OC-SORT's momentum "
+                        "window, the Kalman noise) as at FPS frames/s and convert them to the "
+                        "video's rate, so that behaviour per second does not depend on the "
+                        "frame rate (default: the model's; the classic cores: per frame)"),
     _config.Option("--score-threshold", "score_threshold",
                    type=_config.finite_float("--score-threshold"), metavar="P",
                    help="every score threshold (the confident detections' and a new track's) "

@@ -681,3 +681,49 @@ def test_botsort_camera_motion_estimate():
         CameraMotionEstimator("on", method="orb")
     with pytest.raises(ValueError, match="downscale"):
         CameraMotionEstimator("on", method="botsort", downscale=0)
+
+
+def test_reference_frame_rate_converts_per_frame_constants_to_seconds():
+    """``reference_fps``: at the reference rate nothing changes; at a third of it the
+    windows of frames are a third as long and the Kalman noise is that of the same
+    continuous-time random walk — a box coordinate's variance per video frame ``τ`` times
+    the reference frame's, a rate's (per video frame, ``τ`` times as large) ``τ³``."""
+    from dataclasses import replace
+
+    from pgm.models import ocsort
+
+    for p in (sort.Params(), ocsort.Params(), sort.Params(noise="scale")):
+        same = sort.build_graph(replace(p, fps=30.0, reference_fps=30.0))
+        plain = sort.build_graph(replace(p, fps=30.0))
+        for name, f in plain.factors.items():
+            assert json.dumps(f.params(), default=str) == \
+                json.dumps(same.factors[name].params(), default=str)
+        assert plain.plates[0].lifecycle == same.plates[0].lifecycle
+    tau = 3.0
+    for p in (sort.Params(), ocsort.Params()):
+        ref = sort.build_graph(replace(p, fps=30.0))
+        slow = sort.build_graph(replace(p, fps=10.0, reference_fps=30.0))
+        q_ref = np.diag(ref.factors["transition:box"].Q)
+        q_slow = np.diag(slow.factors["transition:box"].Q)
+        np.testing.assert_allclose(q_slow[:4], tau * q_ref[:4])
+        np.testing.assert_allclose(q_slow[4:], tau ** 3 * q_ref[4:])
+        # a rate's variance per second after one reference second of steps is the same
+        per_second_ref = 30 * q_ref[4:] * 30.0 ** 2
+        per_second_slow = 10 * q_slow[4:] * 10.0 ** 2
+        np.testing.assert_allclose(per_second_slow, per_second_ref)
+        np.testing.assert_allclose(np.diag(slow.factors["prior:box"].cov)[4:],
+                                   tau ** 2 * np.diag(ref.factors["prior:box"].cov)[4:])
+        lc_ref, lc_slow = ref.plates[0].lifecycle, slow.plates[0].lifecycle
+        assert lc_slow.confirm_hits == max(1, round(lc_ref.confirm_hits / tau)) == 1
+        assert slow.factors["association"].delta_t == 1
+        assert lc_slow.max_lost == 10  # the lost buffer was already in seconds
+    scaled = sort.build_graph(sort.Params(noise="scale", fps=10.0, reference_fps=30.0))
+    base = sort.build_graph(sort.Params(noise="scale"))
+    np.testing.assert_allclose(scaled.factors["transition:box"].relative_std,
+                               base.factors["transition:box"].relative_std
+                               * np.array([tau ** 0.5] * 4 + [tau ** 1.5] * 4))
+    np.testing.assert_allclose(scaled.factors["prior:box"].relative_std,
+                               base.factors["prior:box"].relative_std
+                               * np.array([1.0] * 4 + [tau] * 4))
+    with pytest.raises(ValueError, match="reference_fps"):
+        sort.build_graph(sort.Params(reference_fps=float("nan")))
