@@ -18,7 +18,7 @@ scored with the toolkit's MOT protocol (``pgm.evaluation.mot.evaluate_mot``):
   (``bash benchmarks/peers/setup_env.sh``), SORT / ByteTrack / OC-SORT on the same
   detections.
 
-Columns: MOTA, IDF1, HOTA, seed 003's error rate (frames with a miss-tracked target),
+Columns: MOTA, IDF1, HOTA, Wang et al.'s (2008) error rate (frames with a miss-tracked target),
 ID switches, frames per second of inference. One-step and 10-frame-gap prediction
 errors of the motion models are ``benchmarks/gpdm_prediction.py``'s.
 

@@ -19,7 +19,7 @@ Gaussian})``; the factors are :mod:`pgm.factors.association`'s):
 * **weight** — :class:`~pgm.factors.association.AssignedDetectionLikelihood`: the Kalman
   update of each assigned replica with its detection (Joseph form), batched;
   with a :class:`~pgm.factors.multitarget.VBNoise` factor on it, the VB adaptive Kalman
-  filter of seed 000 (each replica its own inverse-Gamma measurement noise) instead;
+  filter of Feng et al. (2015) (each replica its own inverse-Gamma measurement noise) instead;
 * **estimate** — the means; no resampling.
 
 The lifecycle (``associate`` stage, :mod:`pgm.inference.plates`) reads the assignment.
@@ -550,7 +550,7 @@ def _reupdate(engine: Engine, factor, rows: np.ndarray, m0: np.ndarray, P0: np.n
 
 @DEFAULT_RULES.register(VBNoise, BatchedGaussian)
 def vb_assigned(engine: Engine, factor, frame: FrameContext) -> dict[str, Any] | None:
-    """Seed 000's VB adaptive measurement noise per replica, batched: for each assigned
+    """Feng et al.'s (2015) VB adaptive measurement noise per replica, batched: for each assigned
     replica the fixed point of ``q(x) q(R)`` (:func:`pgm.inference.vb.vb_akf_update`, all
     replicas at once; ``R = diag(β / α)``)."""
     noise, target = factor.variables

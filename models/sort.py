@@ -26,7 +26,7 @@ state (the paper's state: ``R = diag(1, 1, 10, 10)``, ``P0 = 10 diag(1, 1, 1, 1,
 1000, 1000)``, ``Q = diag(1, 1, 1, 1, 0.01, 0.01, 0.0001)``); a lost-track buffer of 30
 frames at 30 frames/s (``ceil(fps)`` frames at the video's rate).
 
-The papers' ideas are added as factors, one option each: ``vb_noise`` (seed 000's
+The papers' ideas are added as factors, one option each: ``vb_noise`` (Feng et al.'s (2015)
 variational-Bayes measurement noise per target: an inverse-Gamma ``noise`` variable in
 the plate and the conjugate :class:`~pgm.factors.multitarget.VBNoise` factor).
 
@@ -101,7 +101,7 @@ class Params:
         ``"kalman"``: the exact Kalman box state (the classic trackers). The others make
         the box state particles (``num_particles`` per target; centre and size, noise
         scale-aware) moved by a learned or averaged motion model in place of the constant
-        velocity — seed 003's idea on these cores: ``"cv"`` (constant velocity, the
+        velocity — Wang et al.'s (2008) idea on these cores: ``"cv"`` (constant velocity, the
         baseline), ``"cv3"`` (velocity averaged over three frames) or ``"gpdm"`` (the
         GPDM chain of ``gpdm``, a file written by ``pgm learn gpdm``), with the noise of
         :class:`pgm.models.gpdm.Params` (``pos_noise``, ``scale_noise`` per √s).
@@ -174,7 +174,7 @@ class Params:
     reupdate : bool
         OC-SORT's observation-centric re-update of tracks found again.
     occlusion_gate : float, optional
-        Seed 002's part idea on the box (corner states): an edge of a detection lying
+        Zhang and Kang's (2015) part idea on the box (corner states): an edge of a detection lying
         inside the predicted box by more than this many σ is taken as hidden and does not
         update the target's box (:class:`~pgm.factors.association.AssignedDetectionLikelihood`).
     appearance : str, optional
@@ -188,7 +188,7 @@ class Params:
         The box a matched track reports: its detection's (the ``trackers`` package) or the
         Kalman posterior mean (the filtered box); either way only in frames with a match.
     vb_noise : bool
-        Seed 000's adaptive measurement noise per target (``vb-sort``).
+        Feng et al.'s (2015) adaptive measurement noise per target (``vb-sort``).
     vb_rho, vb_alpha0 : float
         Its forgetting factor and prior shape (the prior's mean is ``R``). ``ρ = 0.99``: a
         detector's noise is a property of the detector, steady over a track's life (seed
@@ -531,7 +531,7 @@ OPTIONS = (
                    help="edges of a detection inside the predicted box by more than SIGMA "
                         "innovation stds are taken as hidden (corner states; default: off)"),
     _config.Option("--vb-noise", "vb_noise", flag_only=True,
-                   help="seed 000's variational-Bayes measurement noise per target"),
+                   help="Feng et al.'s (2015) variational-Bayes measurement noise per target"),
     _config.Option("--scores", "score_map", choices=("detector",) + LEARNED_SCORE_MAPS,
                    help="what the score thresholds read: detector (the detector's own numbers, "
                         "mapped through the logistic when outside [0, 1]: the trackers "

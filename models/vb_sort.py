@@ -1,4 +1,4 @@
-"""VB-SORT: SORT with seed 000's variational-Bayes measurement noise per target.
+"""VB-SORT: SORT with Feng et al.'s (2015) variational-Bayes measurement noise per target.
 
 :mod:`pgm.models.sort`'s graph with, in the plate, an inverse-Gamma ``noise`` variable per
 target (:class:`~pgm.factors.multitarget.InverseGammaPrior`, a
@@ -51,5 +51,5 @@ def build_graph(params: Params | None = None, name: str = "vb-sort") -> FactorGr
 #: what the application sees of this model (:mod:`pgm.models.config`)
 CONFIG = _config.ModelConfig(
     "vb-sort", "multi-target", sys.modules[__name__],
-    "SORT with variational-Bayes measurement noise per target (seed 000's VB on SORT)",
+    "SORT with variational-Bayes measurement noise per target (Feng et al.'s (2015) VB on SORT)",
     options=tuple(o for o in sort.OPTIONS if o.dest != "vb_noise"), build=sort.video_build)

@@ -117,3 +117,24 @@ def test_no_global_random_state_and_no_code_loading(path):
                    "np.random.uniform(", "np.random.choice(", "np.random.random(",
                    "torch.manual_seed", "import pickle", "pickle.load", " eval(", " exec("):
         assert banned not in text, f"{path.name} uses {banned}"
+
+
+def _shipped_text_files():
+    files = [ROOT / "README.md", ROOT / "CHANGELOG.md"]
+    for folder in ("pgm", "inference", "models", "benchmarks", "docs", "tests"):
+        files += [p for p in (ROOT / folder).rglob("*")
+                  if p.suffix in (".py", ".md", ".txt", ".html", ".js")
+                  and "__pycache__" not in p.parts and "results" not in p.parts]
+    return sorted(files)
+
+
+def test_papers_are_cited_by_authors_and_year():
+    """A paper is named by its authors and year (``docs/references.md``), never by the
+    number of its file in the project's seed folder or a section of an internal spec."""
+    import re
+
+    bad = re.compile(r"\b[Ss]eed 00\d\b|SPEC(\.md)?`*\s*§")
+    found = [f"{p.relative_to(ROOT)}:{k}" for p in _shipped_text_files()
+             for k, line in enumerate(p.read_text(errors="replace").splitlines(), 1)
+             if bad.search(line)]
+    assert not found, found

@@ -10,7 +10,7 @@ stepped together in one batched pass, adding a replica when a detection starts a
 and removing it when the track ends. A factor *between* replicas (mutual exclusion)
 stops two of them from settling on one person.
 
-Then the same plate with seed 003's dynamics: a Gaussian-process dynamical model (GPDM)
+Then the same plate with Wang et al.'s (2008) dynamics: a Gaussian-process dynamical model (GPDM)
 learned from trajectories (``pgm learn gpdm``) drives each person's latent chain, and
 is compared with constant velocity averaged over three frames, also across frames
 withheld from the tracker. Run it as a script::

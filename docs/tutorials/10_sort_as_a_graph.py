@@ -7,7 +7,7 @@ counters. Here it is a *model config* of the toolkit's one engine: a plate of pe
 box states with exact Kalman rules, the data association a factor of kind
 ``"association"`` that the engine runs between predict and the likelihoods, and the life
 cycle of the plate. Because it is a graph, an idea from a paper is one more factor:
-seed 000's variational-Bayes measurement noise is an inverse-Gamma ``noise`` variable in
+Feng et al.'s (2015) variational-Bayes measurement noise is an inverse-Gamma ``noise`` variable in
 the plate and a conjugate factor on the detection's likelihood.
 
 The tutorial

@@ -416,7 +416,7 @@ class AssignedDetectionLikelihood(LikelihoodFactor):
     again after frames without a detection is first re-filtered along a straight line of
     virtual detections from its last one to this one, so that the drift of the
     prediction through the gap does not stay in its velocity. ``occlusion_gate`` (σ, a
-    corner state only): the part-graph idea of seed 002 on a box — a box is made of its
+    corner state only): the part-graph idea of Zhang and Kang (2015) on a box — a box is made of its
     edges, and a detection of a half-hidden person sees only some of them: an edge of the
     detection that lies *inside* the predicted box by more than ``occlusion_gate``
     innovation standard deviations is taken as hidden (its row carries no information),

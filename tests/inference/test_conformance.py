@@ -105,7 +105,7 @@ CASES = {
     "phd": (lambda: _phd(phd), _set_frames, {}),
     # a plate's batched rules (births from detections, then every stage on K replicas)
     "plate": (lambda: _plate(1), _plate_frames, {}),
-    # exact Kalman replicas with data association (SORT; seed 000's VB noise per target)
+    # exact Kalman replicas with data association (SORT; Feng et al.'s (2015) VB noise per target)
     "sort": (lambda: _sort(vb_noise=False), _plate_frames, {}),
     "vb-sort": (lambda: _sort(vb_noise=True), _plate_frames, {}),
     "sort-particles": (lambda: _sort(vb_noise=False, motion="cv3"), _plate_frames, {}),

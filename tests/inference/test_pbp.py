@@ -103,7 +103,7 @@ def separation_graph():
 
 def test_fusion_rules_differ_where_product_cannot_move_particles():
     """Mixture fusion pulls the drifted part back with the neighbour's message particles;
-    product fusion reweights the drifted support and stays near 10 (SPEC §2)."""
+    product fusion reweights the drifted support and stays near 10 (Zhang and Kang 2015)."""
     frame = FrameContext(1, measurements={"a": np.array([0.0]), "b": np.array([0.0])})
     mix, prod = [], []
     for seed in range(5):

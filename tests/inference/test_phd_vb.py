@@ -1,4 +1,5 @@
-"""Oracles for the PHD filter and the mean-field VB engine (SPEC §3a–3b)."""
+"""Oracles for the PHD filter and the mean-field VB engine (Feng et al. 2015; Särkkä and
+Nummenmaa 2009)."""
 
 import numpy as np
 import pytest
@@ -27,7 +28,7 @@ F, Q = constant_velocity(1.0, 0.5, "pv")
 H = np.array([[1.0, 0, 0, 0], [0, 0, 1.0, 0]])
 
 
-# -- the VB adaptive Kalman filter, written out from SPEC §3b as the reference -----------------
+# -- the VB adaptive Kalman filter, written out from Särkkä and Nummenmaa (2009) as the reference --
 def vb_akf_reference(m0, P0, alpha0, beta0, ys, rho, alpha_min, n_iter):
     m, P = m0.copy(), P0.copy()
     alpha, beta = alpha0.copy(), beta0.copy()

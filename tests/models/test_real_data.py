@@ -1,6 +1,6 @@
 """The colour particle filter and the part graphs on the shared real sequences (CLI).
 
-Reference (SPEC.md §1–2, a faithful one-node implementation): FaceOcc1 success AUC
+Reference (Zhang and Kang 2015, a faithful one-node implementation): FaceOcc1 success AUC
 about 0.75; on Crossing every fixed-size colour tracker stops near 0.5. Over 5 seeds
 at 100 particles this implementation measured FaceOcc1 0.759–0.770 and Crossing
 0.35–0.41 (see the closing note of issue 2); the floors below sit well under those

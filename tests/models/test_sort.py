@@ -67,7 +67,7 @@ def test_one_target_is_the_kalman_filter(box_state):
 
 def test_vb_sort_one_replica_is_the_vb_adaptive_kalman_filter():
     """``vb_noise``: a replica's state and noise beliefs are those of the single-graph VB
-    adaptive Kalman filter (seed 000's per-target noise) fed its detections."""
+    adaptive Kalman filter (Feng et al.'s (2015) per-target noise) fed its detections."""
     p = sort.Params(vb_noise=True, vb_rho=0.9)
     g = sort.build_graph(p)
     eng = Engine(g, 0)
@@ -251,7 +251,7 @@ def test_camera_motion_moves_the_kalman_states(box_state):
 
 @pytest.mark.slow
 def test_vb_sort_holds_where_the_measurement_noise_is_mis_specified(tmp_path):
-    """Seed 000's claim on the SORT core: with the detection noise set ten times too large
+    """Feng et al.'s (2015) claim on the SORT core: with the detection noise set ten times too large
     (or ten times too small on noisier detections), VB-SORT, which learns each target's
     noise, tracks at least as well as SORT with the same wrong setting, in MOTA and IDF1
     (synthetic scene, means of three detection draws): better where the noise is too
@@ -359,7 +359,7 @@ def test_appearance_enters_the_association():
 @pytest.mark.parametrize("motion", ["cv", "cv3"])
 def test_particle_motion_models_drive_the_same_core(motion):
     """``motion="cv"|"cv3"|"gpdm"``: the box state is particles moved by the motion model
-    (seed 003's idea on the classic cores); association (on the particles' mean) and the
+    (Wang et al.'s (2008) idea on the classic cores); association (on the particles' mean) and the
     assigned detection's likelihood (a weight per particle) are the same factors. One
     person walking is one identity throughout, and the particles' mean follows the truth
     within a few pixels."""

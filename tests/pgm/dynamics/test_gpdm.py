@@ -1,4 +1,4 @@
-"""GPDM (SPEC §4): closed-form oracles against scikit-learn, learning a planted latent
+"""GPDM (Wang et al. 2008): closed-form oracles against scikit-learn, learning a planted latent
 dynamic, storage, malformed files, and the constant-velocity fallback."""
 
 from __future__ import annotations

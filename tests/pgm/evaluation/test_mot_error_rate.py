@@ -1,4 +1,4 @@
-"""Seed 003's error rate against hand-worked frames."""
+"""Wang et al.'s (2008) error rate against hand-worked frames."""
 
 import numpy as np
 

@@ -1,4 +1,4 @@
-"""The deep-belief-network person likelihood (SPEC §3c): features, training, files, use."""
+"""The deep-belief-network person likelihood (Feng et al. 2015): features, training, files, use."""
 
 import json
 

@@ -1,4 +1,4 @@
-"""GMM-KL (seed 003 §3.2.6): the shared-component formulation against the literal
+"""GMM-KL (Wang et al. 2008, §3.2.6): the shared-component formulation against the literal
 per-particle mixture fit, against a plain per-box loop, and as a model cue."""
 
 import numpy as np
