@@ -24,12 +24,7 @@ Gaussian})``; the factors are :mod:`pgm.factors.association`'s):
 
 The lifecycle (``associate`` stage, :mod:`pgm.inference.plates`) reads the assignment.
 
->>> import numpy as np
->>> from pgm.core.batched import BatchedGaussian
->>> b = BatchedGaussian(np.zeros((2, 2)), np.stack([np.eye(2)] * 2))
->>> m, P = kalman_update_batch(b.mean, b.cov, np.eye(2), np.eye(2), np.ones((2, 2)))
->>> m.round(2).tolist()
-[[0.5, 0.5], [0.5, 0.5]]
+The Kalman and VB adaptive Kalman updates are :mod:`pgm.inference.kalman`'s (one each).
 """
 
 from __future__ import annotations
@@ -40,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from pgm.core.batched import BatchedGaussian, BatchedInverseGamma, BatchedParticles
-from pgm.core.boxes import box_coding, encode_boxes, state_boxes
+from pgm.core.boxes import box_coding, encode_boxes, iou_matrix, state_boxes
 from pgm.core.frame import FrameContext
 from pgm.core.motion import linear_state_warp
 from pgm.factors import GaussianPrior, LinearGaussianTransition
@@ -52,9 +47,10 @@ from pgm.factors.association import (
 from pgm.factors.multitarget import VBNoise
 
 from .engine import Engine
+from .kalman import kalman_update_batch, vb_akf_batch
 from .rules import DEFAULT_RULES
 
-__all__ = ["Assignment", "assign", "kalman_update_batch", "detection_boxes", "iou_matrix",
+__all__ = ["Assignment", "assign", "detection_boxes", "iou_matrix",
            "direction_consistency", "ObservationHistory"]
 
 
@@ -203,53 +199,6 @@ def direction_consistency(velocity: np.ndarray, known: np.ndarray, reference: np
     cost = (known[:, None] * cost).astype(np.float32)
     cost *= scores[None, :]
     return cost
-
-
-def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``(K, M)`` IoU of centre boxes ``a`` ``(K, 4)`` and ``b`` ``(M, 4)`` (0 where a box is
-    not finite or has no area)."""
-    ha, hb = a[:, 2:] * 0.5, b[:, 2:] * 0.5
-    wh = (np.minimum((a[:, :2] + ha)[:, None], (b[:, :2] + hb)[None])
-          - np.maximum((a[:, :2] - ha)[:, None], (b[:, :2] - hb)[None]))
-    np.maximum(wh, 0.0, out=wh)
-    inter = wh[..., 0] * wh[..., 1]
-    union = (a[:, 2] * a[:, 3])[:, None] + (b[:, 2] * b[:, 3])[None] - inter
-    ok = union > 0  # False for NaN too
-    if ok.all():
-        out = np.minimum(inter / union, 1.0)
-        if np.isfinite(out).all():
-            return out
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = inter / np.where(ok, union, 1.0)
-    return np.where(ok & np.isfinite(out), np.clip(out, 0.0, 1.0), 0.0)
-
-
-def selects(H: np.ndarray) -> bool:
-    """Whether ``H`` reads the first ``k`` components of the state (``[I 0]``)."""
-    k = H.shape[0]
-    return H.shape[1] >= k and bool(np.array_equal(H, np.eye(k, H.shape[1])))
-
-
-def kalman_update_batch(m: np.ndarray, P: np.ndarray, H: np.ndarray, R: np.ndarray,
-                        z: np.ndarray, select: bool | None = None
-                        ) -> tuple[np.ndarray, np.ndarray]:
-    """Kalman updates of ``B`` Gaussians at once: means ``(B, d)``, covariances
-    ``(B, d, d)``, measurements ``z`` ``(B, k)``, noise ``R`` ``(k, k)`` or ``(B, k, k)``;
-    ``P ← P − K S Kᵀ``, symmetrised (as :func:`pgm.inference.kalman.kalman_update`).
-    ``select``: whether ``H = [I 0]`` (:func:`selects`; found out when not given)."""
-    k = H.shape[0]
-    if select if select is not None else selects(H):  # H reads the box: slices, no products
-        PHt = P[:, :, :k]
-        S = P[:, :k, :k] + R
-    else:
-        PHt = P @ H.T  # (B, d, k)
-        S = H @ PHt + R  # (B, k, k)
-    K = np.linalg.solve(S, np.swapaxes(PHt, 1, 2)).swapaxes(1, 2)  # P Hᵀ S⁻¹ (S symmetric)
-    r = z - m @ H.T
-    m = m + np.einsum("bdk,bk->bd", K, r)
-    P = P - K @ np.swapaxes(PHt, 1, 2)
-    P = 0.5 * (P + np.swapaxes(P, 1, 2))
-    return m, P
 
 
 @DEFAULT_RULES.register(GaussianPrior, BatchedGaussian)
@@ -580,21 +529,8 @@ def vb_assigned(engine: Engine, factor, frame: FrameContext) -> dict[str, Any] |
     # along each component's axis (R = diag(r · size²)); residuals are measured so too
     sizes = liks[0].scales(m0)
     size2 = 1.0 if sizes is None else sizes ** 2
-    alpha = alpha0 + 0.5
-    beta = beta0.copy()
-    r_hat = beta / alpha
-    it = 0
-    for it in range(1, factor.max_iter + 1):  # noqa: B007 - the count is reported
-        R = np.einsum("bk,kl->bkl", r_hat * size2, np.eye(H.shape[0]))
-        m, P = kalman_update_batch(m0, P0, H, R, z, liks[0].selects)
-        resid = z - m @ H.T
-        hph = np.einsum("kd,bde,ke->bk", H, P, H)
-        beta = beta0 + 0.5 * resid ** 2 / size2 + 0.5 * hph / size2
-        new_r = beta / alpha
-        change = np.max(np.abs(new_r - r_hat) / r_hat)
-        r_hat = new_r
-        if change < factor.tol:
-            break
+    m, P, alpha, beta, it = vb_akf_batch(m0, P0, alpha0, beta0, H, z, factor.tol,
+                                         factor.max_iter, size2, liks[0].selects)
     mean, cov = b.mean.copy(), b.cov.copy()
     mean[rows], cov[rows] = m, P
     engine.beliefs[target] = BatchedGaussian(mean, cov)

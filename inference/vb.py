@@ -48,7 +48,7 @@ from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianT
 from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, PHDLikelihood, VBNoise
 
 from .engine import DEFAULT_RULES, Engine
-from .kalman import kalman_update
+from .kalman import kalman_update, vb_akf_batch
 from .phd import _finish, _update, phd_factor_of
 
 __all__ = ["vb_akf_update", "gaussian_elbo_terms"]
@@ -149,25 +149,18 @@ def gaussian_elbo_terms(g: Gaussian, prior: Gaussian, q: InverseGamma, q_pred: I
 
 def vb_akf_update(prior: Gaussian, q_pred: InverseGamma, H: np.ndarray, z: np.ndarray,
                   tol: float, max_iter: int) -> tuple[Gaussian, InverseGamma, dict[str, Any]]:
-    """The VB-AKF fixed point: eqs. (16)–(17) of [#feng2015], garbled in its text, in the
-    form of [#sarkka2009] (``α = α̂ + ½``; ``β = β̂ + ½ (z − H m)² + ½ diag(H P Hᵀ)``)."""
-    alpha = q_pred.alpha + 0.5
-    beta = q_pred.beta.copy()
+    """The VB-AKF fixed point of one Gaussian (:func:`pgm.inference.kalman.vb_akf_batch`),
+    with the ELBO of each iteration and of the result."""
     elbo: list[float] = []
-    g = prior
-    r_hat = beta / alpha
-    it = 0
-    for it in range(1, max_iter + 1):  # noqa: B007 - the count is reported
-        g = _kalman_update(prior, H, np.diag(beta / alpha), z)
-        elbo.append(gaussian_elbo_terms(g, prior, InverseGamma(alpha, beta), q_pred, H, z))
-        resid = z - H @ g.mean
-        beta = q_pred.beta + 0.5 * resid**2 + 0.5 * np.diag(H @ g.cov @ H.T)
-        new_r = beta / alpha
-        change = np.max(np.abs(new_r - r_hat) / r_hat)
-        r_hat = new_r
-        if change < tol:
-            break
-    q = InverseGamma(alpha, beta)
+
+    def record(m, P, alpha, beta):
+        elbo.append(gaussian_elbo_terms(Gaussian(m[0], P[0]), prior,
+                                        InverseGamma(alpha[0], beta[0]), q_pred, H, z))
+
+    m, P, alpha, beta, it = vb_akf_batch(prior.mean[None], prior.cov[None],
+                                         q_pred.alpha[None], q_pred.beta[None], H, z[None],
+                                         tol, max_iter, on_iteration=record)
+    g, q = Gaussian(m[0], P[0]), InverseGamma(alpha[0], beta[0])
     elbo.append(gaussian_elbo_terms(g, prior, q, q_pred, H, z))
     return g, q, {"iterations": it, "elbo": elbo, "r_hat": q.r_hat()}
 

@@ -15,7 +15,7 @@ import functools
 
 import numpy as np
 
-__all__ = ["xywh_to_cxcywh", "cxcywh_to_xywh", "iou_xywh", "centre_xywh", "BOX_LABELS",
+__all__ = ["xywh_to_cxcywh", "cxcywh_to_xywh", "iou_xywh", "iou_matrix", "centre_xywh", "BOX_LABELS",
            "box_columns", "BOX_CODINGS", "box_coding", "box_code_columns", "encode_boxes",
            "decode_boxes", "state_boxes", "mean_box_size"]
 
@@ -139,16 +139,41 @@ def centre_xywh(b: np.ndarray) -> np.ndarray:
     return b[..., :2] + b[..., 2:4] / 2.0
 
 
+def _overlap(lo_a: np.ndarray, hi_a: np.ndarray, area_a: np.ndarray, lo_b: np.ndarray,
+             hi_b: np.ndarray, area_b: np.ndarray) -> np.ndarray:
+    """The one IoU of the package: boxes given by their low and high corners ``(..., 2)``
+    and areas, broadcasting over the leading axes; 0 where the union is not positive or
+    not finite, at most 1 (rounding can push identical boxes to 1 + 1e-14)."""
+    wh = np.minimum(hi_a, hi_b) - np.maximum(lo_a, lo_b)
+    np.maximum(wh, 0.0, out=wh)
+    inter = wh[..., 0] * wh[..., 1]
+    union = area_a + area_b - inter
+    ok = union > 0  # False for NaN too
+    if np.all(ok):
+        out = np.minimum(inter / union, 1.0)
+        if np.isfinite(out).all():
+            return out
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = inter / np.where(ok, union, 1.0)
+    return np.where(ok & np.isfinite(out), np.clip(out, 0.0, 1.0), 0.0)
+
+
 def iou_xywh(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Intersection over union of top-left boxes, elementwise over the leading axes."""
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
-    x1 = np.maximum(a[..., 0], b[..., 0])
-    y1 = np.maximum(a[..., 1], b[..., 1])
-    x2 = np.minimum(a[..., 0] + a[..., 2], b[..., 0] + b[..., 2])
-    y2 = np.minimum(a[..., 1] + a[..., 3], b[..., 1] + b[..., 3])
-    inter = np.clip(x2 - x1, 0, None) * np.clip(y2 - y1, 0, None)
-    union = a[..., 2] * a[..., 3] + b[..., 2] * b[..., 3] - inter
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = np.where(union > 0, inter / union, 0.0)
-    return np.clip(out, 0.0, 1.0)  # rounding can push identical boxes to 1 + 1e-14
+    return _overlap(a[..., :2], a[..., :2] + a[..., 2:4], a[..., 2] * a[..., 3],
+                    b[..., :2], b[..., :2] + b[..., 2:4], b[..., 2] * b[..., 3])
+
+
+def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(K, M)`` IoU of centre boxes ``a`` ``(K, 4)`` and ``b`` ``(M, 4)`` (0 where a box is
+    not finite or has no area).
+
+    >>> iou_matrix(np.array([[5.0, 5.0, 10.0, 10.0]]), np.array([[10.0, 5.0, 10.0, 10.0]]))
+    array([[0.33333333]])
+    """
+    ha, hb = a[:, 2:] * 0.5, b[:, 2:] * 0.5
+    return _overlap((a[:, :2] - ha)[:, None], (a[:, :2] + ha)[:, None],
+                    (a[:, 2] * a[:, 3])[:, None], (b[:, :2] - hb)[None], (b[:, :2] + hb)[None],
+                    (b[:, 2] * b[:, 3])[None])
