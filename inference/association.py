@@ -30,7 +30,7 @@ The Kalman and VB adaptive Kalman updates are :mod:`pgm.inference.kalman`'s (one
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -46,9 +46,13 @@ from pgm.factors.association import (
 )
 from pgm.factors.multitarget import VBNoise
 
-from .engine import Engine
+from .batched import per_replica
 from .kalman import kalman_update_batch, vb_akf_batch
 from .rules import DEFAULT_RULES
+from .vb import _vb_gaussian
+
+if TYPE_CHECKING:
+    from .engine import Engine
 
 __all__ = ["Assignment", "assign", "detection_boxes", "iou_matrix",
            "direction_consistency", "ObservationHistory"]
@@ -507,9 +511,6 @@ def vb_assigned(engine: Engine, factor, frame: FrameContext) -> dict[str, Any] |
             if factor.likelihood in (None, f.name)]
     if len(liks) == 1 and not isinstance(liks[0], AssignedDetectionLikelihood):
         # a likelihood of the frame's own measurements: the single-graph VB-AKF, per replica
-        from .batched import per_replica
-        from .vb import _vb_gaussian
-
         return per_replica(_vb_gaussian, VBNoise)(engine, factor, frame)
     if len(liks) != 1:
         raise ValueError(f"factor {factor.name!r}: needs one likelihood on {target!r}")

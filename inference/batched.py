@@ -40,9 +40,10 @@ from pgm.factors import CouplingFactor, LikelihoodFactor, TransitionFactor
 from pgm.factors.plates import InteractionFactor
 
 from .engine import Engine
+from .particles import _predict_particles
 from .pbp import MixtureMessage, coupling_message, fuse
 from .resampling import ess_triggered
-from .rules import DEFAULT_RULES
+from .rules import DEFAULT_RULES, register_replica_adapter, scores_in_groups
 
 __all__ = ["ReplicaRNG", "per_replica", "RowMessages", "BatchedMixtureMessage", "score_group",
            "weight_batched", "box_columns"]
@@ -222,6 +223,9 @@ def per_replica(rule: Callable, key: type | str) -> Callable:
     run.row_rule = rule
     return run
 
+
+register_replica_adapter(per_replica)
+
 # -------------------------------------------------------------------------------------
 # batched rules (all replicas at once)
 # -------------------------------------------------------------------------------------
@@ -235,8 +239,6 @@ def predict_batched(engine: Engine, factor, frame: FrameContext) -> None:
     shared transition (draws split per replica), one call per replica for its own copy."""
     var = factor.variables[0]
     if engine.graph.factors_of(var, "proposal"):  # proposals: the single-graph rule, per replica
-        from .engine import _predict_particles
-
         return per_replica(_predict_particles, TransitionFactor)(engine, factor, frame)
     b: BatchedParticles = engine.beliefs[var]
     reps = engine.replicas
@@ -265,6 +267,7 @@ def predict_batched(engine: Engine, factor, frame: FrameContext) -> None:
 
 
 @DEFAULT_RULES.register(LikelihoodFactor, BatchedParticles)
+@scores_in_groups("replicas")
 def weight_batched(engine: Engine, factor, frame: FrameContext) -> np.ndarray:
     """``(K, N)`` log-likelihood increments of every replica's particles."""
     return score_group(engine, [factor], frame)[0]

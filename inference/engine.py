@@ -66,7 +66,6 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -78,14 +77,20 @@ from pgm.core.expfam import InverseGamma
 from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
-from pgm.core.motion import warp_states
-from pgm.core.numerics import check_finite_param
 from pgm.core.readout import confidence
 from pgm.core.rng import as_generator
-from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
+from pgm.factors import LikelihoodFactor
 
-from .resampling import ess_triggered, get_resampler
-from .rules import BELIEF_OPERATIONS, DEFAULT_RULES, Rule, RuleTable, likelihood_reweights
+from . import weighting
+from .record import Hook, StepRecord, _plate_runtime
+from .resampling import get_resampler
+from .rules import (
+    BELIEF_OPERATIONS,
+    DEFAULT_RULES,
+    Rule,
+    RuleTable,
+    likelihood_reweights,
+)
 from .schedule import STAGES, Schedule, derive_schedule, message_order
 from .settings import EngineSettings
 
@@ -99,48 +104,6 @@ __all__ = ["Engine", "RuleTable", "DEFAULT_RULES", "StepRecord", "Schedule", "de
 BELIEF_FOR_ROLE: dict[str, type] = {"part": Particles, "state": Particles,
                                     "latent": Particles, "set": Intensity,
                                     "noise": InverseGamma}
-
-
-@dataclass
-class StepRecord:
-    """What happened in one frame (for output, inspection and tests).
-
-    Attributes
-    ----------
-    frame : int
-    estimates : dict
-        Variable name → estimate (the weighted mean for particle beliefs; ``(K, d)`` for
-        a plate variable, one row per replica).
-    beliefs : dict
-        Variable name → posterior belief after resampling (immutable objects).
-    messages : dict
-        ``(src, dst)`` → the message of this frame (particle BP), for inspection.
-    ess : dict
-        ESS after weighting, before resampling (``(K,)`` for a plate variable).
-    resampled : dict
-        Whether each variable was resampled.
-    log_evidence : dict
-        ``log p(z_t | z_{1:t-1})`` estimate per weighted variable (the log of the mean
-        incremental weight), the particle filter's marginal-likelihood increment.
-    info : dict
-        Diagnostics returned by rules (messages, VB iterations, ...), keyed by factor
-        or variable name.
-    """
-
-    frame: int
-    estimates: dict[str, Any] = field(default_factory=dict)
-    beliefs: dict[str, Any] = field(default_factory=dict)
-    ess: dict[str, float] = field(default_factory=dict)
-    resampled: dict[str, bool] = field(default_factory=dict)
-    log_evidence: dict[str, float] = field(default_factory=dict)
-    messages: dict[tuple[str, str], Any] = field(default_factory=dict)
-    info: dict[str, Any] = field(default_factory=dict)
-
-
-Hook = Callable[["Engine", str, FrameContext, StepRecord], None]
-
-
-Hook = Callable[["Engine", str, FrameContext, StepRecord], None]
 
 
 class Engine:
@@ -234,10 +197,8 @@ class Engine:
         self.replicas = None
         self.plate = self.graph.plates[0] if self.graph.plates else None
         if self.plate is not None:
-            from . import plates
-
-            self._plates = plates  # the plate's stages (imported once, not per frame)
-            plates.setup(self)
+            self._plates = _plate_runtime()  # the plate's stages
+            self._plates.setup(self)
         self._check_rules()
 
     # -- set-up ------------------------------------------------------------------------
@@ -341,15 +302,12 @@ class Engine:
             confirmed: bool = False, count: int | None = None) -> list[int]:
         """Start replicas of the plate on ``boxes`` ``(M, 4)`` (cx, cy, w, h) in ``frame``
         (:func:`pgm.inference.plates.add`); returns their indices."""
-        from . import plates
-
-        return plates.add(self, boxes, frame, rngs=rngs, confirmed=confirmed, count=count)
+        return _plate_runtime().add(self, boxes, frame, rngs=rngs, confirmed=confirmed,
+                                    count=count)
 
     def remove(self, indices) -> None:
         """Remove the replicas at ``indices``."""
-        from . import plates
-
-        plates.remove(self, indices)
+        _plate_runtime().remove(self, indices)
 
     # -- running -----------------------------------------------------------------------
     def step(self, frame: FrameContext, *, lifecycle: bool = True) -> StepRecord:
@@ -449,114 +407,10 @@ class Engine:
             if info:
                 record.info.setdefault(v, {}).update(info)
 
-    def _weight_groups(self, items) -> list[tuple[list[Factor], list[Rule], bool]]:
-        """Likelihood factors grouped by ``batch_key``, each group with its factors' rules
-        and whether it is scored in one batched pass (resolved once, then cached)."""
-        key = tuple(items)
-        groups = self._groups_cache.get(key)
-        if groups is None:
-            by_key: dict[Any, list[str]] = {}
-            groups = []
-            for name in items:
-                f = self.graph.factors[name]
-                bk = getattr(f, "batch_key", None)
-                if bk is None:
-                    groups.append([name])
-                    continue
-                bk = (type(f), bk)
-                if bk not in by_key:
-                    by_key[bk] = []
-                    groups.append(by_key[bk])
-                by_key[bk].append(name)
-            resolved = []
-            for names in groups:
-                fs = [self.graph.factors[n] for n in names]
-                rules = [self.rule_for(f) for f in fs]
-                if self.replicas is None:
-                    batched = len(fs) > 1 and all(r is _weight_particles for r in rules)
-                else:  # a plate: replicas' copies scored together (pgm.inference.plates)
-                    from .batched import weight_batched
-
-                    batched = all(r is weight_batched for r in rules)
-                resolved.append((fs, rules, batched))
-            groups = self._groups_cache[key] = resolved
-        return groups
-
     def _stage_weight(self, items, frame, record) -> None:
-        """Apply the likelihood factors (the weight-stage contract: module docstring)."""
-        before: dict[str, Any] = {}  # reweighted beliefs as they entered the stage
-        log_lik: dict[str, np.ndarray] = {}
-        for fs, rules, batched in self._weight_groups(items):
-            vs = [f.variables[0] for f in fs]
-            if batched:
-                lls = self._score_group(fs, frame)
-            else:
-                lls = [self._likelihood_increment(f, r, frame, record)
-                       for f, r in zip(fs, rules, strict=True)]
-            for f, v, ll in zip(fs, vs, lls, strict=True):
-                if ll is None:  # a belief the rule updated itself
-                    continue
-                b = self.beliefs[v]
-                ll = _check_ll(f, ll, b.log_weights.shape)
-                before.setdefault(v, b)
-                log_lik[v] = log_lik[v] + ll if v in log_lik else ll
-                self.beliefs[v] = b.reweight(ll)
-        for v, b0 in before.items():
-            b = self.beliefs[v]
-            self.evidence[v] = (b0.log_weights, log_lik[v])
-            record.log_evidence[v] = b.log_mass - self._prior_log_mass(v, b0)
-            record.ess[v] = b.ess
-            if self.replicas is None:
-                self.beliefs[v] = b.normalized()
-                continue
-            # a replica no particle of which explains the frame keeps its prediction
-            self.beliefs[v], bad = b.normalized(fallback=b0)
-            if bad.any():
-                self.evidence[v] = (b0.log_weights, np.where(bad[:, None], 0.0, log_lik[v]))
-                record.info.setdefault(v, {})["degenerate"] = np.flatnonzero(bad)
-
-    def _prior_log_mass(self, variable: str, b0) -> Any:
-        """The mass the frame's evidence is measured against: the belief's as the weight
-        stage found it, or, after a proposal's weight correction, the mass before it."""
-        if not self._proposals:
-            return b0.log_mass
-        auxes = [self.aux] if self.replicas is None else self.replicas.aux
-        held = [a.get(variable, {}).pop("prior_log_mass", None) for a in auxes]
-        if self.replicas is None:
-            return b0.log_mass if held[0] is None else held[0]
-        if any(h is None for h in held):
-            return b0.log_mass
-        return np.array(held, dtype=float)
-
-    def _score_group(self, fs: list[Factor], frame: FrameContext) -> list[np.ndarray]:
-        """Log-likelihoods of a group of factors scored in one batched pass."""
-        if self.replicas is not None:
-            return self._plates.score_group(self, fs, frame)
-        return type(fs[0]).log_likelihood_batch(fs, [self.beliefs[f.variables[0]].x
-                                                     for f in fs], frame)
-
-    def _likelihood_increment(self, factor: Factor, rule: Rule, frame: FrameContext,
-                              record: StepRecord) -> np.ndarray | None:
-        """Call one likelihood rule; its increment, or None where it updated the belief."""
-        v = factor.variables[0]
-        b = self.beliefs[v]
-        out = rule(self, factor, frame)
-        if not likelihood_reweights(type(b)):
-            if isinstance(out, dict) and out:
-                record.info[factor.name] = out
-            return None
-        if self.beliefs[v] is not b:
-            raise RuleContractError(
-                f"likelihood rule {getattr(rule, '__qualname__', rule)!r} for factor "
-                f"{factor.name!r} replaced the belief of {v!r}: on {type(b).__name__} a "
-                f"likelihood rule returns its log-likelihood increment (N,) and never moves, "
-                f"reorders or resamples particles")
-        if not isinstance(out, np.ndarray):
-            raise RuleContractError(
-                f"likelihood rule {getattr(rule, '__qualname__', rule)!r} for factor "
-                f"{factor.name!r} returned {type(out).__name__}, not its log-likelihood "
-                f"increment (an array of shape {b.log_weights.shape})")
-        return out
+        """Apply the likelihood factors (the weight-stage contract: module docstring;
+        :mod:`pgm.inference.weighting`)."""
+        weighting.stage_weight(self, items, frame, record)
 
     def _stage_resample(self, items, frame, record) -> None:
         for v in items:
@@ -593,118 +447,3 @@ class Engine:
         """Summed log-likelihood of ``variable``'s likelihood factors at one value."""
         x = np.asarray(value, dtype=float).reshape(1, -1)
         return float(self.log_likelihood(variable, x, frame)[0])
-
-
-# -------------------------------------------------------------------------------------
-# default rules for particle beliefs (sequential Monte Carlo)
-# -------------------------------------------------------------------------------------
-def _history_len(engine: Engine, variable: str) -> int:
-    trans = engine.graph.factors_of(variable, "transition")
-    return max(0, getattr(trans[0], "order", 1) - 1) if trans else 0
-
-
-@DEFAULT_RULES.register(PriorFactor, Particles)
-def _prior_particles(engine: Engine, factor, frame) -> None:
-    var = factor.variables[0]
-    n = engine.num_particles[var]
-    x = np.asarray(factor.sample(engine.rng, n), dtype=float).reshape(n, -1)
-    cls = engine.belief_type(var)
-    engine.beliefs[var] = cls.uniform(x, mass=1.0, history_len=_history_len(engine, var))
-
-
-@DEFAULT_RULES.register(TransitionFactor, Particles)
-def _predict_particles(engine: Engine, factor, frame) -> None:
-    var = factor.variables[0]
-    b: Particles = engine.beliefs[var]
-    if frame.camera_motion is not None:  # past states into this frame's image coordinates
-        labels = engine.graph.variables[var].labels
-        b = b._trusted(warp_states(b.x, labels, frame.camera_motion), b.log_weights,
-                       tuple(warp_states(h, labels, frame.camera_motion) for h in b.history))
-    proposals = engine.graph.factors_of(var, "proposal")
-    if proposals:
-        f = proposals[0].prepare(frame, (b.x,) + b.history, confidence=engine.confidence,
-                                 factors=engine.graph.factors)
-        f = float(check_finite_param(f"{proposals[0].name}.prepare()", f, nonneg=True))
-        if f > 1:
-            raise ValueError(f"factor {proposals[0].name!r}: prepare() returned the share "
-                             f"{f}, above 1")
-        if f > 0:
-            return _propose_particles(engine, factor, proposals[0], frame, b, f)
-    x_new = np.asarray(factor.sample(engine.rng, b.x, *b.history), dtype=float)
-    if x_new.shape != b.x.shape:
-        raise ValueError(f"factor {factor.name!r}: sample() returned shape {x_new.shape}, "
-                         f"expected {b.x.shape}")
-    engine.beliefs[var] = b.moved(x_new, history_len=max(0, factor.order - 1))
-
-
-def _propose_particles(engine: Engine, transition, proposal, frame, b: Particles,
-                       f: float) -> dict:
-    """The predict stage with a proposal factor: each particle drawn from the proposal
-    with probability ``f`` (from its :meth:`~pgm.factors.ProposalFactor.prepare`; else
-    from the transition) and its weight multiplied by
-    ``p(x_t | x_{t-1}) / ((1 - f) p + f q)`` (the mixture's importance weight;
-    :class:`~pgm.factors.kinds.ProposalFactor`)."""
-    var = transition.variables[0]
-    past = (b.x,) + b.history
-    cols = proposal.columns
-    if cols is not None and max(cols) >= b.dim:
-        raise ValueError(f"factor {proposal.name!r}: columns {list(cols)} do not fit variable "
-                         f"{var!r} of dimension {b.dim}")
-    x_q = np.asarray(proposal.sample(engine.rng, frame, *past), dtype=float)
-    if x_q.shape != b.x.shape:
-        raise ValueError(f"factor {proposal.name!r}: sample() returned shape {x_q.shape}, "
-                         f"expected {b.x.shape}")
-    if f < 1.0 or cols is not None:
-        x_p = np.asarray(transition.sample(engine.rng, *past), dtype=float)
-        if cols is not None:  # the other components from the transition
-            x_p_cols = x_p.copy()
-            x_p_cols[:, list(cols)] = x_q[:, list(cols)]
-            x_q = x_p_cols
-        x_new = (np.where((engine.rng.random(b.num) < f)[:, None], x_q, x_p) if f < 1.0
-                 else x_q)
-    else:
-        x_new = x_q
-    log_p = np.asarray(transition.log_prob(x_new, *past) if cols is None else
-                       transition.log_prob_columns(x_new, cols, *past), dtype=float)
-    log_q = np.asarray(proposal.log_prob(x_new, frame, *past), dtype=float)
-    log_mix = log_q if f == 1.0 else np.logaddexp(np.log1p(-f) + log_p, np.log(f) + log_q)
-    moved = b.moved(x_new, history_len=max(0, transition.order - 1))
-    # the evidence of this frame is measured against the mass before the correction
-    engine.aux.setdefault(var, {})["prior_log_mass"] = moved.log_mass
-    engine.beliefs[var] = moved.reweight(log_p - log_mix)
-    return {"proposed": f}
-
-
-def _check_ll(factor, ll, shape: tuple[int, ...]) -> np.ndarray:
-    ll = np.asarray(ll, dtype=float)
-    if ll.shape != shape:
-        raise ValueError(f"factor {factor.name!r}: log_likelihood returned shape {ll.shape}, "
-                         f"expected {shape}")
-    if np.isnan(ll).any():  # NaN evidence is no evidence: -inf, as Particles.reweight does
-        ll = np.where(np.isnan(ll), -np.inf, ll)
-    return ll
-
-
-@DEFAULT_RULES.register(LikelihoodFactor, Particles)
-def _weight_particles(engine: Engine, factor, frame) -> np.ndarray:
-    """The factor's log-likelihood at every particle: the increment the engine applies."""
-    return factor.log_likelihood(engine.beliefs[factor.variables[0]].x, frame)
-
-
-@DEFAULT_RULES.register("resample", Particles)
-def _resample_particles(engine: Engine, variable: str, frame) -> dict[str, Any]:
-    b: Particles = engine.beliefs[variable]
-    n = engine.num_particles[variable]
-    if b.num != n:  # a fused mixture: always back to the variable's particle count
-        engine.beliefs[variable] = b.resample(engine.rng, engine.resampler, n)
-        return {"resampled": True}
-    ess = b.ess
-    if ess_triggered(ess, b.num, engine.ess_threshold):
-        engine.beliefs[variable] = b.resample(engine.rng, engine.resampler, n)
-        return {"resampled": True, "ess": ess}
-    return {"resampled": False, "ess": ess}
-
-
-@DEFAULT_RULES.register("estimate", Particles)
-def _estimate_particles(engine: Engine, variable: str, frame) -> np.ndarray:
-    return engine.beliefs[variable].mean()

@@ -49,6 +49,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -56,7 +57,10 @@ from pgm.core.beliefs import Particles
 from pgm.core.numerics import log_normalize, logsumexp
 from pgm.factors import CouplingFactor
 
-from .engine import DEFAULT_RULES, Engine
+from .rules import DEFAULT_RULES
+
+if TYPE_CHECKING:
+    from .engine import Engine
 
 __all__ = ["MixtureMessage", "ProductMessage", "coupling_message", "fuse"]
 

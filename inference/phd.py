@@ -43,7 +43,7 @@ References
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -53,8 +53,11 @@ from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
 from pgm.factors.multitarget import PHDLikelihood
 from pgm.factors.scores import ScoreCalibration, shadowed
 
-from .engine import DEFAULT_RULES, Engine
+from .rules import DEFAULT_RULES
 from .tracks import TrackManager
+
+if TYPE_CHECKING:
+    from .engine import Engine
 
 __all__ = ["phd_correct", "extract", "phd_factor_of", "appearance_log_scores", "score_terms"]
 

@@ -40,6 +40,7 @@ Example
 from __future__ import annotations
 
 import copy
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -57,6 +58,7 @@ from . import batched as _batched  # noqa: F401  (registers the batched rules)
 from .association import detection_boxes  # (and the exact Kalman replicas' rules)
 from .batched import box_columns, score_group  # noqa: F401  (score_group: the engine's)
 from .engine import Engine, StepRecord
+from .record import register_plate_runtime
 from .tracks import Track, confirm_tracks, existences, match, reported, update_tracks
 
 if TYPE_CHECKING:
@@ -493,3 +495,6 @@ def plate_targets(graph: FactorGraph, record: StepRecord) -> Targets:
     keep = info["reported"]
     return Targets(info["ids"][keep], cxcywh_to_xywh(info["boxes"][keep]),
                    info["existence"][keep], text=f"{int(keep.sum())} targets")
+
+
+register_plate_runtime(sys.modules[__name__])

@@ -22,7 +22,8 @@ from typing import Any
 
 from pgm.core.factor import Factor
 
-__all__ = ["RuleTable", "DEFAULT_RULES", "BELIEF_OPERATIONS", "Rule", "likelihood_reweights"]
+__all__ = ["RuleTable", "DEFAULT_RULES", "BELIEF_OPERATIONS", "Rule", "likelihood_reweights",
+           "GROUP_SCORING", "scores_in_groups", "register_replica_adapter"]
 
 #: operations on one variable's belief (rules keyed by name, not by a factor class)
 BELIEF_OPERATIONS = ("fuse", "resample", "estimate")
@@ -33,6 +34,37 @@ Rule = Callable[..., Any]
 def likelihood_reweights(belief_type: type) -> bool:
     """Whether likelihood factors act on ``belief_type`` by reweighting (the contract)."""
     return bool(getattr(belief_type, "likelihood_reweights", False))
+
+
+#: likelihood rules whose factors the engine may score in one pass, by kind: ``"graph"``
+#: (several factors of one graph on one variable, ``log_likelihood_batch``) or
+#: ``"replicas"`` (a plate's copies of factors); a rule wrapped by another function
+#: (:func:`pgm.inference.conformance.checked`) is scored one factor at a time
+GROUP_SCORING: dict[Rule, str] = {}
+
+
+def scores_in_groups(kind: str) -> Callable[[Rule], Rule]:
+    """Decorator: the engine may score the factors of this likelihood rule in groups
+    (:data:`GROUP_SCORING`)."""
+    if kind not in ("graph", "replicas"):
+        raise ValueError(f"kind must be 'graph' or 'replicas', got {kind!r}")
+
+    def deco(rule: Rule) -> Rule:
+        GROUP_SCORING[rule] = kind
+        return rule
+
+    return deco
+
+
+#: how a single-graph rule runs once per replica of a plate (the batched rules' module,
+#: :func:`pgm.inference.batched.per_replica`, registers it: this table imports no family)
+_REPLICA_ADAPTER: Callable[[Rule, Any], Rule] | None = None
+
+
+def register_replica_adapter(adapter: Callable[[Rule, Any], Rule]) -> None:
+    """Set how a replica's rule runs on a batched belief (``adapter(rule, key)``)."""
+    global _REPLICA_ADAPTER
+    _REPLICA_ADAPTER = adapter
 
 
 def _key_name(key: type | str) -> str:
@@ -100,9 +132,10 @@ class RuleTable:
                 for b in row_type.__mro__:
                     rule = self._rules.get((k, b))
                     if rule is not None:
-                        from .batched import per_replica
-
-                        return per_replica(rule, key)
+                        if _REPLICA_ADAPTER is None:  # pragma: no cover - set on import
+                            raise RuntimeError("no replica adapter registered: import "
+                                               "pgm.inference")
+                        return _REPLICA_ADAPTER(rule, key)
         return None
 
     def lookup(self, key: type | str, belief_type: type) -> Rule:

@@ -37,7 +37,7 @@ References
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -47,9 +47,12 @@ from pgm.core.expfam import Gaussian, InverseGamma
 from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianTransition
 from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, PHDLikelihood, VBNoise
 
-from .engine import DEFAULT_RULES, Engine
 from .kalman import kalman_update, vb_akf_batch
 from .phd import _finish, _update, phd_factor_of
+from .rules import DEFAULT_RULES
+
+if TYPE_CHECKING:
+    from .engine import Engine
 
 __all__ = ["vb_akf_update", "gaussian_elbo_terms"]
 

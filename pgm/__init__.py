@@ -26,6 +26,49 @@ from pgm.factors.plates import DetectionLikelihood, InteractionFactor, MutualExc
 
 __version__ = "0.1.0"
 
+#: the modules that define the toolkit's factor types and readouts, imported when a saved
+#: graph names one that is not registered yet (some pull torch or a model file, so they are
+#: not imported with ``pgm``)
+TOOLKIT_MODULES = ("pgm.factors", "pgm.factors.plates", "pgm.factors.multitarget",
+                   "pgm.factors.association", "pgm.factors.scores",
+                   "pgm.observation.appearance.likelihoods",
+                   "pgm.observation.appearance.correlation", "pgm.dynamics.factors",
+                   "pgm.observation.appearance.dbn", "pgm.inference.plates")
+
+
+def _find_toolkit_names(found, module=None) -> None:
+    """Import, until ``found()``: the module a saved declaration names when it is the
+    toolkit's (``pgm.*``) or an installed plug-in's (a ``pgm.models`` entry point), then the
+    toolkit's factor modules and plate engine, then the models' modules (the toolkit's, then
+    the plug-ins'). Installed code only, never a file's; a broken plug-in is skipped."""
+    import importlib
+    from importlib.metadata import entry_points
+
+    plugins = [ep.value.partition(":")[0] for ep in entry_points(group="pgm.models")]
+    named = [module] if module and (module.startswith("pgm.") or module in plugins) else []
+    for name in named + list(TOOLKIT_MODULES):
+        if found():
+            return
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            if name in named:  # a module the toolkit no longer has: look further
+                continue
+            raise
+    models = list(importlib.import_module("pgm.models").BUILTIN.values())
+    for target in [t.partition(":")[0] for t in models] + plugins:
+        if found():
+            return
+        try:
+            importlib.import_module(target)
+        except Exception:  # noqa: BLE001 - a broken plug-in registers nothing
+            continue
+
+
+from pgm.core.factor import register_finder as _register_finder  # noqa: E402
+
+_register_finder(_find_toolkit_names)
+
 __all__ = [
     "Variable", "ROLES", "Factor", "PriorFactor", "TransitionFactor", "LikelihoodFactor",
     "CouplingFactor", "ConjugateFactor", "GaussianPrior", "LinearGaussianTransition",

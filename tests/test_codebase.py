@@ -9,10 +9,25 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYERS = {"pgm": ROOT / "pgm", "pgm.inference": ROOT / "inference", "pgm.models": ROOT / "models"}
 
 
-def _imports(path: Path) -> list[str]:
+def _type_checking_nodes(tree: ast.AST) -> set[int]:
+    """ids of the nodes under ``if TYPE_CHECKING:`` (annotations only: no import at run time)."""
+    out: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+            out |= {id(n) for stmt in node.body for n in ast.walk(stmt)}
+    return out
+
+
+def _imports(path: Path, typing_too: bool = True) -> list[str]:
+    """Modules ``path`` imports: ``import``/``from`` statements (relative ones with their
+    dots), and ``import_module("...")`` calls on a string literal; ``typing_too=False``
+    leaves out those under ``if TYPE_CHECKING:``."""
     tree = ast.parse(path.read_text())
+    skip = set() if typing_too else _type_checking_nodes(tree)
     out = []
     for node in ast.walk(tree):
+        if id(node) in skip:
+            continue
         if isinstance(node, ast.Import):
             out += [a.name for a in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -20,6 +35,12 @@ def _imports(path: Path) -> list[str]:
                 out.append(node.module)
             elif node.level > 0:
                 out.append("." * node.level + (node.module or ""))
+        elif isinstance(node, ast.Call) and node.args and \
+                isinstance(node.args[0], ast.Constant) and isinstance(node.args[0].value, str):
+            f = node.func
+            name = f.attr if isinstance(f, ast.Attribute) else getattr(f, "id", None)
+            if name == "import_module":
+                out.append(node.args[0].value)
     return out
 
 
@@ -65,13 +86,13 @@ def _layer(module: str) -> str:
     return ".".join(parts[:2]) if len(parts) > 1 else module
 
 
-def _pgm_imports(path: Path) -> list[str]:
+def _pgm_imports(path: Path, typing_too: bool = True) -> list[str]:
     """Absolute ``pgm`` modules imported by ``path`` (relative imports resolved)."""
     package = _module_name(path)
     if path.name != "__init__.py":
         package = package.rsplit(".", 1)[0]
     out = []
-    for mod in _imports(path):
+    for mod in _imports(path, typing_too):
         if mod.startswith("."):
             dots = len(mod) - len(mod.lstrip("."))
             base = package.split(".")[: len(package.split(".")) - (dots - 1)]
@@ -138,3 +159,41 @@ def test_papers_are_cited_by_authors_and_year():
              for k, line in enumerate(p.read_text(errors="replace").splitlines(), 1)
              if bad.search(line)]
     assert not found, found
+
+
+def test_no_import_circle_among_the_engine_modules():
+    """The modules of ``pgm.inference`` import one another without a circle (imports
+    inside functions count; annotations under ``TYPE_CHECKING`` do not): the engine core
+    at the bottom, the rule families above it registering into its table."""
+    folder = LAYERS["pgm.inference"]
+    graph = {}
+    for path in _py_files(folder):
+        mod = _module_name(path)
+        deps = {m for m in _pgm_imports(path, typing_too=False)
+                if m.startswith("pgm.inference.") and m != mod}
+        # "from . import a, b" inside the package names its submodules
+        graph[mod] = deps
+    mods = set(graph)
+    for mod, deps in graph.items():
+        graph[mod] = {d if d in mods else d.rsplit(".", 1)[0] for d in deps} & mods
+    graph.pop("pgm.inference", None)  # the package's __init__ imports the families
+    for deps in graph.values():
+        deps.discard("pgm.inference")
+    state: dict[str, int] = {}
+    path: list[str] = []
+
+    def visit(m: str) -> None:
+        state[m] = 1
+        path.append(m)
+        for d in sorted(graph.get(m, ())):
+            if state.get(d) == 1:
+                cycle = path[path.index(d):] + [d]
+                raise AssertionError("import circle: " + " -> ".join(cycle))
+            if d not in state:
+                visit(d)
+        path.pop()
+        state[m] = 2
+
+    for m in sorted(graph):
+        if m not in state:
+            visit(m)

@@ -162,8 +162,9 @@ def iou_xywh(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Intersection over union of top-left boxes, elementwise over the leading axes."""
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)
-    return _overlap(a[..., :2], a[..., :2] + a[..., 2:4], a[..., 2] * a[..., 3],
-                    b[..., :2], b[..., :2] + b[..., 2:4], b[..., 2] * b[..., 3])
+    with np.errstate(invalid="ignore"):  # infinite boxes: NaN corners, IoU 0
+        return _overlap(a[..., :2], a[..., :2] + a[..., 2:4], a[..., 2] * a[..., 3],
+                        b[..., :2], b[..., :2] + b[..., 2:4], b[..., 2] * b[..., 3])
 
 
 def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -40,24 +40,33 @@ import numpy as np
 from pgm.core.frame import FrameContext
 from pgm.core.variable import Variable
 
-__all__ = ["Factor", "factor_from_dict", "registered_factor_types", "KINDS"]
+__all__ = ["Factor", "factor_from_dict", "registered_factor_types", "KINDS", "register_finder",
+           "find_names"]
 
 KINDS = ("prior", "transition", "likelihood", "coupling", "conjugate", "interaction",
          "proposal", "association")
 _REGISTRY: dict[str, type[Factor]] = {}
-#: factor types the toolkit defines in modules that are not imported with ``pgm`` (they
-#: pull torch or a model file): a saved declaration naming one imports that module —
-#: a fixed toolkit module from this table, never a name taken from the file
-#: the modules that define the toolkit's factor types, imported when a saved graph names a
-#: type that is not registered yet (a model file loaded in a fresh process)
-FACTOR_MODULES = ("pgm.factors", "pgm.factors.plates", "pgm.factors.multitarget",
-                  "pgm.factors.association",
-                  "pgm.factors.scores", "pgm.observation.appearance.likelihoods",
-                  "pgm.observation.appearance.correlation")
-_TOOLKIT_MODULES = {"GPDMPrior": "pgm.dynamics.factors",
-                    "GPDMTransition": "pgm.dynamics.factors",
-                    "DBNLikelihood": "pgm.observation.appearance.dbn"}
+#: what makes more names known when a saved graph names a factor type or a readout that is
+#: not registered yet (a model file loaded in a fresh process): functions
+#: ``finder(found, module)`` that import where it may be defined until ``found()``
+#: (``module``: the module the saved declaration names, or None). The layers above the core
+#: register them (``pgm/__init__.py``: the toolkit's factor modules, its plate engine and
+#: models, installed plug-ins); the core imports nothing by name.
+_FINDERS: list[Callable[[Callable[[], bool], str | None], None]] = []
 
+
+def register_finder(finder: Callable[[Callable[[], bool], str | None], None]) -> None:
+    """Add a finder (:data:`_FINDERS`); registering one twice keeps one."""
+    if finder not in _FINDERS:
+        _FINDERS.append(finder)
+
+
+def find_names(found: Callable[[], bool], module: str | None = None) -> None:
+    """Run the registered finders until ``found()``."""
+    for finder in _FINDERS:
+        if found():
+            return
+        finder(found, module)
 
 def _jsonable(value: Any) -> Any:
     if isinstance(value, np.ndarray):
@@ -143,9 +152,12 @@ class Factor(ABC):  # noqa: B024 - kind base classes declare the abstract method
         """
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready declaration ``{"type", "name", "kind", "variables", "params"}``."""
-        return {"type": type(self).__name__, "name": self.name, "kind": self.kind,
-                "variables": list(self.variables), "params": _jsonable(self.params())}
+        """JSON-ready declaration ``{"type", "module", "name", "kind", "variables",
+        "params"}`` (``module``: where the type is defined, which a loader may import if it
+        is the toolkit's or an installed plug-in's)."""
+        return {"type": type(self).__name__, "module": type(self).__module__,
+                "name": self.name, "kind": self.kind, "variables": list(self.variables),
+                "params": _jsonable(self.params())}
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({', '.join(self.variables)}, name={self.name!r})"
@@ -158,36 +170,6 @@ class Factor(ABC):  # noqa: B024 - kind base classes declare the abstract method
     __hash__ = object.__hash__
 
 
-def import_model_modules(found: Callable[[], bool]) -> None:
-    """Import the modules of the models (the toolkit's, then those of the ``pgm.models``
-    entry points) until ``found()``: what a saved graph names (a factor type, a readout)
-    may be registered by one of them. Installed code only; a broken plug-in is skipped."""
-    import importlib
-    from importlib.metadata import entry_points
-
-    targets = list(importlib.import_module("pgm.models").BUILTIN.values())
-    targets += [ep.value for ep in entry_points(group="pgm.models")]
-    for target in targets:
-        if found():
-            return
-        try:
-            importlib.import_module(target.partition(":")[0])
-        except Exception:  # noqa: BLE001 - a broken plug-in registers nothing
-            continue
-
-
-def _import_factor_type(type_name: str) -> type[Factor] | None:
-    """Register ``type_name`` by importing where it may be defined: the toolkit's factor
-    modules, then the models' modules (:func:`import_model_modules`)."""
-    import importlib
-
-    for module in (_TOOLKIT_MODULES.get(type_name),) + FACTOR_MODULES:
-        if module is not None and type_name not in _REGISTRY:
-            importlib.import_module(module)
-    import_model_modules(lambda: type_name in _REGISTRY)
-    return _REGISTRY.get(type_name)
-
-
 def factor_from_dict(d: dict[str, Any]) -> Factor:
     """Rebuild a factor from :meth:`Factor.to_dict` output (a registry lookup, no code)."""
     try:
@@ -197,7 +179,9 @@ def factor_from_dict(d: dict[str, Any]) -> Factor:
         raise ValueError(f"malformed factor declaration {d!r}: missing {exc}") from None
     cls = _REGISTRY.get(type_name)
     if cls is None and isinstance(type_name, str):
-        cls = _import_factor_type(type_name)
+        module = d.get("module")
+        find_names(lambda: type_name in _REGISTRY, module if isinstance(module, str) else None)
+        cls = _REGISTRY.get(type_name)
     if cls is None:
         raise ValueError(
             f"unknown factor type {type_name!r}: import the module that defines it before "

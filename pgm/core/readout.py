@@ -97,21 +97,12 @@ def register_readout(name: str) -> Callable[[Readout], Readout]:
     return deco
 
 
-def _import_readout(name: str) -> None:
-    """Register ``name`` by importing the plate engine's readout, then the models'
-    modules (a model file loaded in a fresh process)."""
-    import importlib
-
-    from pgm.core.factor import import_model_modules
-
-    importlib.import_module("pgm.inference.plates")
-    import_model_modules(lambda: name in _READOUTS)
-
-
 def get_readout(name: str) -> Readout:
     """The readout registered as ``name`` (the models are imported to find it if needed)."""
     if name not in _READOUTS:
-        _import_readout(name)
+        from pgm.core.factor import find_names
+
+        find_names(lambda: name in _READOUTS)
     try:
         return _READOUTS[name]
     except KeyError:

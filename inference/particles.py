@@ -1,0 +1,126 @@
+"""The rules of particle beliefs (sequential Monte Carlo): prior, predict (with a
+proposal factor's mixture and its importance weights), weight, resample and estimate on
+:class:`~pgm.Particles`, registered into :data:`~pgm.inference.rules.DEFAULT_RULES`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from pgm.core.beliefs import Particles
+from pgm.core.motion import warp_states
+from pgm.core.numerics import check_finite_param
+from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
+
+from .resampling import ess_triggered
+from .rules import DEFAULT_RULES, scores_in_groups
+
+if TYPE_CHECKING:
+    from .engine import Engine
+
+__all__: list[str] = []
+
+
+def _history_len(engine: Engine, variable: str) -> int:
+    trans = engine.graph.factors_of(variable, "transition")
+    return max(0, getattr(trans[0], "order", 1) - 1) if trans else 0
+
+
+@DEFAULT_RULES.register(PriorFactor, Particles)
+def _prior_particles(engine: Engine, factor, frame) -> None:
+    var = factor.variables[0]
+    n = engine.num_particles[var]
+    x = np.asarray(factor.sample(engine.rng, n), dtype=float).reshape(n, -1)
+    cls = engine.belief_type(var)
+    engine.beliefs[var] = cls.uniform(x, mass=1.0, history_len=_history_len(engine, var))
+
+
+@DEFAULT_RULES.register(TransitionFactor, Particles)
+def _predict_particles(engine: Engine, factor, frame) -> None:
+    var = factor.variables[0]
+    b: Particles = engine.beliefs[var]
+    if frame.camera_motion is not None:  # past states into this frame's image coordinates
+        labels = engine.graph.variables[var].labels
+        b = b._trusted(warp_states(b.x, labels, frame.camera_motion), b.log_weights,
+                       tuple(warp_states(h, labels, frame.camera_motion) for h in b.history))
+    proposals = engine.graph.factors_of(var, "proposal")
+    if proposals:
+        f = proposals[0].prepare(frame, (b.x,) + b.history, confidence=engine.confidence,
+                                 factors=engine.graph.factors)
+        f = float(check_finite_param(f"{proposals[0].name}.prepare()", f, nonneg=True))
+        if f > 1:
+            raise ValueError(f"factor {proposals[0].name!r}: prepare() returned the share "
+                             f"{f}, above 1")
+        if f > 0:
+            return _propose_particles(engine, factor, proposals[0], frame, b, f)
+    x_new = np.asarray(factor.sample(engine.rng, b.x, *b.history), dtype=float)
+    if x_new.shape != b.x.shape:
+        raise ValueError(f"factor {factor.name!r}: sample() returned shape {x_new.shape}, "
+                         f"expected {b.x.shape}")
+    engine.beliefs[var] = b.moved(x_new, history_len=max(0, factor.order - 1))
+
+
+def _propose_particles(engine: Engine, transition, proposal, frame, b: Particles,
+                       f: float) -> dict:
+    """The predict stage with a proposal factor: each particle drawn from the proposal
+    with probability ``f`` (from its :meth:`~pgm.factors.ProposalFactor.prepare`; else
+    from the transition) and its weight multiplied by
+    ``p(x_t | x_{t-1}) / ((1 - f) p + f q)`` (the mixture's importance weight;
+    :class:`~pgm.factors.kinds.ProposalFactor`)."""
+    var = transition.variables[0]
+    past = (b.x,) + b.history
+    cols = proposal.columns
+    if cols is not None and max(cols) >= b.dim:
+        raise ValueError(f"factor {proposal.name!r}: columns {list(cols)} do not fit variable "
+                         f"{var!r} of dimension {b.dim}")
+    x_q = np.asarray(proposal.sample(engine.rng, frame, *past), dtype=float)
+    if x_q.shape != b.x.shape:
+        raise ValueError(f"factor {proposal.name!r}: sample() returned shape {x_q.shape}, "
+                         f"expected {b.x.shape}")
+    if f < 1.0 or cols is not None:
+        x_p = np.asarray(transition.sample(engine.rng, *past), dtype=float)
+        if cols is not None:  # the other components from the transition
+            x_p_cols = x_p.copy()
+            x_p_cols[:, list(cols)] = x_q[:, list(cols)]
+            x_q = x_p_cols
+        x_new = (np.where((engine.rng.random(b.num) < f)[:, None], x_q, x_p) if f < 1.0
+                 else x_q)
+    else:
+        x_new = x_q
+    log_p = np.asarray(transition.log_prob(x_new, *past) if cols is None else
+                       transition.log_prob_columns(x_new, cols, *past), dtype=float)
+    log_q = np.asarray(proposal.log_prob(x_new, frame, *past), dtype=float)
+    log_mix = log_q if f == 1.0 else np.logaddexp(np.log1p(-f) + log_p, np.log(f) + log_q)
+    moved = b.moved(x_new, history_len=max(0, transition.order - 1))
+    # the evidence of this frame is measured against the mass before the correction
+    engine.aux.setdefault(var, {})["prior_log_mass"] = moved.log_mass
+    engine.beliefs[var] = moved.reweight(log_p - log_mix)
+    return {"proposed": f}
+
+
+@DEFAULT_RULES.register(LikelihoodFactor, Particles)
+@scores_in_groups("graph")
+def _weight_particles(engine: Engine, factor, frame) -> np.ndarray:
+    """The factor's log-likelihood at every particle: the increment the engine applies."""
+    return factor.log_likelihood(engine.beliefs[factor.variables[0]].x, frame)
+
+
+@DEFAULT_RULES.register("resample", Particles)
+def _resample_particles(engine: Engine, variable: str, frame) -> dict[str, Any]:
+    b: Particles = engine.beliefs[variable]
+    n = engine.num_particles[variable]
+    if b.num != n:  # a fused mixture: always back to the variable's particle count
+        engine.beliefs[variable] = b.resample(engine.rng, engine.resampler, n)
+        return {"resampled": True}
+    ess = b.ess
+    if ess_triggered(ess, b.num, engine.ess_threshold):
+        engine.beliefs[variable] = b.resample(engine.rng, engine.resampler, n)
+        return {"resampled": True, "ess": ess}
+    return {"resampled": False, "ess": ess}
+
+
+@DEFAULT_RULES.register("estimate", Particles)
+def _estimate_particles(engine: Engine, variable: str, frame) -> np.ndarray:
+    return engine.beliefs[variable].mean()
