@@ -286,7 +286,7 @@ def _print_mot_metrics(m: dict, stream=None) -> None:
 
 
 def _memory_limit(args) -> float | None:
-    from pgm.app.runner import _parse_bytes
+    from pgm.app.memory import _parse_bytes
 
     text = getattr(args, "memory_limit", None)
     return None if text is None else _parse_bytes(text, "--memory-limit")

@@ -10,8 +10,6 @@ excluded).
 
 from __future__ import annotations
 
-import os
-import re
 import time
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
@@ -20,8 +18,16 @@ from typing import Any
 
 import numpy as np
 
-from pgm.app.record import Recorder, RecordSettings, record_settings
-from pgm.core.errors import InputError, Interrupted, user_message
+from pgm.app.memory import check_memory, estimate_memory, memory_limit
+from pgm.app.overlay import annotated_frame, xy_columns
+from pgm.app.record import Recorder, RecordSettings
+from pgm.app.run_loop import (
+    RunOutputs,
+    _record_settings,
+    progress_bar,
+    run_frames,
+)
+from pgm.core.errors import InputError
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
 from pgm.core.readout import readout
@@ -91,15 +97,6 @@ def output_target(graph: FactorGraph, record: StepRecord) -> tuple[np.ndarray, f
         raise ValueError(f"model {graph.name!r} reported {len(targets)} targets; a "
                          f"single-object run needs exactly one")
     return targets.boxes[0], float(targets.scores[0])
-
-
-def _xy_columns(graph: FactorGraph, variable: str) -> list[int]:
-    """Columns of ``variable`` that hold an image position (by its labels)."""
-    labels = graph.variables[variable].labels or ()
-    for pair in (("cx", "cy"), ("px", "py"), ("x", "y")):
-        if all(name in labels for name in pair):
-            return [labels.index(pair[0]), labels.index(pair[1])]
-    return [0, 1]
 
 
 def init_box_from_gt(gt: SingleTrack, first_frame: int = 1) -> np.ndarray:
@@ -254,68 +251,47 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     out = prepare_run_folder(out_dir) if out_dir is not None else None
     run = {"model": graph.name, "source": source_text(source),
            "num_particles": engine.num_particles, "camera_motion": camera_motion}
-    recorder = None
+    outputs = RunOutputs(out, run)
     if rec_settings is not None and out is not None:
-        recorder = Recorder(out, engine, rec_settings, fps=fps)
-        run["record"] = recorder.summary()
+        outputs.recorder = Recorder(out, engine, rec_settings, fps=fps)
+        run["record"] = outputs.recorder.summary()
     if out is not None:
         write_run_status(out, {**run, "frames": 0}, complete=False, stopped="running")
     gt_by_frame = ({int(f): b for f, b in zip(gt.frames, gt.boxes, strict=True)}
                    if gt is not None else {})
 
-    first: tuple[int, int] | None = None
     frames_done: list[int] = []
     boxes_done: list[np.ndarray] = []
     scores_done: list[float] = []
     records: list[StepRecord] = []
-    seconds = 0.0
-    writer = MotWriter(out / "tracks.txt") if out is not None else None
-    video = (AnnotatedVideoWriter(out / "annotated.mp4", fps)
-             if out is not None and write_video else None)
-    bar = None
-    if progress:
-        from tqdm import tqdm
+    outputs.writer = MotWriter(out / "tracks.txt") if out is not None else None
+    outputs.video = (AnnotatedVideoWriter(out / "annotated.mp4", fps)
+                     if out is not None and write_video else None)
+    outputs.bar = progress_bar(progress, total, graph.name)
 
-        bar = tqdm(total=total, unit="frame", desc=graph.name, leave=False,
-                   disable=None)  # None: no bar when stderr is not a terminal
-    try:
-        for k, (number, image) in enumerate(frames_iter):
-            if max_frames is not None and k >= max_frames:
-                break
-            first = _check_frame_size(first, image, number)
-            ctx = FrameContext(number, image, camera_motion=motion(image))
-            t0 = time.perf_counter()
-            record = engine.step(ctx)
-            seconds += time.perf_counter() - t0
-            box, score = output_target(engine.graph, record)
-            frames_done.append(int(number))
-            boxes_done.append(box)
-            scores_done.append(score)
-            if keep_records:
-                records.append(record)
-            if writer is not None and (lost_below is None or score >= lost_below):
-                writer.write(number, [1], box[None], [score])
-            if video is not None:
-                video.write(_annotated_frame(engine, record, image, box,
-                                             gt_by_frame.get(int(number)), show_particles))
-            if recorder is not None:
-                recorder.write(engine, record, image,
-                               targets={"ids": [1], "boxes": box[None], "scores": [score]})
-            if on_frame is not None:
-                on_frame(record)
-            if bar is not None:
-                bar.update(1)
-    except BaseException as exc:
-        _close(bar, writer, video, recorder)
-        if out is not None:
-            _record_stop(out, {**run, **_outputs(video, recorder), "frames": len(frames_done),
-                               "last_frame": frames_done[-1] if frames_done else None}, exc)
-        raise
-    _close(bar, writer, video, recorder)
-    if not frames_done:
-        if out is not None:
-            _record_stop(out, {**run, "frames": 0}, InputError("the source has no frames"))
-        raise InputError("the source has no frames")
+    def context(number, image):
+        return FrameContext(number, image, camera_motion=motion(image)), None
+
+    def emit(number, image, record, _):
+        box, score = output_target(engine.graph, record)
+        frames_done.append(int(number))
+        boxes_done.append(box)
+        scores_done.append(score)
+        if keep_records:
+            records.append(record)
+        if outputs.writer is not None and (lost_below is None or score >= lost_below):
+            outputs.writer.write(number, [1], box[None], [score])
+        if outputs.video is not None:
+            outputs.video.write(annotated_frame(engine, record, image, box,
+                                                 gt_by_frame.get(int(number)), show_particles))
+        if outputs.recorder is not None:
+            outputs.recorder.write(engine, record, image,
+                                   targets={"ids": [1], "boxes": box[None], "scores": [score]})
+        if on_frame is not None:
+            on_frame(record)
+
+    _, seconds, _ = run_frames(frames_iter, engine, outputs, max_frames=max_frames,
+                               context=context, emit=emit)
     frames_arr = np.asarray(frames_done)
     boxes_arr = np.asarray(boxes_done)
     # score the annotated frames up to the last frame processed (max_frames may stop early)
@@ -336,7 +312,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
         run.update({"frames": len(frames_done), "last_frame": int(frames_arr[-1]),
                     "inference_seconds": seconds, "fps": result.fps,
                     "camera_motion_frames": motion.frames_moved,
-                    "video": video is not None, **_outputs(video, recorder)})
+                    "video": outputs.video is not None, **outputs.summary()})
         if metrics is not None:
             write_json(out / "metrics.json", {**metrics, "fps": result.fps})
         write_json(out / "model.json", engine.graph.to_dict())
@@ -353,170 +329,6 @@ def confidence_metrics(metrics: dict[str, Any], frames: np.ndarray,
     if c.size:
         out["calibration"] = reliability(c, hit)
     return out
-
-
-def _close(*things) -> None:
-    """Close the progress bar, result writer, video writer and recorder that were opened."""
-    for thing in things:
-        if thing is not None:
-            thing.close()
-
-
-def _record_settings(record: bool | RecordSettings | dict | None,
-                     out_dir: str | Path | None) -> RecordSettings | None:
-    """The recording settings of a run (``None``: off); recording needs an output folder."""
-    settings = record_settings(record)
-    if settings is not None and out_dir is None:
-        raise InputError("recording a run (record=...) needs an output folder (out_dir)")
-    return settings
-
-
-def _outputs(video: AnnotatedVideoWriter | None, recorder: Recorder | None) -> dict[str, Any]:
-    """What ``run.json`` says about the video's codec and the record (when there are)."""
-    out: dict[str, Any] = {}
-    if video is not None and video.codec is not None:
-        out["video_codec"] = video.codec
-    if recorder is not None:
-        out["record"] = recorder.summary()
-    return out
-
-
-def _annotated_frame(engine: Engine, record: StepRecord, image: np.ndarray, box: np.ndarray,
-                     gt_box: np.ndarray | None, show_particles: bool) -> np.ndarray:
-    particles = weights = parts = messages = None
-    names = engine.graph.output
-    if show_particles:
-        particles = {n: record.beliefs[n].x[:, _xy_columns(engine.graph, n)] for n in names}
-        weights = {n: record.beliefs[n].weights for n in names}
-        messages = {f"{s}->{d}": m.x for (s, d), m in record.messages.items()}
-    if len(names) > 1:
-        parts = {n: record.estimates[n] for n in names}
-    ess = "ESS " + "/".join(f"{v:.0f}" for v in record.ess.values())
-    return annotate(image, boxes=box[None], ids=[1],
-                    gt_boxes=None if gt_box is None else gt_box[None], particles=particles,
-                    particle_weights=weights, messages=messages, part_boxes=parts,
-                    text=f"{engine.graph.name} frame {record.frame} {ess}")
-
-
-def _check_frame_size(first: tuple[int, int] | None, image: np.ndarray,
-                      number: int) -> tuple[int, int]:
-    """Every frame must have the first frame's ``(width, height)`` (also for an iterable
-    of frames that is no :class:`FrameSource`); returns that size."""
-    h, w = image.shape[:2]
-    if first is not None and (w, h) != tuple(first):
-        raise InputError(f"frame {number} is {w}x{h} but the sequence's frames are "
-                         f"{first[0]}x{first[1]}; every frame must have the same size")
-    return (int(w), int(h)) if first is None else first
-
-
-def _record_stop(out: Path, info: dict[str, Any], exc: BaseException) -> None:
-    """``run.json`` of a run that did not finish: ``"complete": false`` and why."""
-    if isinstance(exc, Interrupted):
-        why = f"interrupted by {exc.name}"
-    elif isinstance(exc, KeyboardInterrupt):
-        why = "interrupted by SIGINT"
-    else:
-        msg = user_message(exc)
-        why = f"error: {msg}" if msg is not None else f"internal error: {type(exc).__name__}"
-    try:
-        write_run_status(out, info, complete=False, stopped=why)
-    except (OSError, ValueError):  # the original failure matters more than this record
-        pass
-
-
-# -- memory ---------------------------------------------------------------------------
-#: bytes of the interpreter, numpy, OpenCV and torch before any work (measured ~120 MB)
-MEMORY_BASE = 200e6
-#: bytes per particle of one variable, per factor that touches it (measured: 300-850 B
-#: per particle and likelihood for the single-object models, x2 for safety)
-MEMORY_PER_PARTICLE_FACTOR = 1024.0
-#: bytes per particle of a ``set`` variable (PHD; measured ~70 B, x2)
-MEMORY_PER_SET_PARTICLE = 160.0
-#: bytes per frame pixel per appearance likelihood (integral histograms, colour bins,
-#: gradient channels, FFTs of the frame cache)
-MEMORY_PER_PIXEL_FACTOR = 64.0
-#: targets assumed for a multi-target run whose detections are not known in advance
-DEFAULT_TARGETS = 20
-
-
-def estimate_memory(graph: FactorGraph, frame_size: tuple[int, int] | None, *,
-                    num_particles: int | None = None, targets: int | None = None) -> float:
-    """Bytes a run of ``graph`` needs, estimated before it starts.
-
-    ``base + Σ_v N_v (k_v + 1) c + W H (L + 1) p``: for each variable ``v`` its particle
-    count ``N_v`` (``num_particles``, else the graph's engine settings; per target ×
-    ``targets`` for a ``set`` variable or a plate's), ``k_v`` the factors on it and ``c`` the bytes
-    per particle and factor (:data:`MEMORY_PER_PARTICLE_FACTOR`,
-    :data:`MEMORY_PER_SET_PARTICLE`); ``L`` the likelihood factors and ``p``
-    :data:`MEMORY_PER_PIXEL_FACTOR` bytes per pixel of the ``(W, H)`` frame. The
-    constants are twice the peak resident memory measured on the five models (50 to
-    400 000 particles, 320×240 and 640×480 frames), so the estimate errs high.
-    """
-    settings = graph.meta.get("engine", {}) if isinstance(graph.meta, dict) else {}
-    default = settings.get("num_particles", 100) if isinstance(settings, dict) else 100
-    total = MEMORY_BASE
-    n_lik = 0
-    plated = graph.plate_variables
-    for name, var in graph.variables.items():
-        if num_particles is not None:
-            n = num_particles
-        elif isinstance(default, dict):
-            n = default.get(name, 100)
-        else:
-            n = default
-        facs = graph.factors_of(name)
-        n_lik += sum(1 for f in facs if f.kind == "likelihood")
-        if var.role == "set":
-            n_targets = targets if targets is not None else DEFAULT_TARGETS
-            total += float(n) * max(n_targets, 1) * (len(facs) + 1) * MEMORY_PER_SET_PARTICLE
-        elif var.role in ("part", "latent") or var.dim > 0:
-            k = max(targets if targets is not None else DEFAULT_TARGETS, 1) if name in plated \
-                else 1
-            total += float(n) * k * (len(facs) + 1) * MEMORY_PER_PARTICLE_FACTOR
-    if frame_size is not None:
-        total += float(frame_size[0]) * float(frame_size[1]) * (n_lik + 1) \
-            * MEMORY_PER_PIXEL_FACTOR
-    return total
-
-
-_UNITS = {"": 1, "k": 1e3, "m": 1e6, "g": 1e9, "t": 1e12}
-
-
-def _parse_bytes(text: str, what: str) -> float:
-    m = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:e[+-]?[0-9]+)?)\s*([kmgt]?)i?b?\s*", text.lower())
-    if m is None or not np.isfinite(float(m.group(1))) or float(m.group(1)) <= 0:
-        raise InputError(f"{what} must be a positive size such as 4G or 500M, got {text!r}")
-    return float(m.group(1)) * _UNITS[m.group(2)]
-
-
-def memory_limit() -> float:
-    """The memory a run may use, in bytes: ``PGM_MEMORY_LIMIT`` (e.g. ``8G``) when set,
-    else 80 % of the physical memory (``SC_PHYS_PAGES``; unlimited where it is not
-    known). Not the memory free at the moment: a run is refused only when it cannot fit
-    on the machine, never because another process is busy."""
-    env = os.environ.get("PGM_MEMORY_LIMIT")
-    if env:
-        return _parse_bytes(env, "PGM_MEMORY_LIMIT")
-    try:
-        return 0.8 * os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (OSError, ValueError, AttributeError):
-        return float("inf")
-
-
-def check_memory(graph: FactorGraph, frame_size: tuple[int, int] | None, *,
-                 num_particles: int | None = None, targets: int | None = None,
-                 limit: float | None = None) -> float:
-    """Raise :class:`InputError` when :func:`estimate_memory` exceeds ``limit`` (default
-    :func:`memory_limit`), naming both; returns the estimate."""
-    need = estimate_memory(graph, frame_size, num_particles=num_particles, targets=targets)
-    cap = memory_limit() if limit is None else float(limit)
-    if need > cap:
-        size = f" and {frame_size[0]}x{frame_size[1]} frames" if frame_size else ""
-        raise InputError(f"this run needs about {need / 1e9:.3g} GB ({graph.name!r} with its "
-                         f"particle counts{size}) but the memory cap is {cap / 1e9:.3g} GB; "
-                         f"use fewer --particles (the cap: --memory-limit, PGM_MEMORY_LIMIT or "
-                         f"80% of the physical memory)")
-    return need
 
 
 # -------------------------------------------------------------------------------------
@@ -600,89 +412,64 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
     run = {"model": graph.name, "source": source_text(source), "camera_motion": camera_motion}
     if dropped:
         run["dropped_frames"] = sorted(dropped)
-    recorder = None
+    outputs = RunOutputs(out, run)
     if rec_settings is not None and out is not None:
-        recorder = Recorder(out, engine, rec_settings, fps=source.fps)
-        run["record"] = recorder.summary()
+        outputs.recorder = Recorder(out, engine, rec_settings, fps=source.fps)
+        run["record"] = outputs.recorder.summary()
     if out is not None:
         write_run_status(out, {**run, "frames": 0}, complete=False, stopped="running")
-    writer = MotWriter(out / "tracks.txt") if out is not None else None
-    video = (AnnotatedVideoWriter(out / "annotated.mp4", source.fps)
-             if out is not None and write_video else None)
+    outputs.writer = MotWriter(out / "tracks.txt") if out is not None else None
+    outputs.video = (AnnotatedVideoWriter(out / "annotated.mp4", source.fps)
+                     if out is not None and write_video else None)
     known = source._known_length()
     total = known if max_frames is None else (max_frames if known is None
                                               else min(known, max_frames))
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=total, unit="frame", desc=graph.name, leave=False,
-                   disable=None)  # None: no bar when stderr is not a terminal
+    outputs.bar = progress_bar(progress, total, graph.name)
     rows_f, rows_i, rows_b, rows_c = [], [], [], []
-    first: tuple[int, int] | None = None
-    secs = det_secs = 0.0
-    n = 0
+    det_secs = motion_secs = 0.0
     sigmas: list[float] = []
-    try:
-        for k, (number, image) in enumerate(source.frames()):
-            if max_frames is not None and k >= max_frames:
-                break
-            first = _check_frame_size(first, image, number)
-            dets = None
-            if number in dropped:  # withheld: the tracker predicts through it
-                ctx = FrameContext(number)
-            else:
-                t0 = time.perf_counter()
-                dets = detector(number, image)
-                det_secs += time.perf_counter() - t0
-                t0 = time.perf_counter()
-                moved = motion(image)
-                motion_secs += time.perf_counter() - t0
-                ctx = FrameContext(number, image, detections=dets, camera_motion=moved)
-            t0 = time.perf_counter()
-            record = engine.step(ctx)
-            secs += time.perf_counter() - t0
-            n += 1
-            if noise:
-                sigmas.append(float(np.sqrt(np.mean(record.estimates[noise[0].name]))))
-            targets = readout(engine.graph, record)
-            ids, boxes, conf = targets.ids, targets.boxes, targets.scores
-            rows_f += [number] * len(ids)
-            rows_i += ids.tolist()
-            rows_b += boxes.tolist()
-            rows_c += conf.tolist()
-            if writer is not None and len(ids):
-                writer.write(number, ids, boxes, conf)
-            if video is not None:
-                particles = None
-                if show_particles:  # every replica's particles, for a plate
-                    x = np.asarray(record.beliefs[var].x)
-                    particles = ({var: x.reshape(-1, x.shape[-1])[
-                        :, _xy_columns(engine.graph, var)]} if x.size else None)
-                gt_boxes = None
-                if gt is not None:
-                    gt_boxes = gt.at(number)[1]
-                video.write(annotate(image, boxes=boxes, ids=ids.tolist(), gt_boxes=gt_boxes,
-                                     particles=particles,
-                                     text=f"{graph.name} frame {number} {targets.text}"))
-            if recorder is not None:
-                recorder.write(engine, record, image, detections=dets,
-                               dropped=number in dropped,
-                               targets={"ids": ids, "boxes": boxes, "scores": conf,
-                                        "text": targets.text})
-            if bar is not None:
-                bar.update(1)
-    except BaseException as exc:
-        _close(bar, writer, video, recorder)
-        if out is not None:
-            _record_stop(out, {**run, **_outputs(video, recorder), "frames": n,
-                               "last_frame": int(number) if n else None}, exc)
-        raise
-    _close(bar, writer, video, recorder)
-    if n == 0:
-        if out is not None:
-            _record_stop(out, {**run, "frames": 0}, InputError("the source has no frames"))
-        raise InputError("the source has no frames")
+
+    def context(number, image):
+        nonlocal det_secs, motion_secs
+        if number in dropped:  # withheld: the tracker predicts through it
+            return FrameContext(number), None
+        t0 = time.perf_counter()
+        dets = detector(number, image)
+        det_secs += time.perf_counter() - t0
+        t0 = time.perf_counter()
+        moved = motion(image)
+        motion_secs += time.perf_counter() - t0
+        return FrameContext(number, image, detections=dets, camera_motion=moved), dets
+
+    def emit(number, image, record, dets):
+        if noise:
+            sigmas.append(float(np.sqrt(np.mean(record.estimates[noise[0].name]))))
+        targets = readout(engine.graph, record)
+        ids, boxes, conf = targets.ids, targets.boxes, targets.scores
+        rows_f.extend([number] * len(ids))
+        rows_i.extend(ids.tolist())
+        rows_b.extend(boxes.tolist())
+        rows_c.extend(conf.tolist())
+        if outputs.writer is not None and len(ids):
+            outputs.writer.write(number, ids, boxes, conf)
+        if outputs.video is not None:
+            particles = None
+            if show_particles:  # every replica's particles, for a plate
+                x = np.asarray(record.beliefs[var].x)
+                particles = ({var: x.reshape(-1, x.shape[-1])[
+                    :, xy_columns(engine.graph, var)]} if x.size else None)
+            gt_boxes = gt.at(number)[1] if gt is not None else None
+            outputs.video.write(annotate(image, boxes=boxes, ids=ids.tolist(),
+                                         gt_boxes=gt_boxes, particles=particles,
+                                         text=f"{graph.name} frame {number} {targets.text}"))
+        if outputs.recorder is not None:
+            outputs.recorder.write(engine, record, image, detections=dets,
+                                   dropped=number in dropped,
+                                   targets={"ids": ids, "boxes": boxes, "scores": conf,
+                                            "text": targets.text})
+
+    n, secs, number = run_frames(source.frames(), engine, outputs, max_frames=max_frames,
+                                 context=context, emit=emit)
     table = MotTable(np.asarray(rows_f, dtype=np.int64), np.asarray(rows_i, dtype=np.int64),
                      np.asarray(rows_b, dtype=float).reshape(-1, 4),
                      np.asarray(rows_c, dtype=float))
@@ -699,8 +486,8 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
         run.update({"frames": n, "last_frame": int(number), "inference_seconds": secs,
                     "detector_seconds": det_secs, "fps": result.fps,
                     "camera_motion_frames": motion.frames_moved,
-                    "camera_motion_seconds": motion_secs, "video": video is not None,
-                    **_outputs(video, recorder)})
+                    "camera_motion_seconds": motion_secs,
+                    "video": outputs.video is not None, **outputs.summary()})
         if sigmas:
             run["noise_sigma_per_frame"] = sigmas
         write_json(out / "model.json", engine.graph.to_dict())

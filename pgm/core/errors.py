@@ -96,7 +96,7 @@ def user_message(exc: BaseException) -> str | None:
     included), :class:`OSError` (a path the file system refuses: missing, not a folder,
     a folder where a file should be, no permission, disk full), :class:`MemoryError`
     (a run larger than the memory; the runners refuse most of these before they start,
-    see :func:`pgm.app.runner.estimate_memory`). Everything else — ``TypeError``,
+    see :func:`pgm.app.memory.estimate_memory`). Everything else — ``TypeError``,
     ``KeyError``, an OpenCV error, ... — is a bug and gets None.
     """
     if isinstance(exc, ValueError):

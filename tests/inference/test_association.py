@@ -20,7 +20,7 @@ def test_one_round_is_the_gated_hungarian_assignment():
     pred = np.array([_box(0), _box(100), _box(200)])
     dets = np.array([_box(101), _box(2), _box(400)])
     a = assign(pred, dets, np.ones(3), _rounds({"iou": 0.3}))
-    assert sorted(zip(a.rows.tolist(), a.cols.tolist())) == [(0, 1), (1, 0)]
+    assert sorted(zip(a.rows.tolist(), a.cols.tolist(), strict=True)) == [(0, 1), (1, 0)]
     assert a.iou.shape == (3, 3) and a.rounds.tolist() == [0, 0]
 
 

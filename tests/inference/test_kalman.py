@@ -84,7 +84,7 @@ def _vb_akf_written_out(m0, P0, a0, b0, H, z, tol, max_iter, size2=1.0):
     """Särkkä and Nummenmaa (2009)'s fixed point for one Gaussian, written out."""
     alpha, beta = a0 + 0.5, b0.copy()
     r_hat = beta / alpha
-    for it in range(1, max_iter + 1):
+    for it in range(1, max_iter + 1):  # noqa: B007 - the count is returned
         m, P, _ = kalman_update(m0, P0, H, np.diag(r_hat * size2), z)
         resid = z - H @ m
         beta = b0 + 0.5 * resid ** 2 / size2 + 0.5 * np.diag(H @ P @ H.T) / size2
