@@ -1,8 +1,9 @@
 """Perturbed copies of a MOTChallenge sequence: what a new detector or camera changes.
 
 A default chosen on a few sequences of one detector holds elsewhere only if it holds
-when the detections change the way another detector's or camera's would. Each :data:`KINDS` entry is a deterministic, seeded change of a sequence's public
-detections ``det.txt`` (and, for the frame rate, of its frames and ground truth):
+when the detections change the way another detector's or camera's would. Each
+:data:`KINDS` entry is a deterministic, seeded change of a sequence's public detections
+``det.txt`` (and, for the frame rate, of its frames and ground truth):
 
 * score maps — ``probability`` (the logistic of the scores standardised by their median
   and interquartile range), ``logit`` (that probability's logit), ``rank`` (each score's

@@ -53,17 +53,27 @@ References
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from typing import Any
 
-import cv2
 import numpy as np
 import scipy.fft as sfft
 
-from pgm.core.boxes import mean_box_size
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
 from pgm.observation.camera_motion import CameraMotionEstimator
 
+from .cf_context import LearnedContext
+from .cf_features import (
+    Scan,
+    filter_of,
+    patch_features,
+    peak_to_sidelobe,
+    response_peaks,
+    ridge,
+    window_features,
+)
+from .cf_reading import ResponseReading
+from .cf_redetect import RedetectionScan
 from .likelihoods import BoxAppearanceLikelihood, bounded_int, grey_frame
 
 __all__ = ["CorrelationFilterLikelihood", "window_features", "patch_features",
@@ -75,117 +85,13 @@ MAX_WINDOW_PX = 512
 #: frames are checked for a still camera (while the context is learned) at most this
 #: many pixels wide: the verdicts on the shared sequences are those at 640
 CAMERA_CHECK_PX = 320
-
-
-def peak_to_sidelobe(response: np.ndarray, radius: int) -> float:
-    """Peak-to-sidelobe ratio of a response map [#bolme2010]: ``(max − μ) / σ`` of the
-    cells outside the ``(2 radius + 1)²`` square around the peak (``σ`` floored at
-    ``1e-12`` of the peak's magnitude, so a flat side lobe gives a large, finite ratio)."""
-    r = np.asarray(response, dtype=float)
-    iy, ix = np.unravel_index(int(np.argmax(r)), r.shape)
-    side = np.ones(r.shape, dtype=bool)
-    side[max(iy - radius, 0):iy + radius + 1, max(ix - radius, 0):ix + radius + 1] = False
-    if not side.any():
-        raise ValueError(f"the response map {r.shape} has no side lobe outside radius {radius}")
-    lobe = r[side]
-    peak = float(r[iy, ix])
-    return float((peak - lobe.mean()) / max(float(lobe.std()), 1e-12 * max(abs(peak), 1e-300)))
-
-
-#: widest region scanned for re-detection (:meth:`CorrelationFilterLikelihood.detect`), in
-#: template pixels per side: a larger frame is scanned in a window of this side around
-#: the last estimate
-MAX_DETECT_PX = 1024
 #: windows a frame's particles may open (:meth:`CorrelationFilterLikelihood.relative_response`):
 #: the first at the particles' mean, the others at particles outside every window so far
 MAX_WINDOWS = 4
 
 
-class Scan(NamedTuple):
-    """A whole-frame scan (:meth:`CorrelationFilterLikelihood.detect`)."""
-
-    centres: np.ndarray  #: (m, 2) peak centres, image pixels
-    values: np.ndarray  #: (m,) relative responses
-    z: np.ndarray  #: (m,) standard scores within the scanned map
-    independent: float  #: independent values in the map (for a max-of-noise threshold)
-
-
-def response_peaks(response: np.ndarray, radius: int, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """The ``k`` highest local maxima of a map, at least ``radius`` cells apart (a
-    maximum of its ``(2 radius + 1)²`` neighbourhood): rows and columns ``(m, 2)`` as
-    ``(x, y)``, and their values ``(m,)``, highest first (``m <= k``)."""
-    r = np.asarray(response, dtype=np.float32)
-    size = 2 * int(radius) + 1
-    dil = cv2.dilate(r, np.ones((size, size), np.uint8))
-    ys, xs = np.nonzero(r >= dil)
-    vals = r[ys, xs]
-    order = np.argsort(-vals, kind="stable")
-    keep: list[int] = []
-    for i in order:  # suppress plateaus: one maximum per neighbourhood
-        if all(max(abs(xs[i] - xs[j]), abs(ys[i] - ys[j])) > radius for j in keep):
-            keep.append(int(i))
-            if len(keep) == k:
-                break
-    idx = np.array(keep, dtype=np.intp)
-    return np.stack([xs[idx], ys[idx]], axis=1).astype(float), vals[idx].astype(float)
-
-
-def filter_of(gf: np.ndarray, xf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The filter ``(num, den)`` that one sample of spectrum ``xf`` ``(C, ...)`` alone
-    gives for the label spectrum ``gf`` (MOSSE / DSST's closed form, any dimension):
-    ``conj(G) · X_c`` and ``Σ_c |X_c|²``."""
-    return np.conj(gf)[None] * xf, np.sum((xf * np.conj(xf)).real, axis=0)
-
-
-def ridge(den: np.ndarray, reg: float) -> np.ndarray:
-    """A filter's denominator plus its ridge: ``reg`` times its mean energy (and a floor,
-    since a flat window has none)."""
-    return den + (reg * float(den.mean()) + 1e-12)
-
-
-def _one_cloud(xy: np.ndarray, centre: np.ndarray, quarter: np.ndarray) -> bool:
-    """Whether nine in ten points lie within ``quarter`` (per axis) of ``centre``."""
-    return bool(np.mean(np.all(np.abs(xy - centre) <= quarter, axis=1)) >= 0.9)
-
-
-def window_features(grey: np.ndarray, centre, size, out_shape, n_orient: int,
-                    angle: float = 0.0) -> np.ndarray:
-    """Features ``(1 + n_orient, th, tw)`` of the window of ``size = (w, h)`` px centred
-    on ``centre = (cx, cy)`` and turned by ``angle`` (radians, image axes: x right, y
-    down), resampled to ``out_shape = (tw, th)`` (border replicated)."""
-    tw, th = out_shape
-    sx, sy = size[0] / tw, size[1] / th
-    c, s = np.cos(angle), np.sin(angle)
-    # pixel centre convention: output pixel (i, j) maps to
-    # centre - 0.5 + R(angle) diag(sx, sy) (i + 0.5 - tw/2, j + 0.5 - th/2)
-    a0, b0 = 0.5 - tw / 2, 0.5 - th / 2
-    m = np.array([[c * sx, -s * sy, centre[0] - 0.5 + c * sx * a0 - s * sy * b0],
-                  [s * sx, c * sy, centre[1] - 0.5 + s * sx * a0 + c * sy * b0]])
-    patch = cv2.warpAffine(grey, m, (tw, th), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                           borderMode=cv2.BORDER_REPLICATE)
-    return patch_features(patch, n_orient)
-
-
-def patch_features(patch: np.ndarray, n_orient: int) -> np.ndarray:
-    """Features ``(1 + n_orient, h, w)`` of a grey ``float32`` patch: its grey level
-    (contrast-normalised) and ``n_orient`` locally normalised gradient orientations."""
-    th, tw = patch.shape
-    gx = cv2.Sobel(patch, cv2.CV_32F, 1, 0, ksize=3)
-    gy = cv2.Sobel(patch, cv2.CV_32F, 0, 1, ksize=3)
-    mag = np.sqrt(gx * gx + gy * gy)
-    theta = np.mod(np.arctan2(gy, gx), np.pi) * (n_orient / np.pi)  # [0, n_orient)
-    feats = np.empty((1 + n_orient, th, tw), np.float32)
-    energy = np.sqrt(np.maximum(cv2.boxFilter(mag * mag, -1, (5, 5)), 0)) + 1e-3 * 255
-    for c in range(n_orient):  # soft (linear) binning on the circle of orientations
-        d = np.abs(theta - c)
-        d = np.minimum(d, n_orient - d)
-        feats[1 + c] = cv2.boxFilter(mag * np.maximum(1 - d, 0), -1, (3, 3)) / energy
-    mean, std = float(patch.mean()), float(patch.std()) + 1e-3 * 255
-    feats[0] = (patch - mean) / std * 0.5  # grey, contrast-normalised
-    return feats
-
-
-class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
+class CorrelationFilterLikelihood(LearnedContext, RedetectionScan, ResponseReading,
+                                  BoxAppearanceLikelihood):
     """Correlation-filter response as a particle likelihood (see the module docstring).
 
     Parameters
@@ -515,284 +421,6 @@ class CorrelationFilterLikelihood(BoxAppearanceLikelihood):
             self._train(xf, self.adapt_rate)
             self.peak = (1 - self.adapt_rate) * self.peak + self.adapt_rate * here
         self._learn_memory(xf, here)
-
-    def _check_camera(self, frame: FrameContext) -> None:
-        """Once per frame, before the frame's response is read (and at the latest in
-        :meth:`update`): on a moving camera the background moves in the image, and "did
-        this cell stay where it was?" no longer tells it from the object, so the context
-        is dropped for good."""
-        if (self._camera is not None and frame.index != self._checked_index
-                and self._camera_moved(frame)):
-            self.context = self._camera = self._first_frames = self._mask_cache = None
-            self.camera_moved_at = frame.index
-
-    def _camera_moved(self, frame: FrameContext) -> bool:
-        """Is the camera moving? The still-camera check's verdict (``auto``: 16 of the
-        last 20 frames moved by a pixel or more); until it can have one (the first 20
-        frames), each frame is checked on its own and one that moved is enough."""
-        self._checked_index = frame.index
-        image = frame.image
-        if self._camera(image) is not None:
-            return True
-        if self._first_frames is None:
-            return False
-        w, h = image.shape[1], image.shape[0]
-        a = self._first_frames(image)
-        self._checked += 1
-        if self._checked >= self._camera.window:
-            self._first_frames = None
-        return a is not None and self._camera.corner_shift(a, w, h) >= self._camera.min_shift
-
-    def _learn_context(self, frame: FrameContext, feats: np.ndarray, centre, scale: float,
-                       angle: float, obj: np.ndarray) -> None:
-        """Which cells of the window move with the object (the class docstring,
-        ``context_rate``): compared with the last learned frame's window, does a cell's
-        content now sit at the object's new place or where the window was? ``obj`` is
-        this frame's response of the filter's box cells alone at the estimate, whose
-        peak places the object when the estimate did not move."""
-        seen, c0, s0, a0 = self._last_seen
-        step = self.ref_size * s0 / np.array(self.shape, float)  # image px per cell
-        here = np.asarray(centre, float)
-        if np.hypot(*((here - c0) / step)) >= 1.0:
-            new = feats  # the estimate followed the object
-        else:  # the estimate stayed: the box's own cells place the object in the window
-            th, tw = obj.shape
-            iy, ix = np.unravel_index(int(np.argmax(obj)), obj.shape)
-            d = np.array([ix - (tw - 1) / 2, iy - (th - 1) / 2]) + (here - c0) / step
-            if np.hypot(*d) < 1.0:
-                return  # no move seen: the two places cannot be told apart
-            c, s = np.cos(a0), np.sin(a0)
-            off = np.array([c * d[0] * step[0] - s * d[1] * step[1],
-                            s * d[0] * step[0] + c * d[1] * step[1]])
-            new = self._features(frame, c0 + off, s0, a0)
-        still = self._features(frame, c0, s0, a0)  # this frame where the window was
-        moved = cv2.boxFilter(np.sum((new - seen) ** 2, axis=0), -1, (3, 3))
-        stayed = cv2.boxFilter(np.sum((still - seen) ** 2, axis=0), -1, (3, 3))
-        typical = float(np.median(np.minimum(moved, stayed))) + 1e-12
-        odds = np.clip((stayed - moved) / typical, -4.0, 4.0)
-        if float(odds[self.box_cells].mean()) <= 0.0:
-            return  # the box's own content does not bear the move out
-        r = self.context_rate
-        self.context = (1 - r) * self.context + r / (1.0 + np.exp(-odds))
-        self.context[self.box_cells] = 1.0  # the box is the object's, by definition
-        self._mask_cache = None
-        self._last_seen = (feats, here.copy(), scale, angle)
-
-    def _object_response(self, xf: np.ndarray) -> np.ndarray:
-        """The response map of the filter's cells over the object's box alone, on the
-        window of spectrum ``xf`` (the context's cells left out)."""
-        hf = self._weighted_filter(self.box_cells)
-        return sfft.irfft2(np.sum(hf * xf, axis=0), s=self.hann.shape)
-
-    def _centre_max(self, r: np.ndarray) -> float:
-        """The best response within a tenth of the target of the window centre (where the
-        estimate sits; it is a particle mean, not the peak)."""
-        th, tw = r.shape
-        rad = max(1, int(round(0.1 * self.target_px)))
-        cy, cx = (th - 1) / 2, (tw - 1) / 2
-        y0, y1 = int(np.floor(cy)) - rad, int(np.ceil(cy)) + rad + 1
-        x0, x1 = int(np.floor(cx)) - rad, int(np.ceil(cx)) + rad + 1
-        return float(r[max(y0, 0):y1, max(x0, 0):x1].max())
-
-    # -- re-detection ------------------------------------------------------------------
-    def detect(self, ctx: FrameContext, centre, scale: float, max_peaks: int = 3) -> Scan:
-        """Where the object may be in the whole frame: the highest peaks of the long-term
-        filter's response over the frame at ``scale`` (relative to the first box), in
-        units of its typical peak. Only the filter's cells over the object's box are
-        used: the rest learned the background around the object, which stays where the
-        object was.
-
-        The frame is resampled to template pixels and correlated with the filters once
-        (FFT); a frame wider than :data:`MAX_DETECT_PX` template pixels is scanned in a
-        window of that side around ``centre``. Returns a :class:`Scan`: the peaks'
-        centres ``(m, 2)`` in image pixels, their relative responses ``(m,)`` and
-        standard scores (in standard deviations of the map above its mean), highest
-        first, at least a tenth of the object apart and with the whole box inside the
-        frame (``m <= max_peaks``), and the number of independent values the map holds
-        (its cells over the square of twice the target peak's width); cached per frame."""
-        self.require_model()
-
-        def make():
-            grey = grey_frame(ctx)
-            H, W = grey.shape
-            step = self.ref_size * float(scale) / np.array(self.shape)  # image px / cell
-            ow = min(int(np.ceil(W / step[0])), MAX_DETECT_PX)
-            oh = min(int(np.ceil(H / step[1])), MAX_DETECT_PX)
-            size = np.array([ow, oh]) * step
-            c = np.asarray(centre, dtype=float)
-            mid = np.array([W, H]) / 2.0 - 0.5
-            # the scanned region: the frame, or a window around the estimate within it
-            lo = np.clip(c - size / 2, -0.5, np.array([W, H]) - 0.5 - size)
-            rc = np.where(size >= np.array([W, H]), mid, lo + size / 2)
-            feats = window_features(grey, rc, size, (ow, oh), self.n_orient)
-            th, tw = self.hann.shape
-            full = (oh + th - 1, ow + tw - 1)
-            fshape = (sfft.next_fast_len(full[0], real=True),
-                      sfft.next_fast_len(full[1], real=True))
-            zf = sfft.rfft2(feats, s=fshape, axes=(-2, -1))
-            num, den, peak = self.memory
-            h = sfft.irfft2(np.conj(num) / self._regularised(den), s=(th, tw))
-            # the filter's cells over the object's box only: its context (padding)
-            # learned the background around the object, which stays where the object was
-            h = np.fft.fftshift(h, axes=(-2, -1)) * self.box_cells
-            hf = sfft.rfft2(h, s=fshape, axes=(-2, -1))
-            best = sfft.irfft2(np.sum(hf * zf, axis=0), s=fshape)
-            best = best[th // 2:th // 2 + oh, tw // 2:tw // 2 + ow] / peak
-            # only where the whole box is in the frame: a box across the border reads
-            # the border's replicated pixels
-            half = self.ref_size * float(scale) / (1 + self.padding) / 2
-            x0, y0 = rc - size / 2
-            gx = x0 + (np.arange(ow) + 0.5) * step[0] - 0.5
-            gy = y0 + (np.arange(oh) + 0.5) * step[1] - 0.5
-            ok_x = (gx - half[0] >= -0.5) & (gx + half[0] <= W - 0.5)
-            ok_y = (gy - half[1] >= -0.5) & (gy + half[1] <= H - 0.5)
-            if not ok_x.any() or not ok_y.any():
-                return Scan(np.zeros((0, 2)), np.zeros(0), np.zeros(0), 0.0)
-            valid = ok_y[:, None] & ok_x[None, :]
-            mean, sd = float(best[valid].mean()), float(best[valid].std()) + 1e-12
-            best = np.where(valid, best, -np.inf)
-            cells, vals = response_peaks(best, max(1, int(round(0.1 * self.target_px))),
-                                         max_peaks)
-            keep = np.isfinite(vals)
-            xy = rc - size / 2 + (cells[keep] + 0.5) * step - 0.5
-            # the map is correlated over about the target peak's width: one independent
-            # value per (2 sigma)^2 cells
-            corr = 2.0 * self.sigma * self.target_px
-            return Scan(xy, vals[keep], (vals[keep] - mean) / sd,
-                        float(valid.sum()) / max(corr * corr, 1.0))
-
-        return self._cached(ctx, ("cf-detect", max_peaks), make)
-
-    # -- scoring -----------------------------------------------------------------------
-    def _window(self, ctx: FrameContext, centre, levels, angle: float, key):
-        """Response maps of one window turned by ``angle``: one per scale level, and with
-        an angle component two more at ``angle ± angle_step`` and the middle scale (None
-        without); cached on the frame."""
-        def make():
-            maps = np.stack([self._response(self._spectrum(ctx, centre, s, angle))
-                             for s in levels]) / self.peak
-            if self.angle_index is None:
-                return maps, None
-            mid = float(levels[len(levels) // 2])
-            turned = np.stack([self._response(self._spectrum(ctx, centre, mid, a))
-                               for a in (angle - self.angle_step, angle + self.angle_step)])
-            return maps, turned / self.peak
-
-        return self._cached(ctx, ("cf-window",) + key, make)
-
-    def _maps(self, x: np.ndarray, ctx: FrameContext):
-        """This frame's first window: its centre (the particles' mean), scale levels
-        (around their mean scale) and maps (computed at the first call in a frame and
-        cached on it)."""
-        def make():
-            self._check_camera(ctx)
-            b = self.boxes(x)
-            base = mean_box_size(b) / self.ref_scale
-            levels = base * self.scale_step ** (np.arange(self.scales) - self.scales // 2)
-            centre = b[:, :2].mean(axis=0)
-            quarter = self.ref_size * base / 4
-            if self.windows > 1 and not _one_cloud(b[:, :2], centre, quarter):
-                centre = self._next_centre(b[:, :2], quarter)
-            angle = 0.0 if self.angle_index is None else float(x[:, self.angle_index].mean())
-            return centre, levels, angle, self._window(ctx, centre, levels, angle, ())
-
-        return self._cached(ctx, ("cf-response",), make)
-
-    def relative_response(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
-        """``(N,)`` response at each particle, in units of the typical peak.
-
-        The first window is centred on the particles' mean. With ``windows > 1``, and
-        unless nine in ten particles lie within a quarter window of it (one cloud, a few
-        stragglers: the usual case; otherwise a proposal put some near a far-away peak,
-        :meth:`detect`), each window is centred on a mode
-        of the particles not yet read — the one with the most of them within a quarter
-        window — and reads those within a quarter window of its centre, so every
-        particle is read near the middle of a window, where the maps are comparable; at
-        most ``windows`` windows, the last reading every particle inside it, and a
-        particle outside them all scores ``floor``."""
-        self.require_model()
-        centre, levels, angle, maps = self._maps(x, ctx)
-        b = self.boxes(x)
-        angles = (np.zeros(len(b)) if self.angle_index is None
-                  else np.asarray(x[:, self.angle_index], float))
-        quarter = self.ref_size * float(levels[len(levels) // 2]) / 4
-        if self.windows == 1 or _one_cloud(b[:, :2], b[:, :2].mean(axis=0), quarter):
-            return self._read(maps, levels, angle, centre, b, angles)[0]
-        out = np.full(len(b), self.floor)
-        todo = np.arange(len(b))
-        for k in range(self.windows):
-            if k > 0:
-                centre = self._next_centre(b[todo, :2], quarter)
-                maps = self._window(ctx, centre, levels, angle,
-                                    (round(centre[0], 3), round(centre[1], 3)))
-            val, inside = self._read(maps, levels, angle, centre, b[todo], angles[todo])
-            if k < self.windows - 1:
-                inside &= np.all(np.abs(b[todo, :2] - centre) <= quarter, axis=1)
-            out[todo[inside]] = val[inside]
-            todo = todo[~inside]
-            if todo.size == 0:
-                break
-        return out
-
-    @staticmethod
-    def _next_centre(xy: np.ndarray, quarter: np.ndarray) -> np.ndarray:
-        """Among points ``xy``, the one with the most others within ``quarter`` of it."""
-        d = np.abs(xy[:, None, :] - xy[None, :, :]) <= quarter
-        return xy[int(np.argmax(np.sum(d.all(axis=2), axis=1)))]
-
-    @staticmethod
-    def _sample(maps: np.ndarray, which, centre, b, step, angle):
-        """Bilinear reading of the maps ``maps[which]`` (``which``: one index per box, or
-        one for all) of windows turned by ``angle`` (per box or one) with cells ``step``
-        (image px, per box or one) at the boxes' centres; and whether each lies in its
-        window."""
-        _, th, tw = maps.shape
-        c, s = np.cos(angle), np.sin(angle)
-        dx, dy = b[:, 0] - centre[0], b[:, 1] - centre[1]
-        u = (c * dx + s * dy) / step[..., 0] + (tw - 1) / 2
-        v = (-s * dx + c * dy) / step[..., 1] + (th - 1) / 2
-        inside = (u >= 0) & (u <= tw - 1) & (v >= 0) & (v <= th - 1)
-        u0 = np.clip(np.floor(u).astype(np.intp), 0, tw - 2)
-        v0 = np.clip(np.floor(v).astype(np.intp), 0, th - 2)
-        fu, fv = np.clip(u - u0, 0, 1), np.clip(v - v0, 0, 1)
-        val = ((1 - fv) * ((1 - fu) * maps[which, v0, u0] + fu * maps[which, v0, u0 + 1])
-               + fv * ((1 - fu) * maps[which, v0 + 1, u0]
-                       + fu * maps[which, v0 + 1, u0 + 1]))
-        return val, inside
-
-    def _read(self, window, levels, angle, centre, b, angles) -> tuple[np.ndarray, np.ndarray]:
-        """Bilinear (position), linear (log-scale) and, with an angle component, linear
-        (angle) reading of a window's maps at the boxes ``b`` turned by ``angles``:
-        values and whether each box's centre lies in the window."""
-        maps, turned = window
-        n_lev, th, tw = maps.shape
-        scale = np.sqrt(np.maximum(b[:, 2] * b[:, 3], 1e-12)) / self.ref_scale
-        if n_lev > 1:
-            pos = (np.log(scale) - np.log(levels[0])) / np.log(self.scale_step)
-            pos = np.clip(pos, 0, n_lev - 1)
-        else:
-            pos = np.zeros(len(b))
-        l0 = np.minimum(np.floor(pos).astype(np.intp), n_lev - 1)
-        l1 = np.minimum(l0 + 1, n_lev - 1)
-        fl = pos - l0
-        out = np.zeros(len(b))
-        inside_all = np.ones(len(b), dtype=bool)
-        cells = np.array(self.shape, dtype=float)
-        for lev, wgt in ((l0, 1 - fl), (l1, fl)):
-            # particle centre in the level's window: template px
-            step = self.ref_size[None, :] * levels[lev][:, None] / cells[None]
-            val, inside = self._sample(maps, lev, centre, b, step, angle)
-            out += wgt * np.where(inside, val, self.floor)
-            inside_all &= inside | (wgt == 0)
-        if turned is not None:  # the change of response with the particle's own angle
-            step = self.ref_size * float(levels[n_lev // 2]) / cells
-            mid, ok = self._sample(maps, n_lev // 2, centre, b, step, angle)
-            t = np.clip((angles - angle) / self.angle_step, -1.0, 1.0)
-            side = (t >= 0).astype(np.intp)  # turned[0]: angle - step, turned[1]: + step
-            val, ins = self._sample(turned, side, centre, b, step,
-                                    angle + (2 * side - 1) * self.angle_step)
-            out += np.where(ok & ins, np.abs(t) * (val - mid), 0.0)
-        return out, inside_all
 
     def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         return self.lam * self.relative_response(x, ctx)

@@ -1,0 +1,117 @@
+"""The correlation filter's building blocks: window features, the filter's closed form
+and ridge, and reading a response map (peak-to-sidelobe ratio, its peaks)."""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import cv2
+import numpy as np
+
+__all__ = ["window_features", "patch_features", "peak_to_sidelobe", "response_peaks", "Scan",
+           "filter_of", "ridge", "MAX_DETECT_PX"]
+
+
+def peak_to_sidelobe(response: np.ndarray, radius: int) -> float:
+    """Peak-to-sidelobe ratio of a response map [#bolme2010]: ``(max − μ) / σ`` of the
+    cells outside the ``(2 radius + 1)²`` square around the peak (``σ`` floored at
+    ``1e-12`` of the peak's magnitude, so a flat side lobe gives a large, finite ratio)."""
+    r = np.asarray(response, dtype=float)
+    iy, ix = np.unravel_index(int(np.argmax(r)), r.shape)
+    side = np.ones(r.shape, dtype=bool)
+    side[max(iy - radius, 0):iy + radius + 1, max(ix - radius, 0):ix + radius + 1] = False
+    if not side.any():
+        raise ValueError(f"the response map {r.shape} has no side lobe outside radius {radius}")
+    lobe = r[side]
+    peak = float(r[iy, ix])
+    return float((peak - lobe.mean()) / max(float(lobe.std()), 1e-12 * max(abs(peak), 1e-300)))
+
+
+#: widest region scanned for re-detection (:meth:`CorrelationFilterLikelihood.detect`), in
+#: template pixels per side: a larger frame is scanned in a window of this side around
+#: the last estimate
+MAX_DETECT_PX = 1024
+
+
+class Scan(NamedTuple):
+    """A whole-frame scan (:meth:`CorrelationFilterLikelihood.detect`)."""
+
+    centres: np.ndarray  #: (m, 2) peak centres, image pixels
+    values: np.ndarray  #: (m,) relative responses
+    z: np.ndarray  #: (m,) standard scores within the scanned map
+    independent: float  #: independent values in the map (for a max-of-noise threshold)
+
+
+def response_peaks(response: np.ndarray, radius: int, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The ``k`` highest local maxima of a map, at least ``radius`` cells apart (a
+    maximum of its ``(2 radius + 1)²`` neighbourhood): rows and columns ``(m, 2)`` as
+    ``(x, y)``, and their values ``(m,)``, highest first (``m <= k``)."""
+    r = np.asarray(response, dtype=np.float32)
+    size = 2 * int(radius) + 1
+    dil = cv2.dilate(r, np.ones((size, size), np.uint8))
+    ys, xs = np.nonzero(r >= dil)
+    vals = r[ys, xs]
+    order = np.argsort(-vals, kind="stable")
+    keep: list[int] = []
+    for i in order:  # suppress plateaus: one maximum per neighbourhood
+        if all(max(abs(xs[i] - xs[j]), abs(ys[i] - ys[j])) > radius for j in keep):
+            keep.append(int(i))
+            if len(keep) == k:
+                break
+    idx = np.array(keep, dtype=np.intp)
+    return np.stack([xs[idx], ys[idx]], axis=1).astype(float), vals[idx].astype(float)
+
+
+def filter_of(gf: np.ndarray, xf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The filter ``(num, den)`` that one sample of spectrum ``xf`` ``(C, ...)`` alone
+    gives for the label spectrum ``gf`` (MOSSE / DSST's closed form, any dimension):
+    ``conj(G) · X_c`` and ``Σ_c |X_c|²``."""
+    return np.conj(gf)[None] * xf, np.sum((xf * np.conj(xf)).real, axis=0)
+
+
+def ridge(den: np.ndarray, reg: float) -> np.ndarray:
+    """A filter's denominator plus its ridge: ``reg`` times its mean energy (and a floor,
+    since a flat window has none)."""
+    return den + (reg * float(den.mean()) + 1e-12)
+
+
+def _one_cloud(xy: np.ndarray, centre: np.ndarray, quarter: np.ndarray) -> bool:
+    """Whether nine in ten points lie within ``quarter`` (per axis) of ``centre``."""
+    return bool(np.mean(np.all(np.abs(xy - centre) <= quarter, axis=1)) >= 0.9)
+
+
+def window_features(grey: np.ndarray, centre, size, out_shape, n_orient: int,
+                    angle: float = 0.0) -> np.ndarray:
+    """Features ``(1 + n_orient, th, tw)`` of the window of ``size = (w, h)`` px centred
+    on ``centre = (cx, cy)`` and turned by ``angle`` (radians, image axes: x right, y
+    down), resampled to ``out_shape = (tw, th)`` (border replicated)."""
+    tw, th = out_shape
+    sx, sy = size[0] / tw, size[1] / th
+    c, s = np.cos(angle), np.sin(angle)
+    # pixel centre convention: output pixel (i, j) maps to
+    # centre - 0.5 + R(angle) diag(sx, sy) (i + 0.5 - tw/2, j + 0.5 - th/2)
+    a0, b0 = 0.5 - tw / 2, 0.5 - th / 2
+    m = np.array([[c * sx, -s * sy, centre[0] - 0.5 + c * sx * a0 - s * sy * b0],
+                  [s * sx, c * sy, centre[1] - 0.5 + s * sx * a0 + c * sy * b0]])
+    patch = cv2.warpAffine(grey, m, (tw, th), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                           borderMode=cv2.BORDER_REPLICATE)
+    return patch_features(patch, n_orient)
+
+
+def patch_features(patch: np.ndarray, n_orient: int) -> np.ndarray:
+    """Features ``(1 + n_orient, h, w)`` of a grey ``float32`` patch: its grey level
+    (contrast-normalised) and ``n_orient`` locally normalised gradient orientations."""
+    th, tw = patch.shape
+    gx = cv2.Sobel(patch, cv2.CV_32F, 1, 0, ksize=3)
+    gy = cv2.Sobel(patch, cv2.CV_32F, 0, 1, ksize=3)
+    mag = np.sqrt(gx * gx + gy * gy)
+    theta = np.mod(np.arctan2(gy, gx), np.pi) * (n_orient / np.pi)  # [0, n_orient)
+    feats = np.empty((1 + n_orient, th, tw), np.float32)
+    energy = np.sqrt(np.maximum(cv2.boxFilter(mag * mag, -1, (5, 5)), 0)) + 1e-3 * 255
+    for c in range(n_orient):  # soft (linear) binning on the circle of orientations
+        d = np.abs(theta - c)
+        d = np.minimum(d, n_orient - d)
+        feats[1 + c] = cv2.boxFilter(mag * np.maximum(1 - d, 0), -1, (3, 3)) / energy
+    mean, std = float(patch.mean()), float(patch.std()) + 1e-3 * 255
+    feats[0] = (patch - mean) / std * 0.5  # grey, contrast-normalised
+    return feats

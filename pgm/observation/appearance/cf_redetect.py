@@ -1,0 +1,88 @@
+"""The correlation filter's re-detection scan: the long-term filter correlated with the
+whole frame, its peaks where the object may be (:class:`~pgm.observation.appearance.
+correlation.CorrelationFilterLikelihood`)."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.fft as sfft
+
+from pgm.core.frame import FrameContext
+
+from .cf_features import MAX_DETECT_PX, Scan, response_peaks, window_features
+from .likelihoods import grey_frame
+
+__all__ = ["RedetectionScan"]
+
+
+class RedetectionScan:
+    """The re-detection scan of :class:`~pgm.observation.appearance.correlation.
+    CorrelationFilterLikelihood` (a mixin: it reads that class's filters and settings)."""
+
+    def detect(self, ctx: FrameContext, centre, scale: float, max_peaks: int = 3) -> Scan:
+        """Where the object may be in the whole frame: the highest peaks of the long-term
+        filter's response over the frame at ``scale`` (relative to the first box), in
+        units of its typical peak. Only the filter's cells over the object's box are
+        used: the rest learned the background around the object, which stays where the
+        object was.
+
+        The frame is resampled to template pixels and correlated with the filters once
+        (FFT); a frame wider than :data:`MAX_DETECT_PX` template pixels is scanned in a
+        window of that side around ``centre``. Returns a :class:`Scan`: the peaks'
+        centres ``(m, 2)`` in image pixels, their relative responses ``(m,)`` and
+        standard scores (in standard deviations of the map above its mean), highest
+        first, at least a tenth of the object apart and with the whole box inside the
+        frame (``m <= max_peaks``), and the number of independent values the map holds
+        (its cells over the square of twice the target peak's width); cached per frame."""
+        self.require_model()
+
+        def make():
+            grey = grey_frame(ctx)
+            H, W = grey.shape
+            step = self.ref_size * float(scale) / np.array(self.shape)  # image px / cell
+            ow = min(int(np.ceil(W / step[0])), MAX_DETECT_PX)
+            oh = min(int(np.ceil(H / step[1])), MAX_DETECT_PX)
+            size = np.array([ow, oh]) * step
+            c = np.asarray(centre, dtype=float)
+            mid = np.array([W, H]) / 2.0 - 0.5
+            # the scanned region: the frame, or a window around the estimate within it
+            lo = np.clip(c - size / 2, -0.5, np.array([W, H]) - 0.5 - size)
+            rc = np.where(size >= np.array([W, H]), mid, lo + size / 2)
+            feats = window_features(grey, rc, size, (ow, oh), self.n_orient)
+            th, tw = self.hann.shape
+            full = (oh + th - 1, ow + tw - 1)
+            fshape = (sfft.next_fast_len(full[0], real=True),
+                      sfft.next_fast_len(full[1], real=True))
+            zf = sfft.rfft2(feats, s=fshape, axes=(-2, -1))
+            num, den, peak = self.memory
+            h = sfft.irfft2(np.conj(num) / self._regularised(den), s=(th, tw))
+            # the filter's cells over the object's box only: its context (padding)
+            # learned the background around the object, which stays where the object was
+            h = np.fft.fftshift(h, axes=(-2, -1)) * self.box_cells
+            hf = sfft.rfft2(h, s=fshape, axes=(-2, -1))
+            best = sfft.irfft2(np.sum(hf * zf, axis=0), s=fshape)
+            best = best[th // 2:th // 2 + oh, tw // 2:tw // 2 + ow] / peak
+            # only where the whole box is in the frame: a box across the border reads
+            # the border's replicated pixels
+            half = self.ref_size * float(scale) / (1 + self.padding) / 2
+            x0, y0 = rc - size / 2
+            gx = x0 + (np.arange(ow) + 0.5) * step[0] - 0.5
+            gy = y0 + (np.arange(oh) + 0.5) * step[1] - 0.5
+            ok_x = (gx - half[0] >= -0.5) & (gx + half[0] <= W - 0.5)
+            ok_y = (gy - half[1] >= -0.5) & (gy + half[1] <= H - 0.5)
+            if not ok_x.any() or not ok_y.any():
+                return Scan(np.zeros((0, 2)), np.zeros(0), np.zeros(0), 0.0)
+            valid = ok_y[:, None] & ok_x[None, :]
+            mean, sd = float(best[valid].mean()), float(best[valid].std()) + 1e-12
+            best = np.where(valid, best, -np.inf)
+            cells, vals = response_peaks(best, max(1, int(round(0.1 * self.target_px))),
+                                         max_peaks)
+            keep = np.isfinite(vals)
+            xy = rc - size / 2 + (cells[keep] + 0.5) * step - 0.5
+            # the map is correlated over about the target peak's width: one independent
+            # value per (2 sigma)^2 cells
+            corr = 2.0 * self.sigma * self.target_px
+            return Scan(xy, vals[keep], (vals[keep] - mean) / sd,
+                        float(valid.sum()) / max(corr * corr, 1.0))
+
+        return self._cached(ctx, ("cf-detect", max_peaks), make)
