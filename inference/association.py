@@ -49,6 +49,7 @@ from pgm.factors.multitarget import VBNoise
 from .batched import per_replica
 from .kalman import kalman_update_batch, vb_akf_batch
 from .rules import DEFAULT_RULES
+from .state import StateSlots
 from .vb import _vb_gaussian
 
 if TYPE_CHECKING:
@@ -83,6 +84,44 @@ class Assignment:
     scores: np.ndarray
     iou: np.ndarray
     rounds: np.ndarray
+
+
+@dataclass
+class AssociationState:
+    """What the association keeps across frames (``engine.state.get(factor.name,
+    AssociationState)``): the run's score model of a learned or quantile score map."""
+
+    score_model: Any = None
+
+
+@dataclass
+class TrackState:
+    """What the association's rules keep per replica for its box variable
+    (``engine.replicas.state[k].get(variable, TrackState)``).
+
+    Attributes
+    ----------
+    observations : ObservationHistory
+        Its recent detections (OC-SORT's momentum and recovery rounds).
+    appearance : list
+        Its appearance models, learned from the detections it is given.
+    posterior : tuple
+        Its last Kalman posterior ``(m, P)``, where a later gap's re-update starts.
+    """
+
+    observations: ObservationHistory | None = None
+    appearance: list | None = None
+    posterior: tuple[np.ndarray, np.ndarray] | None = None
+
+    def observations_or(self, delta_t: int) -> ObservationHistory:
+        """The observation history, started (with ``delta_t``) at the first call."""
+        if self.observations is None:
+            self.observations = ObservationHistory(delta_t)
+        return self.observations
+
+
+def _track_state(slots: StateSlots, variable: str) -> TrackState:
+    return slots.get(variable, TrackState)
 
 
 def detection_boxes(frame: FrameContext) -> np.ndarray:
@@ -257,7 +296,7 @@ def _means(belief) -> np.ndarray:
 @DEFAULT_RULES.register(DetectionAssociation, BatchedGaussian)
 def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, Any]:
     """The ``assign`` stage: ``engine.assignment`` for this frame (and, for momentum and
-    recovery rounds, each replica's observation history in ``engine.replicas.aux``). The
+    recovery rounds, each replica's observation history, :class:`TrackState`). The
     replicas' predicted boxes are their means: a Kalman replica's, or a particle
     replica's weighted mean."""
     var = factor.variables[0]
@@ -265,10 +304,10 @@ def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, 
     boxes = detection_boxes(frame)
     model = None
     if factor.score_map in LEARNED_SCORE_MAPS:  # the run's score model, kept with the engine
-        aux = engine.aux.setdefault(factor.name, {})
-        model = aux.get("score_model")
+        state = engine.state.get(factor.name, AssociationState)
+        model = state.score_model
         if model is None:
-            model = aux["score_model"] = factor.score_model()
+            model = state.score_model = factor.score_model()
     scores = factor.scores(frame, model, boxes)
     looks = _appearance(engine, factor, frame, boxes)
     extra: dict[str, Any] = {} if looks is None else {
@@ -281,8 +320,8 @@ def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, 
         a = assign(pred, boxes, scores, factor.rounds, **extra)
     else:
         reps = engine.replicas
-        histories = [aux.setdefault("observations", ObservationHistory(factor.delta_t))
-                     for aux in reps.aux]
+        histories = [_track_state(slots, var).observations_or(factor.delta_t)
+                     for slots in reps.state]
         for h in histories:
             h.age += 1
         last = np.array([t.state for t in reps.tracks], dtype=float).reshape(-1, 4)
@@ -306,10 +345,10 @@ def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, 
         for k, j in zip(a.rows, a.cols, strict=True):
             if not seen[j]:
                 continue
-            aux = engine.replicas.aux[int(k)]
-            models = aux.get("appearance")
+            state = _track_state(engine.replicas.state[int(k)], var)
+            models = state.appearance
             if models is None:
-                models = aux["appearance"] = factor.appearance_model()
+                models = state.appearance = factor.appearance_model()
             for m in models:
                 m.learn(frame, boxes[j])
     engine.assignment = a
@@ -327,10 +366,12 @@ def _appearance(engine: Engine, factor, frame: FrameContext, boxes: np.ndarray
     model yet), or None (no appearance, no image, no detections)."""
     if factor.appearance is None or frame.image is None or not len(boxes):
         return None
-    aux = engine.replicas.aux
-    out = np.zeros((len(aux), len(boxes)))
-    for k, a in enumerate(aux):
-        models = a.get("appearance")
+    var = factor.variables[0]
+    slots = engine.replicas.state
+    out = np.zeros((len(slots), len(boxes)))
+    for k, slot in enumerate(slots):
+        state = slot.find(var, TrackState)
+        models = None if state is None else state.appearance
         if models is None:
             continue
         ll = np.zeros(len(boxes))
@@ -407,7 +448,8 @@ def update_assigned(engine: Engine, factor, frame: FrameContext) -> None:
     engine.beliefs[var] = BatchedGaussian(mean, cov)
     if factor.reupdate:  # each replica's last posterior, where a later gap starts from
         for i, k in enumerate(rows):
-            engine.replicas.aux[int(k)]["posterior"] = (m[i].copy(), P[i].copy())
+            _track_state(engine.replicas.state[int(k)], var).posterior = (m[i].copy(),
+                                                                         P[i].copy())
     return info
 
 
@@ -479,7 +521,8 @@ def _reupdate(engine: Engine, factor, rows: np.ndarray, m0: np.ndarray, P0: np.n
         track = engine.replicas.tracks[k]
         if track.misses < 1 or not trans:
             continue
-        post = engine.replicas.aux[k].get("posterior")
+        state = engine.replicas.state[k].find(var, TrackState)
+        post = None if state is None else state.posterior
         if post is None:  # not updated since its birth: its prior is its last posterior
             prior = engine.replicas.graphs[k].factors_of(var, "prior")[0]
             post = (prior.mean(), prior.cov)

@@ -139,7 +139,7 @@ def box_columns(graph: FactorGraph, variable: str) -> list[int]:
 class _ReplicaView:
     """Replica ``k`` of a plate as a single-graph rule sees an engine: its own
     beliefs (rows of the batched beliefs), generator, graph, evidence, messages and
-    ``aux``; everything else is the engine's."""
+    ``state``; everything else is the engine's."""
 
     log_likelihood = Engine.log_likelihood
     score_at = Engine.score_at
@@ -152,7 +152,7 @@ class _ReplicaView:
         self.replica = k
         self.graph = reps.graphs[k]
         self.rng = reps.generators()[k]
-        self.aux = reps.aux[k]
+        self.state = reps.state[k]
         self.rows = {v: b.row(k) for v, b in engine.beliefs.items()}
         self.beliefs = dict(self.rows)
         self.evidence = {v: (a[k], ll[k]) for v, (a, ll) in engine.evidence.items()}

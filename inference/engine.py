@@ -93,6 +93,7 @@ from .rules import (
 )
 from .schedule import STAGES, Schedule, derive_schedule, message_order
 from .settings import EngineSettings
+from .state import StateSlots
 
 __all__ = ["Engine", "RuleTable", "DEFAULT_RULES", "StepRecord", "Schedule", "derive_schedule",
            "STAGES", "BELIEF_FOR_ROLE", "BELIEF_OPERATIONS", "RuleContractError",
@@ -174,8 +175,9 @@ class Engine:
         self.evidence: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         #: this frame's messages ``(src, dst) -> message`` (in-frame stage)
         self.messages: dict[tuple[str, str], Any] = {}
-        #: per-variable state that rules keep across frames (PHD tracks, extraction, ...)
-        self.aux: dict[str, dict[str, Any]] = {}
+        #: the state rules keep across frames, typed, per owner (a variable or factor
+        #: name; :mod:`pgm.inference.state`): PHD tracks, score models, ...
+        self.state = StateSlots()
         self._learners = [f for f in self.graph.factors.values() if f.learns]
         #: likelihoods that learn something from the first frame (a template)
         self._initializers = [f.name for f in self.graph.factors_by_kind("likelihood")

@@ -16,6 +16,7 @@ from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
 
 from .resampling import ess_triggered
 from .rules import DEFAULT_RULES, scores_in_groups
+from .state import ProposalState
 
 if TYPE_CHECKING:
     from .engine import Engine
@@ -95,7 +96,7 @@ def _propose_particles(engine: Engine, transition, proposal, frame, b: Particles
     log_mix = log_q if f == 1.0 else np.logaddexp(np.log1p(-f) + log_p, np.log(f) + log_q)
     moved = b.moved(x_new, history_len=max(0, transition.order - 1))
     # the evidence of this frame is measured against the mass before the correction
-    engine.aux.setdefault(var, {})["prior_log_mass"] = moved.log_mass
+    engine.state.get(var, ProposalState).prior_log_mass = moved.log_mass
     engine.beliefs[var] = moved.reweight(log_p - log_mix)
     return {"proposed": f}
 

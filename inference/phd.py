@@ -43,6 +43,7 @@ References
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -108,19 +109,53 @@ def phd_correct(weights: np.ndarray, log_g: np.ndarray, factor: PHDLikelihood,
     return {"w": w_post, "L": L, "omega": omega, "W": omega.sum(axis=0), "nu": nu}
 
 
+@dataclass
+class PHDState:
+    """What the PHD rules keep for a set variable across frames
+    (``engine.state.get(variable, PHDState)``).
+
+    Attributes
+    ----------
+    tracks : TrackManager
+        The track layer over the intensity's estimates (identities, confirmation).
+    last : dict
+        The last corrector's pieces (weights, likelihoods, measurements), which the
+        estimate stage extracts from.
+    next_label, newborn_labels
+        Lineage labels: the next free one, and those of this frame's newborn particles.
+    r_hat : ndarray
+        The VB noise estimate (:mod:`pgm.inference.vb` writes it), which widens the
+        merge and track gates.
+    noise_by_label : dict
+        The VB rule's inverse-Gamma belief per lineage label (``per_track=True``).
+    score_calibration, score_terms
+        The run's online score calibration, and this frame's clutter and birth terms.
+    """
+
+    tracks: TrackManager | None = None
+    last: dict[str, Any] | None = None
+    next_label: int | None = None
+    newborn_labels: np.ndarray | None = None
+    r_hat: np.ndarray | None = None
+    noise_by_label: dict[int, Any] | None = None
+    score_calibration: ScoreCalibration | None = None
+    score_terms: tuple | None = None
+
+
 def score_terms(engine: Engine, var: str, factor: PHDLikelihood, frame,
                 m: int) -> tuple[float | np.ndarray, float | np.ndarray]:
     """This frame's clutter and birth densities ``(κ, ν_b)``: the factor's scalars when
     it ignores scores, else one per detection (:mod:`pgm.factors.scores`):
     ``κ(s) = κ (f_C(s)/f_T(s))^γ`` and ``ν_b`` zeroed for low-score detections.
 
-    The online score calibration (per run, in ``engine.aux``) sees each frame's scores
-    once; the result is cached for the frame (the VB fixed point asks every pass).
+    The online score calibration (per run, :attr:`PHDState.score_calibration`) sees each
+    frame's scores once; the result is cached for the frame (the VB fixed point asks every
+    pass).
     """
     if not factor.scores.enabled:
         return factor.kappa, factor.nu_birth
-    aux = engine.aux.setdefault(var, {})
-    cached = aux.get("score_terms")
+    state = engine.state.get(var, PHDState)
+    cached = state.score_terms
     if cached is not None and cached[0] is frame and np.size(cached[1]) == m:
         return cached[1], cached[2]
     s = factor.detection_scores(frame)
@@ -131,16 +166,16 @@ def score_terms(engine: Engine, var: str, factor: PHDLikelihood, frame,
         if settings.model == "off":
             kappa, on_kappa, on_nu = factor.kappa, 1.0, np.ones(m)
         else:
-            cal = aux.get("score_calibration")
+            cal = state.score_calibration
             if cal is None:
-                cal = aux["score_calibration"] = ScoreCalibration(settings)
+                cal = state.score_calibration = ScoreCalibration(settings)
             cal.observe(s, frame.detections.boxes if cal.persistence is not None else None)
             kappa = cal.clutter_rate(factor.clutter_rate) / factor._volume
             on_kappa, on_nu = cal.terms(s)
         if settings.shadow_iou > 0:
             on_nu = on_nu * ~shadowed(frame.detections.boxes, s, settings.shadow_iou)
         out = (kappa * on_kappa, factor.nu_birth * on_nu)
-    aux["score_terms"] = (frame, *out)
+    state.score_terms = (frame, *out)
     return out
 
 
@@ -150,7 +185,7 @@ def _install_tracks(engine: Engine, variable: str) -> None:
     d = engine.graph.variables[variable].dim
     F = getattr(trans[0], "F", np.eye(d)) if trans else np.eye(d)
     s = f.tracks
-    engine.aux.setdefault(variable, {})["tracks"] = TrackManager(
+    engine.state.get(variable, PHDState).tracks = TrackManager(
         F, f.H, np.sqrt(f.R), gate=s.gate, confirm_hits=s.confirm_hits,
         max_coast=s.max_coast, max_lost=s.max_lost, scale_index=f.scale_index,
         scaled=f.scaled if f.scale_index is not None else None)
@@ -179,12 +214,13 @@ def _predict_intensity(engine: Engine, factor, frame) -> None:
         x = np.concatenate([x, b.newborn.x])
         lw = np.concatenate([lw, b.newborn.log_weights])
         if labels is not None:
-            labels = np.concatenate([labels, engine.aux[var]["newborn_labels"]])
+            labels = np.concatenate([labels, engine.state.get(var, PHDState).newborn_labels])
     if frame.camera_motion is not None:  # past states into this frame's image coordinates
         names = engine.graph.variables[var].labels
         x = warp_states(x, names, frame.camera_motion)
-        engine.aux[var]["tracks"].move(lambda s: warp_states(s, names, frame.camera_motion),
-                                       motion_scale(frame.camera_motion))
+        engine.state.get(var, PHDState).tracks.move(
+            lambda s: warp_states(s, names, frame.camera_motion),
+            motion_scale(frame.camera_motion))
     if x.shape[0]:
         x = np.asarray(factor.sample(engine.rng, x), dtype=float)
     lw = lw + np.log(getattr(factor, "p_survive", 1.0))
@@ -214,7 +250,7 @@ def _finish(engine: Engine, var: str, factor: PHDLikelihood, res: dict[str, Any]
     with np.errstate(divide="ignore"):
         lw = np.log(res["w"])
     newborn = None
-    aux = engine.aux.setdefault(var, {})
+    state = engine.state.get(var, PHDState)
     nu = res.get("nu", factor.nu_birth)
     if np.ndim(nu):  # per detection (score model): births only where nu > 0
         keep = nu > 0
@@ -224,15 +260,15 @@ def _finish(engine: Engine, var: str, factor: PHDLikelihood, res: dict[str, Any]
         wb = np.repeat(nu / L / factor.n_birth, factor.n_birth)
         newborn = Particles._trusted(xb, np.log(wb), ())
         if b.labels is not None:  # one fresh lineage label per measurement
-            first = aux.get("next_label", 0)
-            aux["next_label"] = first + z.shape[0]
-            aux["newborn_labels"] = np.repeat(np.arange(first, first + z.shape[0]),
-                                              factor.n_birth)
+            first = state.next_label if state.next_label is not None else 0
+            state.next_label = first + z.shape[0]
+            state.newborn_labels = np.repeat(np.arange(first, first + z.shape[0]),
+                                             factor.n_birth)
     w_sum = float(res["w"].sum())
     engine.beliefs[var] = Intensity._trusted_set(
         b.x, lw, newborn=newborn, labels=b.labels,
         log_mass=np.log(w_sum) if w_sum > 0 else None)
-    aux["last"] = res
+    state.last = res
 
 
 @DEFAULT_RULES.register(LikelihoodFactor, Intensity)
@@ -304,15 +340,16 @@ def extract(res: dict[str, Any], merge_gate: float, sigma: np.ndarray,
 
 @DEFAULT_RULES.register("estimate", Intensity)
 def _estimate_intensity(engine: Engine, variable: str, frame) -> dict[str, Any]:
-    aux = engine.aux.get(variable, {})
-    res = aux.get("last")
+    state = engine.state.find(variable, PHDState) or PHDState()
+    res = state.last
     b: Intensity = engine.beliefs[variable]
     factor = phd_factor_of(engine, variable)
     # merge gate and track gate are in units of max(nominal σ, VB σ̂): they must absorb
     # duplicate detections and motion error as well as measurement noise. Measured on
     # PETS09-S2L1: with the VB σ̂ alone (2-3 px) one person's duplicate detections were
     # not merged (VB-PHD MOTA 0.502, 390 FP); with this gate MOTA 0.673, IDF1 0.525
-    gate_sigma = np.sqrt(np.maximum(factor.R, aux.get("r_hat", factor.R)))
+    gate_sigma = np.sqrt(np.maximum(factor.R, factor.R if state.r_hat is None
+                                    else state.r_hat))
     d = engine.graph.variables[variable].dim
     if res is None:
         states, zi = np.zeros((0, d)), np.zeros(0, int)
@@ -323,7 +360,7 @@ def _estimate_intensity(engine: Engine, variable: str, frame) -> dict[str, Any]:
     dets = getattr(frame, "detections", None)
     if dets is not None and len(zi):
         sizes = np.asarray(dets.boxes, dtype=float)[zi, 2:4]
-    tracks = aux["tracks"].update(states, sizes, gate_sigma)
+    tracks = state.tracks.update(states, sizes, gate_sigma)
     return {"ids": np.array([t.track_id for t in tracks], dtype=int),
             "states": np.array([t.state for t in tracks]).reshape(-1, d),
             "existence": np.array([t.existence for t in tracks]),

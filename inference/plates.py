@@ -59,6 +59,7 @@ from .association import detection_boxes  # (and the exact Kalman replicas' rule
 from .batched import box_columns, score_group  # noqa: F401  (score_group: the engine's)
 from .engine import Engine, StepRecord
 from .record import register_plate_runtime
+from .state import StateSlots
 from .tracks import Track, confirm_tracks, existences, match, reported, update_tracks
 
 if TYPE_CHECKING:
@@ -98,13 +99,14 @@ class Replicas:
     """What a plate keeps per replica besides its beliefs (which live in
     ``engine.beliefs`` as batched beliefs): its generator, its view of the graph (shared
     factors and its own copies of those that learn), its track record, the state rules
-    keep across frames (``aux``) and its latest estimates ``est`` (variable →
+    keep across frames (``state``: :class:`~pgm.inference.state.StateSlots`) and its
+    latest estimates ``est`` (variable →
     ``(K, d)``)."""
 
     rngs: list[np.random.Generator | None] = field(default_factory=list)
     graphs: list[FactorGraph] = field(default_factory=list)
     tracks: list[Track] = field(default_factory=list)
-    aux: list[dict] = field(default_factory=list)
+    state: list[StateSlots] = field(default_factory=list)
     est: dict[str, np.ndarray] = field(default_factory=dict)
     #: where a replica born without a generator (None in ``rngs``: a plate of exact
     #: Gaussian beliefs draws nothing) gets one, spawned when first asked for
@@ -124,14 +126,14 @@ class Replicas:
 
     def select(self, idx: np.ndarray) -> Replicas:
         pick = lambda xs: [xs[i] for i in idx]  # noqa: E731
-        return Replicas(pick(self.rngs), pick(self.graphs), pick(self.tracks), pick(self.aux),
+        return Replicas(pick(self.rngs), pick(self.graphs), pick(self.tracks), pick(self.state),
                         {v: a[idx] for v, a in self.est.items()}, self.parent)
 
     def join(self, other: Replicas) -> Replicas:
         est = {v: np.concatenate([self.est[v], other.est[v]]) if v in self.est else other.est[v]
                for v in other.est}
         return Replicas(self.rngs + other.rngs, self.graphs + other.graphs,
-                        self.tracks + other.tracks, self.aux + other.aux, est,
+                        self.tracks + other.tracks, self.state + other.state, est,
                         self.parent or other.parent)
 
 
@@ -279,7 +281,7 @@ def add(engine: Engine, boxes: np.ndarray | None, frame: FrameContext,
             t.track_id = spec.next_id
             spec.next_id += 1
     newborn = Replicas(rngs, [_replica_graph(engine, v) for v in values], tracks,
-                       [{} for _ in range(m)], parent=engine.rng)
+                       [StateSlots() for _ in range(m)], parent=engine.rng)
     saved = (engine.beliefs, engine.replicas, engine.evidence, engine.messages,
              engine.assignment)
     # newborns: their own first frame (no detection was assigned to them)

@@ -48,7 +48,7 @@ from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianT
 from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, PHDLikelihood, VBNoise
 
 from .kalman import kalman_update, vb_akf_batch
-from .phd import _finish, _update, phd_factor_of
+from .phd import PHDState, _finish, _update, phd_factor_of
 from .rules import DEFAULT_RULES
 
 if TYPE_CHECKING:
@@ -291,15 +291,16 @@ def _vb_phd_per_track(engine: Engine, factor, frame) -> dict[str, Any]:
     noise, target = factor.variables
     phd: PHDLikelihood = phd_factor_of(engine, target)
     b: Intensity = engine.beliefs[target]
-    aux = engine.aux.setdefault(target, {})
+    state = engine.state.get(target, PHDState)
     if b.labels is None:
         b = Intensity(b.x, b.log_weights, (), newborn=b.newborn,
                       labels=np.zeros(b.num, dtype=np.int64))
         engine.beliefs[target] = b
-        aux.setdefault("next_label", 1)
+        if state.next_label is None:
+            state.next_label = 1
     prior = _noise_prior(engine, noise)
     forget = engine.graph.factors_of(noise, "transition")
-    known: dict[int, InverseGamma] = aux.get("noise_by_label", {})
+    known: dict[int, InverseGamma] = state.noise_by_label or {}
     uniq, inv = np.unique(b.labels, return_inverse=True)
     q_pred = []
     for lab in uniq.tolist():  # a loop over tracks (labels), not particles
@@ -310,14 +311,14 @@ def _vb_phd_per_track(engine: Engine, factor, frame) -> dict[str, Any]:
             q_pred.append(q.forget(forget[0].rho, forget[0].alpha_min) if forget else q)
     out = _vb_phd_fixed_point(engine, factor, frame, inv, q_pred)
     alpha, beta, r_hat, post_mass = out["alpha"], out["beta"], out["r_hat"], out["mass"]
-    aux["noise_by_label"] = {lab: InverseGamma(alpha[g], beta[g])
+    state.noise_by_label = {lab: InverseGamma(alpha[g], beta[g])
                              for g, lab in enumerate(uniq.tolist())}
     if post_mass.sum() > 0:
         summary = (post_mass[:, None] * r_hat).sum(axis=0) / post_mass.sum()
     else:
         summary = prior.r_hat()
     _finish(engine, target, phd, out["res"], prior.r_hat())
-    aux["r_hat"] = summary
+    state.r_hat = summary
     engine.beliefs[noise] = InverseGamma(prior.alpha, prior.alpha * summary)
     return {"iterations": out["iterations"], "elbo": out["elbo"], "r_hat": summary,
             "tracks": len(uniq),
@@ -335,5 +336,5 @@ def _vb_phd(engine: Engine, factor, frame) -> dict[str, Any]:
     q = InverseGamma(out["alpha"][0], out["beta"][0])
     engine.beliefs[noise] = q
     _finish(engine, target, phd_factor_of(engine, target), out["res"], q.r_hat())
-    engine.aux.setdefault(target, {})["r_hat"] = q.r_hat()
+    engine.state.get(target, PHDState).r_hat = q.r_hat()
     return {"iterations": out["iterations"], "elbo": out["elbo"], "r_hat": q.r_hat()}

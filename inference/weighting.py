@@ -15,6 +15,7 @@ from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 
 from .rules import GROUP_SCORING, Rule, likelihood_reweights
+from .state import ProposalState
 
 if TYPE_CHECKING:
     from .engine import Engine, StepRecord
@@ -93,8 +94,9 @@ def prior_log_mass(engine: Engine, variable: str, b0) -> Any:
     stage found it, or, after a proposal's weight correction, the mass before it."""
     if not engine._proposals:
         return b0.log_mass
-    auxes = [engine.aux] if engine.replicas is None else engine.replicas.aux
-    held = [a.get(variable, {}).pop("prior_log_mass", None) for a in auxes]
+    slots = [engine.state] if engine.replicas is None else engine.replicas.state
+    held = [None if (s := slot.find(variable, ProposalState)) is None else s.take()
+            for slot in slots]
     if engine.replicas is None:
         return b0.log_mass if held[0] is None else held[0]
     if any(h is None for h in held):

@@ -41,6 +41,7 @@ import numpy as np  # noqa: E402
 import pgm  # noqa: E402
 from pgm.evaluation.mot import evaluate_mot  # noqa: E402
 from pgm.inference import Engine  # noqa: E402
+from pgm.inference.phd import PHDState
 from pgm.io.annotations import MotTable, load_mot  # noqa: E402
 from pgm.io.video import open_source  # noqa: E402
 from pgm.models import phd, vb_phd  # noqa: E402
@@ -181,7 +182,7 @@ for name, kw in settings.items():
                                   np.ones(len(r))), num_frames=n_frames)
     print(f"{name:21s}: MOTA {m['mota']:.3f}  IDF1 {m['idf1']:.3f}  false positives "
           f"{m['fp']:.0f}  identities {len(np.unique(r[:, 1]))}")
-    calibrations[name] = eng.aux["targets"].get("score_calibration")
+    calibrations[name] = eng.state.get("targets", PHDState).score_calibration
 mix = calibrations["mixture + shadow rule"].mixture
 learned = calibrations["learned + shadow rule"].persistence
 grid = np.linspace(scored[:, 5].min(), scored[:, 5].max(), 200)

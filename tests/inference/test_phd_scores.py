@@ -8,6 +8,7 @@ import pytest
 from pgm import FrameContext
 from pgm.core.boxes import iou_xywh
 from pgm.inference import Engine
+from pgm.inference.phd import PHDState
 from pgm.models import phd, vb_phd
 from pgm.observation.detections import Detections
 from pgm.synthetic.scenes import multi_target_scene
@@ -75,7 +76,7 @@ def test_low_score_detections_keep_a_track_alive_but_start_none(module):
     # walker B, only ever seen with low scores, is never started
     assert not any(_near(e, b) for e, (_, _, b) in zip(est, frames, strict=True))
     assert len(set().union(*[set(e["ids"].tolist()) for e in est])) == 3  # A + 2 others
-    cal = eng.aux["targets"]["score_calibration"]
+    cal = eng.state.get("targets", PHDState).score_calibration
     assert cal.ready and cal.birth_mask([0.2, 0.9]).tolist() == [False, True]
     # the score-blind filter does start walker B: the test can fail
     blind, _ = _run(module, "off", frames)
@@ -162,7 +163,7 @@ def test_video_default_keeps_a_tracked_target_through_low_scores(module):
              for t, (d, a, _) in enumerate(frames)]
     assert sum(bool(i) for i in a_ids[20:]) >= 0.9 * 40
     assert len(set().union(*a_ids[5:])) == 1
-    assert eng.aux["targets"]["score_calibration"].ready
+    assert eng.state.get("targets", PHDState).score_calibration.ready
 
 
 @pytest.mark.parametrize("module", [phd, vb_phd])

@@ -22,6 +22,7 @@ from pgm.factors.multitarget import (
     constant_velocity,
 )
 from pgm.inference import Engine
+from pgm.inference.phd import PHDState
 from pgm.models import phd, vb_phd
 
 F, Q = constant_velocity(1.0, 0.5, "pv")
@@ -144,7 +145,7 @@ def test_phd_with_one_target_pd1_no_clutter_no_birth_is_the_bootstrap_filter():
     e_pf = Engine(g_pf, np.random.default_rng(5), num_particles=N, ess_threshold=0.0)
     r_phd = e_phd.step(FrameContext(1, measurements=z))
     r_pf = e_pf.step(FrameContext(1, measurements=z[0]))
-    res = e_phd.aux["targets"]["last"]
+    res = e_phd.state.get("targets", PHDState).last
     np.testing.assert_allclose(res["x"], r_pf.beliefs["x"].x)
     np.testing.assert_allclose(res["w"], r_pf.beliefs["x"].weights, rtol=1e-9, atol=1e-15)
     assert res["w"].sum() == pytest.approx(1.0)  # mass = one target
@@ -166,7 +167,7 @@ def test_vb_phd_reduces_to_the_vb_akf():
         eng = Engine(one_target_graph(m0, P0, vb=True, n_iter=n_iter, tol=0.0), stream,
                      num_particles=50_000)
         rec = eng.step(FrameContext(1, measurements=z[None]))
-        res = eng.aux["targets"]["last"]
+        res = eng.state.get("targets", PHDState).last
         w = res["w"] / res["w"].sum()
         means.append(w @ res["x"])
         r_hats.append(rec.beliefs["noise"].r_hat())
@@ -304,7 +305,7 @@ def test_per_track_noise_separates_targets_with_different_noise():
             results["shared"] = float(np.sqrt(rec.beliefs["noise"].r_hat()).mean())
             continue
         b = eng.beliefs["targets"]
-        by_label = eng.aux["targets"]["noise_by_label"]
+        by_label = eng.state.get("targets", PHDState).noise_by_label
         for k in range(2):
             near = np.linalg.norm(b.x[:, [0, 2]] - xs[k][-1, [0, 2]], axis=1) < 30
             w = np.exp(b.log_weights[near])

@@ -14,6 +14,7 @@ from pgm.factors.multitarget import (
     constant_velocity,
 )
 from pgm.inference import Engine
+from pgm.inference.phd import PHDState
 from pgm.models import phd, vb_phd
 
 F, Q = constant_velocity(1.0, 0.5, "pv")
@@ -62,7 +63,7 @@ def test_tied_vb_phd_reduces_to_the_pooled_vb_akf():
         for stream in np.random.default_rng(3).spawn(8):
             eng = Engine(one_target(m0, P0, 3.0, tie, n_iter), stream, num_particles=50_000)
             rec = eng.step(FrameContext(1, measurements=z[None]))
-            res = eng.aux["targets"]["last"]
+            res = eng.state.get("targets", PHDState).last
             means.append(res["w"] @ res["x"] / res["w"].sum())
             q = rec.beliefs["noise"]
             r_hats.append(q.r_hat())

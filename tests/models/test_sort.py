@@ -19,6 +19,7 @@ from pgm.factors.association import (
 )
 from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, VBNoise
 from pgm.inference import Engine
+from pgm.inference.association import TrackState
 from pgm.inference.kalman import kalman_filter
 from pgm.models import bytetrack, sort
 from pgm.observation.detections import Detections
@@ -352,7 +353,7 @@ def test_appearance_enters_the_association():
     for t in range(1, 4):
         ctx = _frame(t, [100.0, 50.0, 40.0, 100.0])
         eng.step(FrameContext(t, image, detections=ctx.detections))
-    models = eng.replicas.aux[0]["appearance"]
+    models = eng.replicas.state[0].get("box", TrackState).appearance
     assert len(models) == 1 and models[0].template is not None
 
 
