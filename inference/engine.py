@@ -329,7 +329,9 @@ class Engine:
         self.evidence = {}
         self.messages = {}
         self.assignment = None
-        record = StepRecord(frame=frame.index)
+        # the record is filled as the stages run: a hook sees this frame's messages, ESS,
+        # diagnostics and estimates so far (the messages' dict is the engine's own)
+        record = StepRecord(frame=frame.index, messages=self.messages)
         if self.plate is None:
             self._run(self.schedule.first_frame if self.t == 0 else self.schedule.phases,
                       frame, record)

@@ -189,3 +189,24 @@ def test_engine_takes_an_int_seed_as_numpy_does(lg_problem):
     b = Engine(graph, np.random.default_rng(5)).step(frame).beliefs["x"]
     assert np.array_equal(a.x, b.x)
 
+
+
+def test_hooks_see_the_frame_as_filled_so_far():
+    """A hook reads this frame's record as the stages fill it: the ESS after weighting,
+    the particle-BP messages after the in-frame stage, the estimates after estimation."""
+    from test_pbp import gaussian_tree  # same folder: on sys.path
+
+    graph, y, _, _ = gaussian_tree(2)
+    eng = Engine(graph, np.random.default_rng(0), num_particles=200)
+    seen = {}
+
+    def hook(engine, stage, frame, record):
+        seen[stage] = (sorted(record.messages), sorted(record.ess), sorted(record.estimates))
+
+    for stage in ("weight", "inframe", "estimate"):
+        eng.add_hook(stage, hook)
+    rec = eng.step(FrameContext(1, measurements={k: np.array([v]) for k, v in y.items()}))
+    assert seen["weight"] == ([], ["a", "b"], [])
+    assert seen["inframe"][0] == [("a", "b"), ("b", "a")]
+    assert seen["estimate"][2] == ["a", "b"]
+    assert sorted(rec.messages) == [("a", "b"), ("b", "a")]
