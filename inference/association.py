@@ -48,7 +48,7 @@ from pgm.factors.multitarget import VBNoise
 
 from .batched import per_replica
 from .kalman import kalman_update_batch, vb_akf_batch
-from .rules import DEFAULT_RULES
+from .rules import RuleTable
 from .state import StateSlots
 from .vb import _vb_gaussian
 
@@ -57,6 +57,9 @@ if TYPE_CHECKING:
 
 __all__ = ["Assignment", "assign", "detection_boxes", "iou_matrix",
            "direction_consistency", "ObservationHistory"]
+
+#: the rules of this family (:func:`pgm.inference.default_rules` gathers every family's)
+RULES = RuleTable()
 
 
 @dataclass
@@ -244,7 +247,7 @@ def direction_consistency(velocity: np.ndarray, known: np.ndarray, reference: np
     return cost
 
 
-@DEFAULT_RULES.register(GaussianPrior, BatchedGaussian)
+@RULES.register(GaussianPrior, BatchedGaussian)
 def prior_gaussians(engine: Engine, factor, frame: FrameContext) -> None:
     """Each replica's prior (its own, re-centred on its birth box), stacked."""
     priors = [g.factors[factor.name] for g in engine.replicas.graphs]
@@ -252,7 +255,7 @@ def prior_gaussians(engine: Engine, factor, frame: FrameContext) -> None:
         np.stack([p.mean() for p in priors]), np.stack([p.cov for p in priors]))
 
 
-@DEFAULT_RULES.register(LinearGaussianTransition, BatchedGaussian)
+@RULES.register(LinearGaussianTransition, BatchedGaussian)
 def predict_gaussians(engine: Engine, factor, frame: FrameContext) -> None:
     """``m ← F m``, ``P ← F P Fᵀ + Q`` for every replica."""
     var = factor.variables[0]
@@ -292,8 +295,8 @@ def _means(belief) -> np.ndarray:
     return m() if callable(m) else m
 
 
-@DEFAULT_RULES.register(DetectionAssociation, BatchedParticles)
-@DEFAULT_RULES.register(DetectionAssociation, BatchedGaussian)
+@RULES.register(DetectionAssociation, BatchedParticles)
+@RULES.register(DetectionAssociation, BatchedGaussian)
 def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, Any]:
     """The ``assign`` stage: ``engine.assignment`` for this frame (and, for momentum and
     recovery rounds, each replica's observation history, :class:`TrackState`). The
@@ -424,7 +427,7 @@ def _assigned(engine: Engine, factor) -> tuple[np.ndarray, np.ndarray] | None:
     return a.rows, encode_boxes(a.boxes[a.cols], coding)
 
 
-@DEFAULT_RULES.register(AssignedDetectionLikelihood, BatchedGaussian)
+@RULES.register(AssignedDetectionLikelihood, BatchedGaussian)
 def update_assigned(engine: Engine, factor, frame: FrameContext) -> None:
     """Kalman update of every replica a detection was assigned to."""
     got = _assigned(engine, factor)
@@ -453,7 +456,7 @@ def update_assigned(engine: Engine, factor, frame: FrameContext) -> None:
     return info
 
 
-@DEFAULT_RULES.register(AssignedDetectionLikelihood, BatchedParticles)
+@RULES.register(AssignedDetectionLikelihood, BatchedParticles)
 def weight_assigned(engine: Engine, factor, frame: FrameContext) -> np.ndarray:
     """``(K, N)`` log-likelihood increments of particle replicas: ``log N(z_k; H x, R)``
     at each particle of a replica given detection ``z_k`` (its noise scale-aware at the
@@ -544,7 +547,7 @@ def _reupdate(engine: Engine, factor, rows: np.ndarray, m0: np.ndarray, P0: np.n
     return m0, P0, ({"reupdated": np.array(redone)} if redone else None)
 
 
-@DEFAULT_RULES.register(VBNoise, BatchedGaussian)
+@RULES.register(VBNoise, BatchedGaussian)
 def vb_assigned(engine: Engine, factor, frame: FrameContext) -> dict[str, Any] | None:
     """Feng et al.'s (2015) VB adaptive measurement noise per replica, batched: for each assigned
     replica the fixed point of ``q(x) q(R)`` (:func:`pgm.inference.vb.vb_akf_update`, all
@@ -584,13 +587,13 @@ def vb_assigned(engine: Engine, factor, frame: FrameContext) -> dict[str, Any] |
     return {"iterations": it}
 
 
-@DEFAULT_RULES.register("estimate", BatchedGaussian)
+@RULES.register("estimate", BatchedGaussian)
 def estimate_gaussians(engine: Engine, variable: str, frame) -> np.ndarray:
     """The replicas' means ``(K, d)``."""
     return engine.beliefs[variable].mean.copy()
 
 
-@DEFAULT_RULES.register("resample", BatchedGaussian)
+@RULES.register("resample", BatchedGaussian)
 def no_resample(engine: Engine, variable: str, frame) -> None:
     """Nothing to resample."""
     return None

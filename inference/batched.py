@@ -1,7 +1,8 @@
 """Rules for batched beliefs: a plate's replicas in one pass, and any rule per replica.
 
 The engine keeps a plate variable's belief batched (:mod:`pgm.core.batched`). This module
-registers, in :data:`~pgm.inference.DEFAULT_RULES`, the rules for
+keeps, in its table :data:`RULES` (gathered by :func:`pgm.inference.default_rules`), the
+rules for
 :class:`~pgm.core.batched.BatchedParticles` that act on all ``K`` replicas at once — a
 shared transition samples the ``K·N`` particles in one call of ``factor.sample``; a shared
 likelihood scores them in one call, per-target templates are scored together by
@@ -43,10 +44,13 @@ from .engine import Engine
 from .particles import _predict_particles
 from .pbp import MixtureMessage, coupling_message, fuse
 from .resampling import ess_triggered
-from .rules import DEFAULT_RULES, register_replica_adapter, scores_in_groups
+from .rules import RuleTable, register_replica_adapter, scores_in_groups
 
 __all__ = ["ReplicaRNG", "per_replica", "RowMessages", "BatchedMixtureMessage", "score_group",
            "weight_batched", "box_columns"]
+
+#: the rules of this family (:func:`pgm.inference.default_rules` gathers every family's)
+RULES = RuleTable()
 
 
 # -------------------------------------------------------------------------------------
@@ -233,7 +237,7 @@ def _local(engine: Engine, name: str) -> bool:
     return name in engine.plate_spec.local
 
 
-@DEFAULT_RULES.register(TransitionFactor, BatchedParticles)
+@RULES.register(TransitionFactor, BatchedParticles)
 def predict_batched(engine: Engine, factor, frame: FrameContext) -> None:
     """Move every replica's particles: one ``factor.sample`` call on ``(K·N, d)`` for a
     shared transition (draws split per replica), one call per replica for its own copy."""
@@ -266,7 +270,7 @@ def predict_batched(engine: Engine, factor, frame: FrameContext) -> None:
         tuple(a.reshape(K, n, d) for a in ([flat] + past)[:n_hist]))
 
 
-@DEFAULT_RULES.register(LikelihoodFactor, BatchedParticles)
+@RULES.register(LikelihoodFactor, BatchedParticles)
 @scores_in_groups("replicas")
 def weight_batched(engine: Engine, factor, frame: FrameContext) -> np.ndarray:
     """``(K, N)`` log-likelihood increments of every replica's particles."""
@@ -318,7 +322,7 @@ def _extents(engine: Engine, fs: list) -> np.ndarray:
     return np.concatenate([np.min(lo, axis=0), np.max(hi, axis=0)], axis=1)
 
 
-@DEFAULT_RULES.register(InteractionFactor, BatchedParticles)
+@RULES.register(InteractionFactor, BatchedParticles)
 def interact_batched(engine: Engine, factor, frame: FrameContext) -> None:
     """Reweight every replica's particles against the other replicas' current estimates
     (a replica the potential leaves with no finite weight keeps its weights)."""
@@ -356,7 +360,7 @@ def _evidence(engine: Engine, v: str) -> tuple[np.ndarray, np.ndarray]:
     return engine.evidence.get(v, (b.log_weights, np.zeros_like(b.log_weights)))
 
 
-@DEFAULT_RULES.register(CouplingFactor, BatchedParticles)
+@RULES.register(CouplingFactor, BatchedParticles)
 def coupling_batched(engine: Engine, factor, frame: FrameContext, src: str, dst: str):
     """The message ``src → dst`` of every replica (mixture with source weights batched;
     any other setting per replica, :func:`pgm.inference.pbp.coupling_message`)."""
@@ -398,7 +402,7 @@ def _row_log_normalize(lw: np.ndarray) -> np.ndarray:
     return shifted - np.array([math.log(float(row.sum())) for row in e])[:, None]
 
 
-@DEFAULT_RULES.register("fuse", BatchedParticles)
+@RULES.register("fuse", BatchedParticles)
 def fuse_batched(engine: Engine, variable: str, frame: FrameContext) -> dict:
     """Every replica's own weighted particles joined with its incoming mixture messages
     (product fusion: per replica, :func:`pgm.inference.pbp.fuse`)."""
@@ -416,13 +420,13 @@ def fuse_batched(engine: Engine, variable: str, frame: FrameContext) -> dict:
     return {"own_mass": np.array([float(np.exp(row[:b.num]).sum()) for row in lw])}
 
 
-@DEFAULT_RULES.register("estimate", BatchedParticles)
+@RULES.register("estimate", BatchedParticles)
 def estimate_batched(engine: Engine, variable: str, frame: FrameContext) -> np.ndarray:
     """``(K, d)`` weighted means."""
     return engine.beliefs[variable].mean()
 
 
-@DEFAULT_RULES.register("resample", BatchedParticles)
+@RULES.register("resample", BatchedParticles)
 def resample_batched(engine: Engine, variable: str, frame: FrameContext) -> dict[str, Any]:
     """ESS-triggered resampling per replica, each with its own generator (a fused
     mixture: every replica back to the variable's particle count)."""

@@ -1,6 +1,7 @@
 """The rules of particle beliefs (sequential Monte Carlo): prior, predict (with a
 proposal factor's mixture and its importance weights), weight, resample and estimate on
-:class:`~pgm.Particles`, registered into :data:`~pgm.inference.rules.DEFAULT_RULES`.
+:class:`~pgm.Particles`, in this family's table :data:`RULES`
+(gathered by :func:`pgm.inference.default_rules`).
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from pgm.core.numerics import check_finite_param
 from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
 
 from .resampling import ess_triggered
-from .rules import DEFAULT_RULES, scores_in_groups
+from .rules import RuleTable, scores_in_groups
 from .state import ProposalState
 
 if TYPE_CHECKING:
@@ -23,13 +24,16 @@ if TYPE_CHECKING:
 
 __all__: list[str] = []
 
+#: the rules of this family (:func:`pgm.inference.default_rules` gathers every family's)
+RULES = RuleTable()
+
 
 def _history_len(engine: Engine, variable: str) -> int:
     trans = engine.graph.factors_of(variable, "transition")
     return max(0, getattr(trans[0], "order", 1) - 1) if trans else 0
 
 
-@DEFAULT_RULES.register(PriorFactor, Particles)
+@RULES.register(PriorFactor, Particles)
 def _prior_particles(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     n = engine.num_particles[var]
@@ -38,7 +42,7 @@ def _prior_particles(engine: Engine, factor, frame) -> None:
     engine.beliefs[var] = cls.uniform(x, mass=1.0, history_len=_history_len(engine, var))
 
 
-@DEFAULT_RULES.register(TransitionFactor, Particles)
+@RULES.register(TransitionFactor, Particles)
 def _predict_particles(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     b: Particles = engine.beliefs[var]
@@ -101,14 +105,14 @@ def _propose_particles(engine: Engine, transition, proposal, frame, b: Particles
     return {"proposed": f}
 
 
-@DEFAULT_RULES.register(LikelihoodFactor, Particles)
+@RULES.register(LikelihoodFactor, Particles)
 @scores_in_groups("graph")
 def _weight_particles(engine: Engine, factor, frame) -> np.ndarray:
     """The factor's log-likelihood at every particle: the increment the engine applies."""
     return factor.log_likelihood(engine.beliefs[factor.variables[0]].x, frame)
 
 
-@DEFAULT_RULES.register("resample", Particles)
+@RULES.register("resample", Particles)
 def _resample_particles(engine: Engine, variable: str, frame) -> dict[str, Any]:
     b: Particles = engine.beliefs[variable]
     n = engine.num_particles[variable]
@@ -122,6 +126,6 @@ def _resample_particles(engine: Engine, variable: str, frame) -> dict[str, Any]:
     return {"resampled": False, "ess": ess}
 
 
-@DEFAULT_RULES.register("estimate", Particles)
+@RULES.register("estimate", Particles)
 def _estimate_particles(engine: Engine, variable: str, frame) -> np.ndarray:
     return engine.beliefs[variable].mean()

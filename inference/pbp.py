@@ -57,12 +57,15 @@ from pgm.core.beliefs import Particles
 from pgm.core.numerics import log_normalize, logsumexp
 from pgm.factors import CouplingFactor
 
-from .rules import DEFAULT_RULES
+from .rules import RuleTable
 
 if TYPE_CHECKING:
     from .engine import Engine
 
 __all__ = ["MixtureMessage", "ProductMessage", "coupling_message", "fuse"]
+
+#: the rules of this family (:func:`pgm.inference.default_rules` gathers every family's)
+RULES = RuleTable()
 
 _CHUNK_ELEMENTS = 1 << 21  # rows of the (N, M, d) difference tensor per chunk
 
@@ -102,7 +105,7 @@ def _subsample(engine: Engine, log_weights: np.ndarray) -> tuple[np.ndarray | No
     return idx, np.full(m, -np.log(m))
 
 
-@DEFAULT_RULES.register(CouplingFactor, Particles)
+@RULES.register(CouplingFactor, Particles)
 def coupling_message(engine: Engine, factor, frame, src: str, dst: str) -> dict | None:
     """Compute the message ``src → dst`` of a coupling factor (mixture or product)."""
     fusion = engine.settings.fusion
@@ -146,7 +149,7 @@ def coupling_message(engine: Engine, factor, frame, src: str, dst: str) -> dict 
     return None
 
 
-@DEFAULT_RULES.register("fuse", Particles)
+@RULES.register("fuse", Particles)
 def fuse(engine: Engine, variable: str, frame) -> dict:
     """Combine ``variable``'s own weighted particles with its incoming messages."""
     b: Particles = engine.beliefs[variable]

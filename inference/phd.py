@@ -54,13 +54,16 @@ from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
 from pgm.factors.multitarget import PHDLikelihood
 from pgm.factors.scores import ScoreCalibration, shadowed
 
-from .rules import DEFAULT_RULES
+from .rules import RuleTable
 from .tracks import TrackManager
 
 if TYPE_CHECKING:
     from .engine import Engine
 
 __all__ = ["phd_correct", "extract", "phd_factor_of", "appearance_log_scores", "score_terms"]
+
+#: the rules of this family (:func:`pgm.inference.default_rules` gathers every family's)
+RULES = RuleTable()
 
 
 def phd_factor_of(engine: Engine, variable: str) -> PHDLikelihood:
@@ -191,7 +194,7 @@ def _install_tracks(engine: Engine, variable: str) -> None:
         scaled=f.scaled if f.scale_index is not None else None)
 
 
-@DEFAULT_RULES.register(PriorFactor, Intensity)
+@RULES.register(PriorFactor, Intensity)
 def _prior_intensity(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     d = engine.graph.variables[var].dim
@@ -205,7 +208,7 @@ def _prior_intensity(engine: Engine, factor, frame) -> None:
     _install_tracks(engine, var)
 
 
-@DEFAULT_RULES.register(TransitionFactor, Intensity)
+@RULES.register(TransitionFactor, Intensity)
 def _predict_intensity(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     b: Intensity = engine.beliefs[var]
@@ -271,20 +274,20 @@ def _finish(engine: Engine, var: str, factor: PHDLikelihood, res: dict[str, Any]
     state.last = res
 
 
-@DEFAULT_RULES.register(LikelihoodFactor, Intensity)
+@RULES.register(LikelihoodFactor, Intensity)
 def _appearance_on_intensity(engine: Engine, factor, frame) -> None:
     """An appearance factor on a set: it enters inside the PHD corrector, not here."""
     return None
 
 
-@DEFAULT_RULES.register(PHDLikelihood, Intensity)
+@RULES.register(PHDLikelihood, Intensity)
 def _correct_intensity(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     res = _update(engine, var, factor, frame)
     _finish(engine, var, factor, res, factor.R)
 
 
-@DEFAULT_RULES.register("resample", Intensity)
+@RULES.register("resample", Intensity)
 def _resample_intensity(engine: Engine, variable: str, frame) -> dict[str, Any]:
     b: Intensity = engine.beliefs[variable]
     if b.num == 0:
@@ -338,7 +341,7 @@ def extract(res: dict[str, Any], merge_gate: float, sigma: np.ndarray,
     return states[chosen], keep[chosen]
 
 
-@DEFAULT_RULES.register("estimate", Intensity)
+@RULES.register("estimate", Intensity)
 def _estimate_intensity(engine: Engine, variable: str, frame) -> dict[str, Any]:
     state = engine.state.find(variable, PHDState) or PHDState()
     res = state.last

@@ -163,6 +163,11 @@ class RuleTable:
         """Every registered ``((key, belief type), rule)`` pair."""
         return list(self._rules.items())
 
+    def update(self, other: RuleTable) -> None:
+        """Add ``other``'s rules (they replace rules registered for the same keys)."""
+        self._rules.update(other._rules)
+        self._resolved.clear()
+
     def copy(self) -> RuleTable:
         """An independent copy (to add rules for one engine only)."""
         return RuleTable(self._rules)

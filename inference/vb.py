@@ -49,47 +49,50 @@ from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, PHDLikel
 
 from .kalman import kalman_update, vb_akf_batch
 from .phd import PHDState, _finish, _update, phd_factor_of
-from .rules import DEFAULT_RULES
+from .rules import RuleTable
 
 if TYPE_CHECKING:
     from .engine import Engine
 
 __all__ = ["vb_akf_update", "gaussian_elbo_terms"]
 
+#: the rules of this family (:func:`pgm.inference.default_rules` gathers every family's)
+RULES = RuleTable()
+
 
 # -- noise beliefs -------------------------------------------------------------------------
-@DEFAULT_RULES.register(InverseGammaPrior, InverseGamma)
+@RULES.register(InverseGammaPrior, InverseGamma)
 def _prior_noise(engine: Engine, factor, frame) -> None:
     engine.beliefs[factor.variables[0]] = factor.belief()
 
 
-@DEFAULT_RULES.register(NoiseForgetting, InverseGamma)
+@RULES.register(NoiseForgetting, InverseGamma)
 def _forget_noise(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     engine.beliefs[var] = engine.beliefs[var].forget(factor.rho, factor.alpha_min)
 
 
-@DEFAULT_RULES.register("estimate", InverseGamma)
+@RULES.register("estimate", InverseGamma)
 def _estimate_noise(engine: Engine, variable: str, frame) -> np.ndarray:
     return engine.beliefs[variable].r_hat()
 
 
 # -- a plate's noise beliefs, all replicas at once ------------------------------------------
-@DEFAULT_RULES.register(InverseGammaPrior, BatchedInverseGamma)
+@RULES.register(InverseGammaPrior, BatchedInverseGamma)
 def _prior_noise_batched(engine: Engine, factor, frame) -> None:
     """Each replica's prior belief (its own copy of the prior factor's), stacked."""
     engine.beliefs[factor.variables[0]] = BatchedInverseGamma.stack(
         [g.factors[factor.name].belief() for g in engine.replicas.graphs])
 
 
-@DEFAULT_RULES.register(NoiseForgetting, BatchedInverseGamma)
+@RULES.register(NoiseForgetting, BatchedInverseGamma)
 def _forget_noise_batched(engine: Engine, factor, frame) -> None:
     """The forgetting prediction of every replica's noise belief."""
     var = factor.variables[0]
     engine.beliefs[var] = engine.beliefs[var].forget(factor.rho, factor.alpha_min)
 
 
-@DEFAULT_RULES.register("estimate", BatchedInverseGamma)
+@RULES.register("estimate", BatchedInverseGamma)
 def _estimate_noise_batched(engine: Engine, variable: str, frame) -> np.ndarray:
     """``β/α`` per replica, ``(K, d)``."""
     return engine.beliefs[variable].r_hat()
@@ -97,12 +100,12 @@ def _estimate_noise_batched(engine: Engine, variable: str, frame) -> np.ndarray:
 
 
 # -- exact Gaussian rules (Kalman) ------------------------------------------------------------
-@DEFAULT_RULES.register(GaussianPrior, Gaussian)
+@RULES.register(GaussianPrior, Gaussian)
 def _prior_gaussian(engine: Engine, factor, frame) -> None:
     engine.beliefs[factor.variables[0]] = Gaussian(factor.mean(), factor.cov)
 
 
-@DEFAULT_RULES.register(LinearGaussianTransition, Gaussian)
+@RULES.register(LinearGaussianTransition, Gaussian)
 def _predict_gaussian(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     g: Gaussian = engine.beliefs[var]
@@ -121,7 +124,7 @@ def _kalman_update(g: Gaussian, H: np.ndarray, R: np.ndarray, z: np.ndarray) -> 
     return Gaussian(m, P)
 
 
-@DEFAULT_RULES.register(LinearGaussianLikelihood, Gaussian)
+@RULES.register(LinearGaussianLikelihood, Gaussian)
 def _update_gaussian(engine: Engine, factor, frame) -> None:
     var = factor.variables[0]
     z = _measurement(factor, frame)
@@ -129,12 +132,12 @@ def _update_gaussian(engine: Engine, factor, frame) -> None:
         engine.beliefs[var] = _kalman_update(engine.beliefs[var], factor.H, factor.R, z)
 
 
-@DEFAULT_RULES.register("estimate", Gaussian)
+@RULES.register("estimate", Gaussian)
 def _estimate_gaussian(engine: Engine, variable: str, frame) -> np.ndarray:
     return engine.beliefs[variable].mean
 
 
-@DEFAULT_RULES.register("resample", Gaussian)
+@RULES.register("resample", Gaussian)
 def _no_resample_gaussian(engine: Engine, variable: str, frame) -> None:
     return None
 
@@ -168,7 +171,7 @@ def vb_akf_update(prior: Gaussian, q_pred: InverseGamma, H: np.ndarray, z: np.nd
     return g, q, {"iterations": it, "elbo": elbo, "r_hat": q.r_hat()}
 
 
-@DEFAULT_RULES.register(VBNoise, Gaussian)
+@RULES.register(VBNoise, Gaussian)
 def _vb_gaussian(engine: Engine, factor, frame) -> dict[str, Any] | None:
     noise, target = factor.variables
     liks = [f for f in engine.graph.factors_of(target, "likelihood")
@@ -325,7 +328,7 @@ def _vb_phd_per_track(engine: Engine, factor, frame) -> dict[str, Any]:
             "r_hat_by_label": {lab: r_hat[g] for g, lab in enumerate(uniq.tolist())}}
 
 
-@DEFAULT_RULES.register(VBNoise, Intensity)
+@RULES.register(VBNoise, Intensity)
 def _vb_phd(engine: Engine, factor, frame) -> dict[str, Any]:
     if getattr(factor, "per_track", False):
         return _vb_phd_per_track(engine, factor, frame)

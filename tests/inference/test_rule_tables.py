@@ -136,3 +136,21 @@ def test_rule_table(row):
                 assert g == e
     else:
         np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-12)
+
+
+def test_default_rules_gathers_every_family_once():
+    """``default_rules()`` is a new table of every family's rules, no key registered by two
+    families, and the engine's default table holds them all."""
+    import pgm.inference as inf
+
+    seen: dict = {}
+    for family in inf.FAMILIES:
+        for key, _ in family.RULES.items():
+            assert key not in seen, (key, family.__name__, seen.get(key))
+            seen[key] = family.__name__
+    table = inf.default_rules()
+    assert table is not inf.DEFAULT_RULES
+    assert {k for k, _ in table.items()} == set(seen)
+    assert set(seen) <= {k for k, _ in inf.DEFAULT_RULES.items()}
+    table.remove(*next(iter(seen)))  # a new table: changing it leaves the default alone
+    assert next(iter(seen)) in {k for k, _ in inf.DEFAULT_RULES.items()}
