@@ -290,9 +290,9 @@ def _predict(factor, labels, m: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, 
 
 
 def _means(belief) -> np.ndarray:
-    """``(K, d)`` the replicas' means (a Gaussian batch's, or weighted particle means)."""
-    m = belief.mean
-    return m() if callable(m) else m
+    """``(K, d)`` the replicas' point estimates (a Gaussian batch's means, or weighted
+    particle means: the belief protocol's ``estimate()``)."""
+    return belief.estimate()
 
 
 @RULES.register(DetectionAssociation, BatchedParticles)

@@ -165,6 +165,10 @@ class BatchedParticles(ParticleArrays):
         w = self.weights
         return np.array([1.0 / float(np.dot(wk, wk)) for wk in w])
 
+    def estimate(self) -> np.ndarray:
+        """The point estimates of the belief protocol: ``(K, d)`` weighted means."""
+        return self.mean()
+
     def mean(self) -> np.ndarray:
         """``(K, d)`` weighted means (each row as :meth:`Particles.mean`)."""
         w = self.weights
@@ -379,6 +383,10 @@ class BatchedGaussian(_ArrayBatch):
     def dim(self) -> int:
         """Dimension of each replica's state."""
         return self.mean.shape[1]
+
+    def estimate(self) -> np.ndarray:
+        """The point estimates of the belief protocol: the ``(K, d)`` means."""
+        return self.mean
 
 
 class BatchedInverseGamma(_ArrayBatch):

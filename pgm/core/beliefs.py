@@ -167,6 +167,10 @@ class Particles(ParticleArrays):
         """Weighted mean, shape ``(d,)``."""
         return self.weights @ self.x
 
+    def estimate(self) -> np.ndarray:
+        """The point estimate of the belief protocol: the weighted mean."""
+        return self.mean()
+
     def cov(self) -> np.ndarray:
         """Weighted covariance, shape ``(d, d)``."""
         w = self.weights

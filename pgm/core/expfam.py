@@ -130,6 +130,10 @@ class Gaussian:
     def dim(self) -> int:
         return self.mean.size
 
+    def estimate(self) -> np.ndarray:
+        """The point estimate of the belief protocol: the mean."""
+        return self.mean
+
     def information(self) -> tuple[np.ndarray, np.ndarray]:
         """``(J, h) = (Σ⁻¹, Σ⁻¹ μ)``."""
         J = np.linalg.inv(self.cov)

@@ -78,3 +78,17 @@ def test_gaussian_and_noise_batches_and_the_type_table():
     assert batched_type(Intensity) is rep
     items = rep.stack([Intensity.empty(2), Intensity.empty(2)])
     assert items.K == 2 and items.select([1]).K == 1
+
+
+def test_every_belief_gives_its_point_estimate():
+    """The belief protocol's ``estimate()``: particles their weighted mean, a Gaussian its
+    mean, and their batches one row per replica."""
+    rows = _rows()
+    for p in rows:
+        np.testing.assert_array_equal(p.estimate(), p.mean())
+    np.testing.assert_array_equal(BatchedParticles.stack(rows).estimate(),
+                                  np.stack([p.mean() for p in rows]))
+    g = [Gaussian(np.full(2, k), np.eye(2)) for k in range(3)]
+    assert g[1].estimate() is g[1].mean
+    np.testing.assert_array_equal(BatchedGaussian.stack(g).estimate(),
+                                  np.stack([x.mean for x in g]))
