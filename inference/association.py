@@ -49,7 +49,6 @@ from pgm.factors.multitarget import VBNoise
 from .batched import per_replica
 from .kalman import kalman_update_batch, vb_akf_batch
 from .rules import RuleTable
-from .state import StateSlots
 from .vb import _vb_gaussian
 
 if TYPE_CHECKING:
@@ -121,10 +120,6 @@ class TrackState:
         if self.observations is None:
             self.observations = ObservationHistory(delta_t)
         return self.observations
-
-
-def _track_state(slots: StateSlots, variable: str) -> TrackState:
-    return slots.get(variable, TrackState)
 
 
 def detection_boxes(frame: FrameContext) -> np.ndarray:
@@ -323,7 +318,7 @@ def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, 
         a = assign(pred, boxes, scores, factor.rounds, **extra)
     else:
         reps = engine.replicas
-        histories = [_track_state(slots, var).observations_or(factor.delta_t)
+        histories = [slots.get(var, TrackState).observations_or(factor.delta_t)
                      for slots in reps.state]
         for h in histories:
             h.age += 1
@@ -348,7 +343,7 @@ def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, 
         for k, j in zip(a.rows, a.cols, strict=True):
             if not seen[j]:
                 continue
-            state = _track_state(engine.replicas.state[int(k)], var)
+            state = engine.replicas.state[int(k)].get(var, TrackState)
             models = state.appearance
             if models is None:
                 models = state.appearance = factor.appearance_model()
@@ -451,7 +446,7 @@ def update_assigned(engine: Engine, factor, frame: FrameContext) -> None:
     engine.beliefs[var] = BatchedGaussian(mean, cov)
     if factor.reupdate:  # each replica's last posterior, where a later gap starts from
         for i, k in enumerate(rows):
-            _track_state(engine.replicas.state[int(k)], var).posterior = (m[i].copy(),
+            engine.replicas.state[int(k)].get(var, TrackState).posterior = (m[i].copy(),
                                                                          P[i].copy())
     return info
 

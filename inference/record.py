@@ -7,12 +7,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from pgm.core.frame import FrameContext
-
-if TYPE_CHECKING:
-    from .engine import Engine
 
 __all__ = ["StepRecord", "Hook", "register_plate_runtime"]
 
@@ -53,7 +50,8 @@ class StepRecord:
     info: dict[str, Any] = field(default_factory=dict)
 
 
-Hook = Callable[["Engine", str, FrameContext, StepRecord], None]
+#: a hook: ``hook(engine, stage, frame, record)`` after each stage of a frame
+Hook = Callable[[Any, str, FrameContext, StepRecord], None]
 
 
 #: the plate's stages (:mod:`pgm.inference.plates`, which registers itself: the engine

@@ -1,12 +1,14 @@
 """The weight stage of the engine: likelihood factors grouped by ``batch_key`` and scored
 (one batched pass where their rules allow it, :data:`~pgm.inference.rules.GROUP_SCORING`),
 each rule's increment checked against the weight-stage contract (:mod:`pgm.inference.
-engine`), applied to the beliefs, and kept as the variables' local evidence.
+engine`), applied to the beliefs, and kept as the variables' local evidence. Each function
+takes the :class:`~pgm.inference.engine.Engine` it serves (typed ``Any`` here: the engine
+imports this module, not the other way).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -14,17 +16,15 @@ from pgm.core.errors import RuleContractError
 from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 
+from .record import StepRecord
 from .rules import GROUP_SCORING, Rule, likelihood_reweights
 from .state import ProposalState
-
-if TYPE_CHECKING:
-    from .engine import Engine, StepRecord
 
 __all__ = ["stage_weight", "weight_groups", "score_group", "likelihood_increment",
            "prior_log_mass", "check_log_likelihood"]
 
 
-def weight_groups(engine: Engine, items) -> list[tuple[list[Factor], list[Rule], bool]]:
+def weight_groups(engine: Any, items) -> list[tuple[list[Factor], list[Rule], bool]]:
     """Likelihood factors grouped by ``batch_key``, each group with its factors' rules
     and whether it is scored in one batched pass (resolved once, then cached)."""
     key = tuple(items)
@@ -56,7 +56,7 @@ def weight_groups(engine: Engine, items) -> list[tuple[list[Factor], list[Rule],
         groups = engine._groups_cache[key] = resolved
     return groups
 
-def stage_weight(engine: Engine, items, frame, record: StepRecord) -> None:
+def stage_weight(engine: Any, items, frame, record: StepRecord) -> None:
     """Apply the likelihood factors (the weight-stage contract: module docstring)."""
     before: dict[str, Any] = {}  # reweighted beliefs as they entered the stage
     log_lik: dict[str, np.ndarray] = {}
@@ -89,7 +89,7 @@ def stage_weight(engine: Engine, items, frame, record: StepRecord) -> None:
             engine.evidence[v] = (b0.log_weights, np.where(bad[:, None], 0.0, log_lik[v]))
             record.info.setdefault(v, {})["degenerate"] = np.flatnonzero(bad)
 
-def prior_log_mass(engine: Engine, variable: str, b0) -> Any:
+def prior_log_mass(engine: Any, variable: str, b0) -> Any:
     """The mass the frame's evidence is measured against: the belief's as the weight
     stage found it, or, after a proposal's weight correction, the mass before it."""
     if not engine._proposals:
@@ -103,14 +103,14 @@ def prior_log_mass(engine: Engine, variable: str, b0) -> Any:
         return b0.log_mass
     return np.array(held, dtype=float)
 
-def score_group(engine: Engine, fs: list[Factor], frame: FrameContext) -> list[np.ndarray]:
+def score_group(engine: Any, fs: list[Factor], frame: FrameContext) -> list[np.ndarray]:
     """Log-likelihoods of a group of factors scored in one batched pass."""
     if engine.replicas is not None:
         return engine._plates.score_group(engine, fs, frame)
     return type(fs[0]).log_likelihood_batch(fs, [engine.beliefs[f.variables[0]].x
                                                  for f in fs], frame)
 
-def likelihood_increment(engine: Engine, factor: Factor, rule: Rule, frame: FrameContext,
+def likelihood_increment(engine: Any, factor: Factor, rule: Rule, frame: FrameContext,
                          record: StepRecord) -> np.ndarray | None:
     """Call one likelihood rule; its increment, or None where it updated the belief."""
     v = factor.variables[0]

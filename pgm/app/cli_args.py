@@ -164,8 +164,6 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message: str):
         if message.startswith("unrecognized arguments:") and self.model_name is not None:
-            from .cli_track import explain_unknown_options
-
             flags = [a for a in message.split(":", 1)[1].split() if a.startswith("--")]
             better = explain_unknown_options(flags, self.model_name) if flags else None
             if better is not None:  # another model's option: an input error of its own
@@ -334,3 +332,20 @@ def parse_drop_frames(spec: str | None, n_frames: int | None) -> set[int]:
     except ValueError:
         raise InputError(f"--drop-frames must be ranges like '50-59,80' or 'P/L' with "
                          f"0 < L < P, got {spec!r}") from None
+
+
+def explain_unknown_options(flags: list[str], model: str | None) -> str | None:
+    """A message for options the chosen model does not take, naming the models that do
+    (``None`` when some flag is no model's option)."""
+    from pgm.models import option_owners
+
+    owners = {flag: [name for name, _ in pairs] for flag, pairs in option_owners().items()}
+    bases = [flag.split("=", 1)[0] for flag in flags]
+    if not bases or any(b not in owners for b in bases):
+        return None
+    what = f"model {model!r}" if model and not model.endswith(".json") else \
+        f"a saved model ({model}): its factors are fixed" if model else "this model"
+    takers = sorted({n for b in bases for n in owners[b]})
+    verb = "does" if len(bases) == 1 else "do"
+    return (f"{', '.join(bases)} {verb} not apply to {what} (models that take "
+            f"{'it' if len(bases) == 1 else 'them'}: {', '.join(takers)})")

@@ -32,7 +32,7 @@ from .cli_args import (
 )
 
 __all__ = ["cmd_track", "add_model_options", "model_values", "graph_from_config",
-           "default_model", "explain_unknown_options", "GENERIC_MULTI_TARGET"]
+           "default_model", "GENERIC_MULTI_TARGET"]
 
 #: options of ``pgm track`` that every multi-target model takes (measurements, gaps)
 GENERIC_MULTI_TARGET = ("detections", "detector", "drop_frames")
@@ -87,23 +87,6 @@ def default_model(source: str | None, multi_target_hint: bool) -> str:
         except (OSError, ValueError):
             pass
     return DEFAULT_SINGLE_OBJECT
-
-
-def explain_unknown_options(flags: list[str], model: str | None) -> str | None:
-    """A message for options the chosen model does not take, naming the models that do
-    (``None`` when some flag is no model's option)."""
-    from pgm.models import option_owners
-
-    owners = {flag: [name for name, _ in pairs] for flag, pairs in option_owners().items()}
-    bases = [flag.split("=", 1)[0] for flag in flags]
-    if not bases or any(b not in owners for b in bases):
-        return None
-    what = f"model {model!r}" if model and not model.endswith(".json") else \
-        f"a saved model ({model}): its factors are fixed" if model else "this model"
-    takers = sorted({n for b in bases for n in owners[b]})
-    verb = "does" if len(bases) == 1 else "do"
-    return (f"{', '.join(bases)} {verb} not apply to {what} (models that take "
-            f"{'it' if len(bases) == 1 else 'them'}: {', '.join(takers)})")
 
 
 def _with_init_box(graph, box_cxcywh: np.ndarray, path: str):

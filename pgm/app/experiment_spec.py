@@ -309,7 +309,7 @@ def _option_tokens(key: str, value: Any, base: Path, where: str,
                          f"{RESERVED_OPTIONS[dest]})")
     action = actions.get(dest)
     if (action is None or not action.option_strings) and model is not None:
-        from pgm.app.cli_track import explain_unknown_options
+        from pgm.app.cli_args import explain_unknown_options
 
         other = explain_unknown_options(["--" + key.replace("_", "-")], model)
         if other is not None:
