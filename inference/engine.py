@@ -70,19 +70,17 @@ from typing import Any
 
 import numpy as np
 
-from pgm.core.batched import batched_type
 from pgm.core.beliefs import Intensity, Particles
 from pgm.core.errors import RuleContractError
 from pgm.core.expfam import InverseGamma
 from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
-from pgm.core.readout import confidence
 from pgm.core.rng import as_generator
 from pgm.factors import LikelihoodFactor
 
 from . import weighting
-from .record import Hook, StepRecord, _plate_runtime
+from .record import Hook, StepRecord, runtime_for
 from .resampling import get_resampler
 from .rules import (
     BELIEF_OPERATIONS,
@@ -93,6 +91,7 @@ from .rules import (
 )
 from .schedule import STAGES, Schedule, derive_schedule, message_order
 from .settings import EngineSettings
+from .single import SINGLE_GRAPH
 from .state import StateSlots
 
 __all__ = ["Engine", "RuleTable", "DEFAULT_RULES", "StepRecord", "Schedule", "derive_schedule",
@@ -195,12 +194,13 @@ class Engine:
         self.t = 0
         self._hooks: dict[str, list[Hook]] = {s: [] for s in STAGES}
         self._stage_functions = {s: getattr(self, f"_stage_{s}") for s in STAGES}
-        #: the plate's replicas (:class:`pgm.inference.plates.Replicas`), or None
-        self.replicas = None
-        self.plate = self.graph.plates[0] if self.graph.plates else None
-        if self.plate is not None:
-            self._plates = _plate_runtime()  # the plate's stages
-            self._plates.setup(self)
+        #: the plate (:class:`~pgm.core.plate.Plate`) and its replicas
+        #: (:class:`pgm.inference.plates.Replicas`), or None (set by the runtime)
+        self.plate = self.replicas = None
+        #: how this graph's frame runs (:class:`SingleGraph`, or the runtime registered
+        #: for it: a plate's, :class:`pgm.inference.plates.PlateRuntime`)
+        self.runtime = runtime_for(self.graph) or SINGLE_GRAPH
+        self.runtime.setup(self)
         self._check_rules()
 
     # -- set-up ------------------------------------------------------------------------
@@ -225,15 +225,9 @@ class Engine:
         return bt
 
     def belief_type(self, variable: str) -> type:
-        """Belief class of a variable: its role's, batched for a plate variable."""
-        bt = self.row_belief_type(variable)
-        if self.plate is not None and variable in self.plate.variables:
-            if issubclass(bt, Particles) and bt is not Particles:
-                raise ValueError(f"variable {variable!r}: a plate keeps Particles batched "
-                                 f"(BatchedParticles); {bt.__name__} has no batched form (give "
-                                 f"it one and register its rules, or use Particles)")
-            return batched_type(bt)
-        return bt
+        """Belief class of a variable: its role's, as the runtime keeps it (batched for a
+        plate variable)."""
+        return self.runtime.belief_type(self, variable, self.row_belief_type(variable))
 
     def factor_belief_type(self, factor: Factor) -> type:
         """The belief type a factor's rule is dispatched on (its first non-noise variable's)."""
@@ -282,34 +276,32 @@ class Engine:
     def predicts_missing_frames(self) -> bool:
         """Whether a frame with neither image nor detections is predicted through (a
         plate's replicas are; a single graph's likelihoods need their frame)."""
-        return self.plate is not None
+        return self.runtime.predicts_missing_frames
 
     @property
     def num_targets(self) -> int:
         """Number of replicas ``K`` of the plate (tentative, confirmed and lost); 0 without."""
-        return self.replicas.K if self.replicas is not None else 0
+        return self.runtime.num_targets(self)
 
     @property
     def tracks(self) -> list:
         """The replicas' track records (identities, hits, existence), in replica order."""
-        return list(self.replicas.tracks) if self.replicas is not None else []
+        return self.runtime.tracks(self)
 
     def factor(self, name: str, replica: int | None = None) -> Factor:
         """The factor ``name`` (as replica ``replica`` uses it: its own copy if it learns)."""
-        if replica is None or self.replicas is None:
-            return self.graph.factors[name]
-        return self.replicas.graphs[replica].factors[name]
+        return self.runtime.factor(self, name, replica)
 
     def add(self, boxes: np.ndarray | None, frame: FrameContext, rngs=None,
             confirmed: bool = False, count: int | None = None) -> list[int]:
         """Start replicas of the plate on ``boxes`` ``(M, 4)`` (cx, cy, w, h) in ``frame``
         (:func:`pgm.inference.plates.add`); returns their indices."""
-        return _plate_runtime().add(self, boxes, frame, rngs=rngs, confirmed=confirmed,
-                                    count=count)
+        return self.runtime.add(self, boxes, frame, rngs=rngs, confirmed=confirmed,
+                                count=count)
 
     def remove(self, indices) -> None:
         """Remove the replicas at ``indices``."""
-        _plate_runtime().remove(self, indices)
+        self.runtime.remove(self, indices)
 
     # -- running -----------------------------------------------------------------------
     def step(self, frame: FrameContext, *, lifecycle: bool = True) -> StepRecord:
@@ -332,15 +324,10 @@ class Engine:
         # the record is filled as the stages run: a hook sees this frame's messages, ESS,
         # diagnostics and estimates so far (the messages' dict is the engine's own)
         record = StepRecord(frame=frame.index, messages=self.messages)
-        if self.plate is None:
-            self._run(self.schedule.first_frame if self.t == 0 else self.schedule.phases,
-                      frame, record)
-        else:
-            self._plates.step(self, frame, record, lifecycle)
+        self.runtime.step(self, frame, record, lifecycle)
         record.beliefs = dict(self.beliefs)
         record.messages = dict(self.messages)
-        if self._proposals and self.plate is None:
-            self.confidence = confidence(self.graph, record)
+        self.runtime.finish(self, record)
         self.t += 1
         return record
 
@@ -378,8 +365,8 @@ class Engine:
             self._apply_factor(name, frame, record)
         if not self._initializers:
             return
-        graphs = [self.graph] if self.replicas is None else self.replicas.graphs
-        for g in graphs:  # templates learned at the prior mean (each replica its own)
+        for g in self.runtime.graphs(self):  # templates learned at the prior mean (each
+            # replica its own)
             for name in self._initializers:
                 f = g.factors[name]
                 priors = g.factors_of(f.variables[0], "prior")
@@ -429,16 +416,10 @@ class Engine:
         for v in items:
             rule = self.rules.lookup("estimate", type(self.beliefs[v]))
             record.estimates[v] = rule(self, v, frame)
-        if self.replicas is not None:
-            self._plates.learn(self, items, frame, record)
-        elif self._learners:
-            scores = {v: self.score_at(v, record.estimates[v], frame) for v in items
-                      if self.graph.factors_of(v, "likelihood")}
-            for f in self._learners:
-                f.update(record.estimates, scores, frame)
+        self.runtime.learn(self, items, frame, record)
 
     def _stage_associate(self, items, frame, record) -> None:
-        self._plates.associate(self, frame, record)
+        self.runtime.associate(self, frame, record)
 
     def log_likelihood(self, variable: str, x: np.ndarray, frame: FrameContext) -> np.ndarray:
         """Sum of ``variable``'s likelihood factors at particles ``x`` ``(N, d)``."""
@@ -451,3 +432,4 @@ class Engine:
         """Summed log-likelihood of ``variable``'s likelihood factors at one value."""
         x = np.asarray(value, dtype=float).reshape(1, -1)
         return float(self.log_likelihood(variable, x, frame)[0])
+

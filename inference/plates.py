@@ -40,15 +40,16 @@ Example
 from __future__ import annotations
 
 import copy
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pgm.core.batched import BatchedGaussian, BatchedParticles
+from pgm.core.batched import BatchedGaussian, BatchedParticles, batched_type
+from pgm.core.beliefs import Particles
 from pgm.core.boxes import box_coding, cxcywh_to_xywh, iou_xywh, state_boxes
+from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
 from pgm.core.readout import Targets, register_readout
@@ -56,9 +57,10 @@ from pgm.factors import LikelihoodFactor
 
 from . import batched as _batched  # noqa: F401  (registers the batched rules)
 from .association import detection_boxes  # (and the exact Kalman replicas' rules)
-from .batched import box_columns, score_group  # noqa: F401  (score_group: the engine's)
+from .batched import box_columns, score_group  # noqa: F401  (box_columns: re-exported)
 from .engine import Engine, StepRecord
-from .record import register_plate_runtime
+from .record import register_runtime
+from .single import SingleGraph
 from .state import StateSlots
 from .tracks import Track, confirm_tracks, existences, match, reported, update_tracks
 
@@ -153,9 +155,9 @@ class PlateSpec:
 
 
 def setup(engine: Engine) -> None:
-    """Check a plate graph and give ``engine`` its (empty) replicas."""
+    """Check a plate graph and give ``engine`` its plate and (empty) replicas."""
     g = engine.graph
-    plate = engine.plate
+    plate = engine.plate = g.plates[0]
     outside = [v for v in g.variables if v not in plate.variables]
     if outside:
         raise ValueError(f"graph {g.name!r}: variables {outside} are outside the plate "
@@ -246,8 +248,6 @@ def add(engine: Engine, boxes: np.ndarray | None, frame: FrameContext,
     resample), as a single-graph engine treats its first frame. ``rngs`` gives each
     replica its generator (default: spawned from the engine's); ``confirmed`` starts them
     with identities (targets given by the user). Returns their indices."""
-    if engine.plate is None:
-        raise ValueError(f"graph {engine.graph.name!r} declares no plate: it has no replicas")
     if not isinstance(frame, FrameContext):
         raise ValueError(f"add() needs a FrameContext, got {type(frame).__name__}")
     spec = engine.plate_spec
@@ -499,4 +499,53 @@ def plate_targets(graph: FactorGraph, record: StepRecord) -> Targets:
                    info["existence"][keep], text=f"{int(keep.sum())} targets")
 
 
-register_plate_runtime(sys.modules[__name__])
+class PlateRuntime(SingleGraph):
+    """How the engine runs a plate graph: the module's :func:`setup`, :func:`step`,
+    :func:`learn`, :func:`associate`, :func:`add` and :func:`remove` on ``K`` replicas
+    whose beliefs are batched (the engine's step loop and stages are a single graph's)."""
+
+    predicts_missing_frames = True
+    group_scoring = "replicas"  # the replicas' copies of a factor scored together
+
+    setup = staticmethod(setup)
+    step = staticmethod(step)
+    learn = staticmethod(learn)
+    associate = staticmethod(associate)
+    add = staticmethod(add)
+    remove = staticmethod(remove)
+    score_group = staticmethod(score_group)
+
+    def belief_type(self, engine: Engine, variable: str, row_type: type) -> type:
+        if issubclass(row_type, Particles) and row_type is not Particles:
+            raise ValueError(f"variable {variable!r}: a plate keeps Particles batched "
+                             f"(BatchedParticles); {row_type.__name__} has no batched form "
+                             f"(give it one and register its rules, or use Particles)")
+        return batched_type(row_type)
+
+    def finish(self, engine: Engine, record: StepRecord) -> None:
+        pass
+
+    def graphs(self, engine: Engine) -> list[FactorGraph]:
+        return engine.replicas.graphs
+
+    def state_slots(self, engine: Engine) -> list[StateSlots]:
+        return engine.replicas.state
+
+    def normalize(self, engine: Engine, variable: str, belief, before):
+        """Normalised; a replica no particle of which explains the frame keeps its
+        prediction ``before`` (second: which replicas did)."""
+        return belief.normalized(fallback=before)
+
+    def num_targets(self, engine: Engine) -> int:
+        return engine.replicas.K
+
+    def tracks(self, engine: Engine) -> list:
+        return list(engine.replicas.tracks)
+
+    def factor(self, engine: Engine, name: str, replica: int | None) -> Factor:
+        if replica is None:
+            return engine.graph.factors[name]
+        return engine.replicas.graphs[replica].factors[name]
+
+
+register_runtime(lambda graph: bool(graph.plates), PlateRuntime())

@@ -1,6 +1,6 @@
 """What the engine core hands out and takes in: the step record of a frame, the hook
-type, and the plate's stages registered by :mod:`pgm.inference.plates` (the core does
-not import the rule families above it).
+type, and the runtimes registered for graphs the core does not run by itself (a plate's,
+by :mod:`pgm.inference.plates`: the core does not import the rule families above it).
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from typing import Any
 
 from pgm.core.frame import FrameContext
 
-__all__ = ["StepRecord", "Hook", "register_plate_runtime"]
+__all__ = ["StepRecord", "Hook", "register_runtime", "runtime_for"]
 
 
 @dataclass
@@ -54,20 +54,22 @@ class StepRecord:
 Hook = Callable[[Any, str, FrameContext, StepRecord], None]
 
 
-#: the plate's stages (:mod:`pgm.inference.plates`, which registers itself: the engine
-#: core does not import the rule families above it)
-_PLATE_RUNTIME: Any = None
+#: runtimes for graphs the engine core does not run by itself, as ``(applies, runtime)``:
+#: :mod:`pgm.inference.plates` registers the plate's (the engine core does not import the
+#: rule families above it); a graph no runtime applies to runs as one graph
+_RUNTIMES: list[tuple[Callable[[Any], bool], Any]] = []
 
 
-def register_plate_runtime(runtime: Any) -> None:
-    """Give the engine the plate's stages (``setup``, ``step``, ``add``, ``remove``,
-    ``score_group``, ``learn``, ``associate``): :mod:`pgm.inference.plates` calls it when
-    imported."""
-    global _PLATE_RUNTIME
-    _PLATE_RUNTIME = runtime
+def register_runtime(applies: Callable[[Any], bool], runtime: Any) -> None:
+    """Run the graphs for which ``applies(graph)`` holds with ``runtime`` (an object with
+    the methods of :class:`pgm.inference.engine.SingleGraph`); a later registration is
+    asked first."""
+    _RUNTIMES.insert(0, (applies, runtime))
 
 
-def _plate_runtime() -> Any:
-    if _PLATE_RUNTIME is None:  # pragma: no cover - pgm.inference imports the plates
-        raise RuntimeError("no plate runtime registered: import pgm.inference")
-    return _PLATE_RUNTIME
+def runtime_for(graph: Any) -> Any | None:
+    """The registered runtime that runs ``graph``, or None (the engine's own)."""
+    for applies, runtime in _RUNTIMES:
+        if applies(graph):
+            return runtime
+    return None

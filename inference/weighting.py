@@ -47,11 +47,10 @@ def weight_groups(engine: Any, items) -> list[tuple[list[Factor], list[Rule], bo
         for names in groups:
             fs = [engine.graph.factors[n] for n in names]
             rules = [engine.rule_for(f) for f in fs]
-            if engine.replicas is None:  # one graph's factors scored in one pass
-                batched = len(fs) > 1 and all(GROUP_SCORING.get(r) == "graph"
-                                              for r in rules)
-            else:  # a plate: replicas' copies scored together (pgm.inference.plates)
-                batched = all(GROUP_SCORING.get(r) == "replicas" for r in rules)
+            # in one pass: several factors of one graph, or a plate's replicas' copies
+            kind = engine.runtime.group_scoring
+            batched = ((len(fs) > 1 or kind == "replicas")
+                       and all(GROUP_SCORING.get(r) == kind for r in rules))
             resolved.append((fs, rules, batched))
         groups = engine._groups_cache[key] = resolved
     return groups
@@ -80,12 +79,9 @@ def stage_weight(engine: Any, items, frame, record: StepRecord) -> None:
         engine.evidence[v] = (b0.log_weights, log_lik[v])
         record.log_evidence[v] = b.log_mass - prior_log_mass(engine, v, b0)
         record.ess[v] = b.ess
-        if engine.replicas is None:
-            engine.beliefs[v] = b.normalized()
-            continue
-        # a replica no particle of which explains the frame keeps its prediction
-        engine.beliefs[v], bad = b.normalized(fallback=b0)
-        if bad.any():
+        # (a replica of a plate no particle of which explains the frame keeps its prediction)
+        engine.beliefs[v], bad = engine.runtime.normalize(engine, v, b, b0)
+        if bad is not None and bad.any():
             engine.evidence[v] = (b0.log_weights, np.where(bad[:, None], 0.0, log_lik[v]))
             record.info.setdefault(v, {})["degenerate"] = np.flatnonzero(bad)
 
@@ -94,21 +90,15 @@ def prior_log_mass(engine: Any, variable: str, b0) -> Any:
     stage found it, or, after a proposal's weight correction, the mass before it."""
     if not engine._proposals:
         return b0.log_mass
-    slots = [engine.state] if engine.replicas is None else engine.replicas.state
     held = [None if (s := slot.find(variable, ProposalState)) is None else s.take()
-            for slot in slots]
-    if engine.replicas is None:
-        return b0.log_mass if held[0] is None else held[0]
+            for slot in engine.runtime.state_slots(engine)]
     if any(h is None for h in held):
         return b0.log_mass
-    return np.array(held, dtype=float)
+    return held[0] if np.ndim(b0.log_mass) == 0 else np.array(held, dtype=float)
 
 def score_group(engine: Any, fs: list[Factor], frame: FrameContext) -> list[np.ndarray]:
     """Log-likelihoods of a group of factors scored in one batched pass."""
-    if engine.replicas is not None:
-        return engine._plates.score_group(engine, fs, frame)
-    return type(fs[0]).log_likelihood_batch(fs, [engine.beliefs[f.variables[0]].x
-                                                 for f in fs], frame)
+    return engine.runtime.score_group(engine, fs, frame)
 
 def likelihood_increment(engine: Any, factor: Factor, rule: Rule, frame: FrameContext,
                          record: StepRecord) -> np.ndarray | None:

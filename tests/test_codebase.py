@@ -1,6 +1,7 @@
 """Codebase rules: import direction, no global random state, no pickle-style loading."""
 
 import ast
+import re
 from pathlib import Path
 
 import pytest
@@ -197,3 +198,16 @@ def test_no_import_circle_among_the_engine_modules():
     for m in sorted(graph):
         if m not in state:
             visit(m)
+
+
+def test_the_engine_step_loop_has_no_plate_branch():
+    """What differs between one graph and a plate is the engine's runtime
+    (``pgm.inference.single.SingleGraph``, ``pgm.inference.plates.PlateRuntime``): the
+    engine and its weight stage never test whether a graph has a plate or replicas."""
+    pattern = re.compile(r"(plate|replicas)\s+is\s+(not\s+)?None|if\s+(not\s+)?[\w.]*\.(plate|"
+                         r"replicas|plates)\b|\bgraph\.plates\b")
+    for name in ("engine.py", "weighting.py", "single.py"):
+        text = (LAYERS["pgm.inference"] / name).read_text()
+        hits = [line.strip() for line in text.splitlines() if pattern.search(line)]
+        assert not hits, f"inference/{name} branches on the plate: {hits}"
+

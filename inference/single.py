@@ -1,0 +1,105 @@
+"""How the engine runs a graph without a plate (:class:`SingleGraph`): the one runtime the
+engine core holds itself. A runtime is what differs between one graph and a plate of its
+replicas; the plate's (:class:`pgm.inference.plates.PlateRuntime`) registers itself with
+:func:`pgm.inference.record.register_runtime`. Each method takes the
+:class:`~pgm.inference.engine.Engine` it serves (typed ``Any``: the engine imports this
+module, not the other way).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pgm.core.factor import Factor
+from pgm.core.frame import FrameContext
+from pgm.core.graph import FactorGraph
+from pgm.core.readout import confidence
+
+from .record import StepRecord
+from .state import StateSlots
+
+__all__ = ["SingleGraph", "SINGLE_GRAPH"]
+
+
+class SingleGraph:
+    """How the engine runs a graph without a plate: the schedule on the graph's own
+    beliefs, learning factors updated on the graph itself.
+
+    A *runtime* is what differs between a single graph and a plate of replicas (the
+    plate's is :class:`pgm.inference.plates.PlateRuntime`, registered with
+    :func:`pgm.inference.record.register_runtime`); the engine's step loop, stages and
+    rule dispatch are the same for both. A runtime has the methods below."""
+
+    #: whether a frame with neither image nor detections is predicted through
+    predicts_missing_frames = False
+    #: which likelihood rules' factors the weight stage scores in one pass
+    #: (:data:`pgm.inference.rules.GROUP_SCORING`): several factors of one graph
+    group_scoring = "graph"
+
+    def setup(self, engine: Any) -> None:
+        """Check the graph and give the engine its empty state (none for one graph)."""
+
+    def belief_type(self, engine: Any, variable: str, row_type: type) -> type:
+        """The belief class the engine keeps for ``variable`` (one replica's: ``row_type``)."""
+        return row_type
+
+    def step(self, engine: Any, frame: FrameContext, record: StepRecord,
+             lifecycle: bool) -> None:
+        """Run one frame's stages (the first frame's on the first call)."""
+        engine._run(engine.schedule.first_frame if engine.t == 0 else engine.schedule.phases,
+                    frame, record)
+
+    def finish(self, engine: Any, record: StepRecord) -> None:
+        """After the frame (its record complete): the graph's calibrated confidence, kept
+        where a proposal may read it."""
+        if engine._proposals:
+            engine.confidence = confidence(engine.graph, record)
+
+    def graphs(self, engine: Any) -> list[FactorGraph]:
+        """The graphs whose factors the frame uses (one per replica of a plate)."""
+        return [engine.graph]
+
+    def state_slots(self, engine: Any) -> list[StateSlots]:
+        """The rules' state slots (one per replica of a plate)."""
+        return [engine.state]
+
+    def learn(self, engine: Any, items, frame: FrameContext, record: StepRecord) -> None:
+        """After the estimate stage: the factors that learn are updated with the
+        estimates and the likelihood scores there."""
+        if engine._learners:
+            scores = {v: engine.score_at(v, record.estimates[v], frame) for v in items
+                      if engine.graph.factors_of(v, "likelihood")}
+            for f in engine._learners:
+                f.update(record.estimates, scores, frame)
+
+    def normalize(self, engine: Any, variable: str, belief, before):
+        """A reweighted belief normalised; second, the rows kept at ``before`` (none)."""
+        return belief.normalized(), None
+
+    def score_group(self, engine: Any, fs: list[Factor], frame: FrameContext) -> list:
+        """Log-likelihoods of likelihood factors of one graph scored in one pass."""
+        return type(fs[0]).log_likelihood_batch(fs, [engine.beliefs[f.variables[0]].x
+                                                     for f in fs], frame)
+
+    def num_targets(self, engine: Any) -> int:
+        return 0
+
+    def tracks(self, engine: Any) -> list:
+        return []
+
+    def factor(self, engine: Any, name: str, replica: int | None) -> Factor:
+        return engine.graph.factors[name]
+
+    def associate(self, engine: Any, frame: FrameContext, record: StepRecord) -> None:
+        raise ValueError(f"graph {engine.graph.name!r} declares no plate: nothing to "
+                         f"associate")
+
+    def add(self, engine: Any, boxes, frame, **kwargs) -> list[int]:
+        raise ValueError(f"graph {engine.graph.name!r} declares no plate: it has no replicas")
+
+    def remove(self, engine: Any, indices) -> None:
+        raise ValueError(f"graph {engine.graph.name!r} declares no plate: it has no replicas")
+
+
+#: the runtime of every graph no registered runtime applies to
+SINGLE_GRAPH = SingleGraph()
