@@ -12,6 +12,7 @@ from . import (
     schedule,
     vb,
 )
+from .context import RuleContext
 from .engine import (
     DEFAULT_RULES,
     Engine,
@@ -47,4 +48,4 @@ DEFAULT_RULES.update(default_rules())
 __all__ = ["Engine", "RuleTable", "DEFAULT_RULES", "Schedule", "StepRecord", "derive_schedule",
            "kalman_filter", "KalmanResult", "linear_gaussian_matrices", "resampling", "pbp",
            "message_order", "phd", "vb", "plates", "batched", "rules", "schedule", "particles",
-           "association", "default_rules", "FAMILIES"]
+           "association", "default_rules", "FAMILIES", "RuleContext"]

@@ -14,7 +14,7 @@ Gaussian})``; the factors are :mod:`pgm.factors.association`'s):
 * **assign** — :class:`~pgm.factors.association.DetectionAssociation`: the predicted boxes
   against the frame's detections, Hungarian assignment on IoU (or on IoU × score, or on
   the buffered IoU), round by round, each round on its pool of replicas (all, confirmed,
-  tracked, lost or tentative) (:class:`Assignment`, kept as ``engine.assignment`` for the
+  tracked, lost or tentative) (:class:`Assignment`, kept as ``ctx.assignment`` for the
   frame);
 * **weight** — :class:`~pgm.factors.association.AssignedDetectionLikelihood`: the Kalman
   update of each assigned replica with its detection (Joseph form), batched;
@@ -30,7 +30,7 @@ The Kalman and VB adaptive Kalman updates are :mod:`pgm.inference.kalman`'s (one
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -47,12 +47,10 @@ from pgm.factors.association import (
 from pgm.factors.multitarget import VBNoise
 
 from .batched import per_replica
+from .context import RuleContext
 from .kalman import kalman_update_batch, vb_akf_batch
 from .rules import RuleTable
 from .vb import _vb_gaussian
-
-if TYPE_CHECKING:
-    from .engine import Engine
 
 __all__ = ["Assignment", "assign", "detection_boxes", "iou_matrix",
            "direction_consistency", "ObservationHistory"]
@@ -90,7 +88,7 @@ class Assignment:
 
 @dataclass
 class AssociationState:
-    """What the association keeps across frames (``engine.state.get(factor.name,
+    """What the association keeps across frames (``ctx.state.get(factor.name,
     AssociationState)``): the run's score model of a learned or quantile score map."""
 
     score_model: Any = None
@@ -99,7 +97,7 @@ class AssociationState:
 @dataclass
 class TrackState:
     """What the association's rules keep per replica for its box variable
-    (``engine.replicas.state[k].get(variable, TrackState)``).
+    (``ctx.replicas.state[k].get(variable, TrackState)``).
 
     Attributes
     ----------
@@ -243,20 +241,20 @@ def direction_consistency(velocity: np.ndarray, known: np.ndarray, reference: np
 
 
 @RULES.register(GaussianPrior, BatchedGaussian)
-def prior_gaussians(engine: Engine, factor, frame: FrameContext) -> None:
+def prior_gaussians(ctx: RuleContext, factor, frame: FrameContext) -> None:
     """Each replica's prior (its own, re-centred on its birth box), stacked."""
-    priors = [g.factors[factor.name] for g in engine.replicas.graphs]
-    engine.beliefs[factor.variables[0]] = BatchedGaussian(
+    priors = [g.factors[factor.name] for g in ctx.replicas.graphs]
+    ctx.beliefs[factor.variables[0]] = BatchedGaussian(
         np.stack([p.mean() for p in priors]), np.stack([p.cov for p in priors]))
 
 
 @RULES.register(LinearGaussianTransition, BatchedGaussian)
-def predict_gaussians(engine: Engine, factor, frame: FrameContext) -> None:
+def predict_gaussians(ctx: RuleContext, factor, frame: FrameContext) -> None:
     """``m ← F m``, ``P ← F P Fᵀ + Q`` for every replica."""
     var = factor.variables[0]
-    b: BatchedGaussian = engine.beliefs[var]
-    m, P = b.mean, b.cov
-    labels = engine.graph.variables[var].labels
+    b: BatchedGaussian = ctx.beliefs[var]
+    m, P = b.m, b.P
+    labels = ctx.graph.variables[var].labels
     camera = getattr(factor, "camera", "box")
     warp = None if camera == "none" else linear_state_warp(
         labels, frame.camera_motion, sizes="keep" if camera == "centre" else "scale")
@@ -268,7 +266,7 @@ def predict_gaussians(engine: Engine, factor, frame: FrameContext) -> None:
     if warp is not None and after:  # the prediction into this frame's image (BoT-SORT)
         T, c = warp
         m, P = m @ T.T + c, T @ P @ T.T
-    engine.beliefs[var] = BatchedGaussian(m, P)
+    ctx.beliefs[var] = BatchedGaussian(m, P)
 
 
 def _predict(factor, labels, m: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -292,32 +290,32 @@ def _means(belief) -> np.ndarray:
 
 @RULES.register(DetectionAssociation, BatchedParticles)
 @RULES.register(DetectionAssociation, BatchedGaussian)
-def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, Any]:
-    """The ``assign`` stage: ``engine.assignment`` for this frame (and, for momentum and
+def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> dict[str, Any]:
+    """The ``assign`` stage: ``ctx.assignment`` for this frame (and, for momentum and
     recovery rounds, each replica's observation history, :class:`TrackState`). The
     replicas' predicted boxes are their means: a Kalman replica's, or a particle
     replica's weighted mean."""
     var = factor.variables[0]
-    pred = state_boxes(engine.graph.variables[var].labels, _means(engine.beliefs[var]))
+    pred = state_boxes(ctx.graph.variables[var].labels, _means(ctx.beliefs[var]))
     boxes = detection_boxes(frame)
     model = None
     if factor.score_map in LEARNED_SCORE_MAPS:  # the run's score model, kept with the engine
-        state = engine.state.get(factor.name, AssociationState)
+        state = ctx.state.get(factor.name, AssociationState)
         model = state.score_model
         if model is None:
             model = state.score_model = factor.score_model()
     scores = factor.scores(frame, model, boxes)
-    looks = _appearance(engine, factor, frame, boxes)
+    looks = _appearance(ctx, factor, frame, boxes)
     extra: dict[str, Any] = {} if looks is None else {
         "appearance": looks, "appearance_weight": factor.appearance_weight}
     if factor.uses_pools:  # which replicas have an identity, which were matched last frame
-        tracks = engine.replicas.tracks
+        tracks = ctx.replicas.tracks
         extra.update(confirmed=np.array([t.track_id is not None for t in tracks], dtype=bool),
                      tracked=np.array([t.misses == 0 for t in tracks], dtype=bool))
     if not factor.keeps_observations:
         a = assign(pred, boxes, scores, factor.rounds, **extra)
     else:
-        reps = engine.replicas
+        reps = ctx.replicas
         histories = [slots.get(var, TrackState).observations_or(factor.delta_t)
                      for slots in reps.state]
         for h in histories:
@@ -343,13 +341,13 @@ def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, 
         for k, j in zip(a.rows, a.cols, strict=True):
             if not seen[j]:
                 continue
-            state = engine.replicas.state[int(k)].get(var, TrackState)
+            state = ctx.replicas.state[int(k)].get(var, TrackState)
             models = state.appearance
             if models is None:
                 models = state.appearance = factor.appearance_model()
             for m in models:
                 m.learn(frame, boxes[j])
-    engine.assignment = a
+    ctx.assignment = a
     # per replica, the index of its detection (NaN: none), a float so that replicas born
     # later in the frame read NaN too
     matched = np.full(len(pred), np.nan)
@@ -357,7 +355,7 @@ def assign_detections(engine: Engine, factor, frame: FrameContext) -> dict[str, 
     return {"matched": matched}
 
 
-def _appearance(engine: Engine, factor, frame: FrameContext, boxes: np.ndarray
+def _appearance(ctx: RuleContext, factor, frame: FrameContext, boxes: np.ndarray
                 ) -> np.ndarray | None:
     """``(K, M)`` similarity of each replica's appearance model with each detection
     (``exp(log-likelihood / λ)`` per cue, multiplied over cues; 0 for a replica without a
@@ -365,7 +363,7 @@ def _appearance(engine: Engine, factor, frame: FrameContext, boxes: np.ndarray
     if factor.appearance is None or frame.image is None or not len(boxes):
         return None
     var = factor.variables[0]
-    slots = engine.replicas.state
+    slots = ctx.replicas.state
     out = np.zeros((len(slots), len(boxes)))
     for k, slot in enumerate(slots):
         state = slot.find(var, TrackState)
@@ -413,53 +411,53 @@ class ObservationHistory:
             del self.boxes[key]
 
 
-def _assigned(engine: Engine, factor) -> tuple[np.ndarray, np.ndarray] | None:
+def _assigned(ctx: RuleContext, factor) -> tuple[np.ndarray, np.ndarray] | None:
     """The assigned replicas and their coded detection boxes, or None."""
-    a: Assignment | None = engine.assignment
+    a: Assignment | None = ctx.assignment
     if a is None or not len(a.rows):
         return None
-    coding = box_coding(engine.graph.variables[factor.variables[0]].labels)
+    coding = box_coding(ctx.graph.variables[factor.variables[0]].labels)
     return a.rows, encode_boxes(a.boxes[a.cols], coding)
 
 
 @RULES.register(AssignedDetectionLikelihood, BatchedGaussian)
-def update_assigned(engine: Engine, factor, frame: FrameContext) -> None:
+def update_assigned(ctx: RuleContext, factor, frame: FrameContext) -> None:
     """Kalman update of every replica a detection was assigned to."""
-    got = _assigned(engine, factor)
+    got = _assigned(ctx, factor)
     if got is None:
         return None
     rows, z = got
     var = factor.variables[0]
-    b: BatchedGaussian = engine.beliefs[var]
-    m0, P0 = b.mean[rows], b.cov[rows]
+    b: BatchedGaussian = ctx.beliefs[var]
+    m0, P0 = b.m[rows], b.P[rows]
     info = None
     if factor.reupdate:  # OC-SORT's re-update of replicas found again after a gap
-        m0, P0, info = _reupdate(engine, factor, rows, m0, P0)
+        m0, P0, info = _reupdate(ctx, factor, rows, m0, P0)
     R = factor.noise_cov(m0)
     if factor.occlusion_gate is not None:  # hidden edges carry no information
         R, hidden = _hide_edges(m0, P0, R, z, factor.occlusion_gate)
         if hidden.any():
             info = dict(info or {}, hidden_edges=int(hidden.sum()))
     m, P = kalman_update_batch(m0, P0, factor.H, R, z, factor.selects)
-    mean, cov = b.mean.copy(), b.cov.copy()
+    mean, cov = b.m.copy(), b.P.copy()
     mean[rows], cov[rows] = m, P
-    engine.beliefs[var] = BatchedGaussian(mean, cov)
+    ctx.beliefs[var] = BatchedGaussian(mean, cov)
     if factor.reupdate:  # each replica's last posterior, where a later gap starts from
         for i, k in enumerate(rows):
-            engine.replicas.state[int(k)].get(var, TrackState).posterior = (m[i].copy(),
+            ctx.replicas.state[int(k)].get(var, TrackState).posterior = (m[i].copy(),
                                                                          P[i].copy())
     return info
 
 
 @RULES.register(AssignedDetectionLikelihood, BatchedParticles)
-def weight_assigned(engine: Engine, factor, frame: FrameContext) -> np.ndarray:
+def weight_assigned(ctx: RuleContext, factor, frame: FrameContext) -> np.ndarray:
     """``(K, N)`` log-likelihood increments of particle replicas: ``log N(z_k; H x, R)``
     at each particle of a replica given detection ``z_k`` (its noise scale-aware at the
     replica's mean where the factor says so), 0 for a replica given none."""
     var = factor.variables[0]
-    b: BatchedParticles = engine.beliefs[var]
+    b: BatchedParticles = ctx.beliefs[var]
     out = np.zeros(b.log_weights.shape)
-    got = _assigned(engine, factor)
+    got = _assigned(ctx, factor)
     if got is None:
         return out
     rows, z = got
@@ -500,29 +498,29 @@ def _hide_edges(m: np.ndarray, P: np.ndarray, R: np.ndarray, z: np.ndarray, gate
     return R, hidden
 
 
-def _reupdate(engine: Engine, factor, rows: np.ndarray, m0: np.ndarray, P0: np.ndarray):
+def _reupdate(ctx: RuleContext, factor, rows: np.ndarray, m0: np.ndarray, P0: np.ndarray):
     """Observation-centric re-update (OC-SORT): a replica matched after ``g − 1`` frames
     without a detection restarts from its prediction one frame after its last detection
     and is updated along ``g`` virtual detections interpolated between that detection and
     this frame's (box centre and size, or corners), with a predict between them; the real
     update follows."""
     var = factor.variables[0]
-    labels = engine.graph.variables[var].labels
+    labels = ctx.graph.variables[var].labels
     coding = box_coding(labels)
-    trans = engine.graph.factors_of(var, "transition")
-    a: Assignment = engine.assignment
+    trans = ctx.graph.factors_of(var, "transition")
+    a: Assignment = ctx.assignment
     det = dict(zip(a.rows.tolist(), a.cols.tolist(), strict=True))
     m0, P0 = m0.copy(), P0.copy()
     redone = []
     for i, k in enumerate(rows):
         k = int(k)
-        track = engine.replicas.tracks[k]
+        track = ctx.replicas.tracks[k]
         if track.misses < 1 or not trans:
             continue
-        state = engine.replicas.state[k].find(var, TrackState)
+        state = ctx.replicas.state[k].find(var, TrackState)
         post = None if state is None else state.posterior
         if post is None:  # not updated since its birth: its prior is its last posterior
-            prior = engine.replicas.graphs[k].factors_of(var, "prior")[0]
+            prior = ctx.replicas.graphs[k].factors_of(var, "prior")[0]
             post = (prior.mean(), prior.cov)
         gap = track.misses + 1
         m, P = (a[0] for a in _predict(trans[0], labels, post[0][None], post[1][None]))
@@ -543,52 +541,52 @@ def _reupdate(engine: Engine, factor, rows: np.ndarray, m0: np.ndarray, P0: np.n
 
 
 @RULES.register(VBNoise, BatchedGaussian)
-def vb_assigned(engine: Engine, factor, frame: FrameContext) -> dict[str, Any] | None:
+def vb_assigned(ctx: RuleContext, factor, frame: FrameContext) -> dict[str, Any] | None:
     """Feng et al.'s (2015) VB adaptive measurement noise per replica, batched: for each assigned
     replica the fixed point of ``q(x) q(R)`` (:func:`pgm.inference.vb.vb_akf_update`, all
     replicas at once; ``R = diag(β / α)``)."""
     noise, target = factor.variables
-    liks = [f for f in engine.graph.factors_of(target, "likelihood")
+    liks = [f for f in ctx.graph.factors_of(target, "likelihood")
             if factor.likelihood in (None, f.name)]
     if len(liks) == 1 and not isinstance(liks[0], AssignedDetectionLikelihood):
         # a likelihood of the frame's own measurements: the single-graph VB-AKF, per replica
-        return per_replica(_vb_gaussian, VBNoise)(engine, factor, frame)
+        return per_replica(_vb_gaussian, VBNoise)(ctx, factor, frame)
     if len(liks) != 1:
         raise ValueError(f"factor {factor.name!r}: needs one likelihood on {target!r}")
     if getattr(factor, "tie", None) is not None:
         raise ValueError(f"factor {factor.name!r}: tied noise components are implemented "
                          f"for the VB-PHD (Intensity) rule only")
-    got = _assigned(engine, liks[0])
+    got = _assigned(ctx, liks[0])
     if got is None:
         return None
     rows, z = got
     H = liks[0].H
-    b: BatchedGaussian = engine.beliefs[target]
-    q: BatchedInverseGamma = engine.beliefs[noise]
+    b: BatchedGaussian = ctx.beliefs[target]
+    q: BatchedInverseGamma = ctx.beliefs[noise]
     alpha0, beta0 = q.alpha[rows], q.beta[rows]
-    m0, P0 = b.mean[rows], b.cov[rows]
+    m0, P0 = b.m[rows], b.P[rows]
     # scale-aware noise: the noise belief is of the variance in units of the box's size
     # along each component's axis (R = diag(r · size²)); residuals are measured so too
     sizes = liks[0].scales(m0)
     size2 = 1.0 if sizes is None else sizes ** 2
     m, P, alpha, beta, it = vb_akf_batch(m0, P0, alpha0, beta0, H, z, factor.tol,
                                          factor.max_iter, size2, liks[0].selects)
-    mean, cov = b.mean.copy(), b.cov.copy()
+    mean, cov = b.m.copy(), b.P.copy()
     mean[rows], cov[rows] = m, P
-    engine.beliefs[target] = BatchedGaussian(mean, cov)
+    ctx.beliefs[target] = BatchedGaussian(mean, cov)
     a_all, b_all = q.alpha.copy(), q.beta.copy()
     a_all[rows], b_all[rows] = alpha, beta
-    engine.beliefs[noise] = BatchedInverseGamma(a_all, b_all)
+    ctx.beliefs[noise] = BatchedInverseGamma(a_all, b_all)
     return {"iterations": it}
 
 
 @RULES.register("estimate", BatchedGaussian)
-def estimate_gaussians(engine: Engine, variable: str, frame) -> np.ndarray:
+def estimate_gaussians(ctx: RuleContext, variable: str, frame) -> np.ndarray:
     """The replicas' means ``(K, d)``."""
-    return engine.beliefs[variable].mean.copy()
+    return ctx.beliefs[variable].m.copy()
 
 
 @RULES.register("resample", BatchedGaussian)
-def no_resample(engine: Engine, variable: str, frame) -> None:
+def no_resample(ctx: RuleContext, variable: str, frame) -> None:
     """Nothing to resample."""
     return None

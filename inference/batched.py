@@ -40,7 +40,7 @@ from pgm.core.motion import warp_states
 from pgm.factors import CouplingFactor, LikelihoodFactor, TransitionFactor
 from pgm.factors.plates import InteractionFactor
 
-from .engine import Engine
+from .context import RuleContext
 from .particles import _predict_particles
 from .pbp import MixtureMessage, coupling_message, fuse
 from .resampling import ess_triggered
@@ -140,36 +140,6 @@ def box_columns(graph: FactorGraph, variable: str) -> list[int]:
 # -------------------------------------------------------------------------------------
 # single-graph rules, once per replica
 # -------------------------------------------------------------------------------------
-class _ReplicaView:
-    """Replica ``k`` of a plate as a single-graph rule sees an engine: its own
-    beliefs (rows of the batched beliefs), generator, graph, evidence, messages and
-    ``state``; everything else is the engine's."""
-
-    log_likelihood = Engine.log_likelihood
-    score_at = Engine.score_at
-    factor_belief_type = Engine.factor_belief_type
-    rule_for = Engine.rule_for
-
-    def __init__(self, engine: Engine, k: int):
-        self._engine = engine
-        reps = engine.replicas
-        self.replica = k
-        self.graph = reps.graphs[k]
-        self.rng = reps.generators()[k]
-        self.state = reps.state[k]
-        self.rows = {v: b.row(k) for v, b in engine.beliefs.items()}
-        self.beliefs = dict(self.rows)
-        self.evidence = {v: (a[k], ll[k]) for v, (a, ll) in engine.evidence.items()}
-        self.message_rows = {key: m.row(k) for key, m in engine.messages.items()}
-        self.messages = dict(self.message_rows)
-
-    def __getattr__(self, name: str):
-        return getattr(self._engine, name)
-
-    def belief_type(self, variable: str) -> type:
-        return self._engine.row_belief_type(variable)
-
-
 class RowMessages:
     """Messages of one directed edge, one per replica (from a per-replica rule)."""
 
@@ -204,23 +174,23 @@ def per_replica(rule: Callable, key: type | str) -> Callable:
     returns are merged (likelihood increments stacked to ``(K, N)``)."""
     operation = isinstance(key, str)
 
-    def run(engine: Engine, item, frame: FrameContext, *args: Any) -> Any:
-        reps = engine.replicas
+    def run(ctx: RuleContext, item, frame: FrameContext, *args: Any) -> Any:
         outs, views = [], []
-        for k in range(reps.K):
-            view = _ReplicaView(engine, k)
+        for k in range(ctx.replicas.K):
+            view = ctx.replica(k)
+            rows, message_rows = dict(view.beliefs), dict(view.messages)
             target = item if operation else view.graph.factors[item.name]
             outs.append(rule(view, target, frame, *args))
-            views.append(view)
+            views.append((view, rows, message_rows))
         if not views:
             return None
-        for v in dict.fromkeys(v for view in views for v in view.beliefs):
-            if any(view.beliefs.get(v) is not view.rows.get(v) for view in views):
-                engine.beliefs[v] = engine.belief_type(v).stack([view.beliefs[v]
-                                                                 for view in views])
-        for m in dict.fromkeys(m for view in views for m in view.messages):
-            if any(view.messages.get(m) is not view.message_rows.get(m) for view in views):
-                engine.messages[m] = RowMessages([view.messages[m] for view in views])
+        for v in dict.fromkeys(v for view, _, _ in views for v in view.beliefs):
+            if any(view.beliefs.get(v) is not rows.get(v) for view, rows, _ in views):
+                ctx.beliefs[v] = ctx.belief_type(v).stack([view.beliefs[v]
+                                                           for view, _, _ in views])
+        for m in dict.fromkeys(m for view, _, _ in views for m in view.messages):
+            if any(view.messages.get(m) is not mrows.get(m) for view, _, mrows in views):
+                ctx.messages[m] = RowMessages([view.messages[m] for view, _, _ in views])
         return _merge(outs)
 
     run.__qualname__ = f"per_replica({getattr(rule, '__qualname__', rule)})"
@@ -233,28 +203,28 @@ register_replica_adapter(per_replica)
 # -------------------------------------------------------------------------------------
 # batched rules (all replicas at once)
 # -------------------------------------------------------------------------------------
-def _local(engine: Engine, name: str) -> bool:
-    return name in engine.plate_spec.local
+def _local(ctx: RuleContext, name: str) -> bool:
+    return name in ctx.plate_spec.local
 
 
 @RULES.register(TransitionFactor, BatchedParticles)
-def predict_batched(engine: Engine, factor, frame: FrameContext) -> None:
+def predict_batched(ctx: RuleContext, factor, frame: FrameContext) -> None:
     """Move every replica's particles: one ``factor.sample`` call on ``(K·N, d)`` for a
     shared transition (draws split per replica), one call per replica for its own copy."""
     var = factor.variables[0]
-    if engine.graph.factors_of(var, "proposal"):  # proposals: the single-graph rule, per replica
-        return per_replica(_predict_particles, TransitionFactor)(engine, factor, frame)
-    b: BatchedParticles = engine.beliefs[var]
-    reps = engine.replicas
+    if ctx.graph.factors_of(var, "proposal"):  # proposals: the single-graph rule, per replica
+        return per_replica(_predict_particles, TransitionFactor)(ctx, factor, frame)
+    b: BatchedParticles = ctx.beliefs[var]
+    reps = ctx.replicas
     K, n, d = b.x.shape  # noqa: N806
     flat = b.x.reshape(K * n, d)
     past = [h.reshape(K * n, d) for h in b.history]
     if frame.camera_motion is not None:  # past states into this frame's image coordinates
-        labels = engine.graph.variables[var].labels
+        labels = ctx.graph.variables[var].labels
         flat = warp_states(flat, labels, frame.camera_motion)
         past = [warp_states(h, labels, frame.camera_motion) for h in past]
     gens = reps.generators()
-    if _local(engine, factor.name):  # a transition that learns per target: one call each
+    if _local(ctx, factor.name):  # a transition that learns per target: one call each
         new = np.concatenate([np.asarray(reps.graphs[k].factors[factor.name].sample(
             gens[k], flat[k * n:(k + 1) * n], *(h[k * n:(k + 1) * n] for h in past)),
             dtype=float) for k in range(K)])
@@ -265,41 +235,41 @@ def predict_batched(engine: Engine, factor, frame: FrameContext) -> None:
         raise ValueError(f"factor {factor.name!r}: sample() returned shape {new.shape}, "
                          f"expected {flat.shape}")
     n_hist = max(0, getattr(factor, "order", 1) - 1)
-    engine.beliefs[var] = BatchedParticles._trusted(
+    ctx.beliefs[var] = BatchedParticles._trusted(
         new.reshape(K, n, d), b.log_weights,
         tuple(a.reshape(K, n, d) for a in ([flat] + past)[:n_hist]))
 
 
 @RULES.register(LikelihoodFactor, BatchedParticles)
 @scores_in_groups("replicas")
-def weight_batched(engine: Engine, factor, frame: FrameContext) -> np.ndarray:
+def weight_batched(ctx: RuleContext, factor, frame: FrameContext) -> np.ndarray:
     """``(K, N)`` log-likelihood increments of every replica's particles."""
-    return score_group(engine, [factor], frame)[0]
+    return score_group(ctx, [factor], frame)[0]
 
 
-def score_group(engine: Engine, fs: list, frame: FrameContext) -> list[np.ndarray]:
+def score_group(ctx: RuleContext, fs: list, frame: FrameContext) -> list[np.ndarray]:
     """``(K, N)`` log-likelihoods of each factor of one weight group ``fs`` (equal
     ``batch_key``)."""
-    reps = engine.replicas
+    reps = ctx.replicas
     K = reps.K  # noqa: N806
-    local = [_local(engine, f.name) for f in fs]
+    local = [_local(ctx, f.name) for f in fs]
     if K * len(fs) > 1 and fs[0].batch_key is not None and all(local):
         # the copies of the group's factors scored together, one pass per cluster of
         # replicas whose particles' boxes overlap (a joint pass costs the area of its
         # boxes' union, so distant targets are not scored through the empty space
         # between them); replica-major, so that one replica's order is the
         # single-graph engine's
-        out = [np.empty(engine.beliefs[f.variables[0]].log_weights.shape) for f in fs]
-        for members in _clusters(_extents(engine, fs)):
+        out = [np.empty(ctx.beliefs[f.variables[0]].log_weights.shape) for f in fs]
+        for members in _clusters(_extents(ctx, fs)):
             copies = [reps.graphs[k].factors[f.name] for k in members for f in fs]
-            xs = [engine.beliefs[f.variables[0]].x[k] for k in members for f in fs]
+            xs = [ctx.beliefs[f.variables[0]].x[k] for k in members for f in fs]
             lls = type(fs[0]).log_likelihood_batch(copies, xs, frame)
             for i, ll in enumerate(lls):
                 out[i % len(fs)][members[i // len(fs)]] = ll
         return out
     out = []
     for f, own in zip(fs, local, strict=True):
-        x = engine.beliefs[f.variables[0]].x
+        x = ctx.beliefs[f.variables[0]].x
         _, n, d = x.shape
         if not own:  # shared: all replicas' particles in one call
             out.append(np.asarray(f.log_likelihood(x.reshape(K * n, d), frame),
@@ -310,35 +280,35 @@ def score_group(engine: Engine, fs: list, frame: FrameContext) -> list[np.ndarra
     return out
 
 
-def _extents(engine: Engine, fs: list) -> np.ndarray:
+def _extents(ctx: RuleContext, fs: list) -> np.ndarray:
     """``(K, 4)`` rectangles ``x0, y0, x1, y1`` around every particle's box of the
     group ``fs`` in each replica."""
     lo, hi = [], []
     for f in fs:
         v = f.variables[0]
-        bx = engine.beliefs[v].x[..., box_columns(engine.graph, v)]  # (K, N, 4)
+        bx = ctx.beliefs[v].x[..., box_columns(ctx.graph, v)]  # (K, N, 4)
         lo.append((bx[..., :2] - np.abs(bx[..., 2:]) / 2).min(axis=1))
         hi.append((bx[..., :2] + np.abs(bx[..., 2:]) / 2).max(axis=1))
     return np.concatenate([np.min(lo, axis=0), np.max(hi, axis=0)], axis=1)
 
 
 @RULES.register(InteractionFactor, BatchedParticles)
-def interact_batched(engine: Engine, factor, frame: FrameContext) -> None:
+def interact_batched(ctx: RuleContext, factor, frame: FrameContext) -> None:
     """Reweight every replica's particles against the other replicas' current estimates
     (a replica the potential leaves with no finite weight keeps its weights)."""
     v = factor.variables[0]
-    b: BatchedParticles = engine.beliefs[v]
+    b: BatchedParticles = ctx.beliefs[v]
     if b.K < 2:
         return
     pot = np.asarray(factor.log_potential(b.x, b.mean(), frame), dtype=float)
-    engine.beliefs[v], _ = b.reweight(pot).normalized(fallback=b)
-    if v in engine.evidence:
-        lw0, ll = engine.evidence[v]
-        engine.evidence[v] = (lw0, ll + pot)
+    ctx.beliefs[v], _ = b.reweight(pot).normalized(fallback=b)
+    if v in ctx.evidence:
+        lw0, ll = ctx.evidence[v]
+        ctx.evidence[v] = (lw0, ll + pot)
 
 
-def _batched_mixture(engine: Engine) -> bool:
-    s = engine.settings
+def _batched_mixture(ctx: RuleContext) -> bool:
+    s = ctx.settings
     return s.fusion == "mixture" and s.message_weight == "source" and not s.message_particles
 
 
@@ -355,33 +325,33 @@ class BatchedMixtureMessage:
         return MixtureMessage(self.x[k], self.log_weights[k], tuple(h[k] for h in self.history))
 
 
-def _evidence(engine: Engine, v: str) -> tuple[np.ndarray, np.ndarray]:
-    b = engine.beliefs[v]
-    return engine.evidence.get(v, (b.log_weights, np.zeros_like(b.log_weights)))
+def _evidence(ctx: RuleContext, v: str) -> tuple[np.ndarray, np.ndarray]:
+    b = ctx.beliefs[v]
+    return ctx.evidence.get(v, (b.log_weights, np.zeros_like(b.log_weights)))
 
 
 @RULES.register(CouplingFactor, BatchedParticles)
-def coupling_batched(engine: Engine, factor, frame: FrameContext, src: str, dst: str):
+def coupling_batched(ctx: RuleContext, factor, frame: FrameContext, src: str, dst: str):
     """The message ``src → dst`` of every replica (mixture with source weights batched;
     any other setting per replica, :func:`pgm.inference.pbp.coupling_message`)."""
-    if not _batched_mixture(engine):
-        return per_replica(coupling_message, CouplingFactor)(engine, factor, frame, src, dst)
-    reps = engine.replicas
-    b = engine.beliefs[src]
+    if not _batched_mixture(ctx):
+        return per_replica(coupling_message, CouplingFactor)(ctx, factor, frame, src, dst)
+    reps = ctx.replicas
+    b = ctx.beliefs[src]
     K, n, d = b.x.shape  # noqa: N806
     flat = b.x.reshape(K * n, d)
     gens = reps.generators()
-    if _local(engine, factor.name):
+    if _local(ctx, factor.name):
         x_msg = np.concatenate([np.asarray(reps.graphs[k].factors[factor.name].propagate(
             gens[k], flat[k * n:(k + 1) * n], src)) for k in range(K)])
     else:
         x_msg = np.asarray(factor.propagate(ReplicaRNG(gens, n,
                                                        owner=f"coupling {factor.name!r}"),
                                             flat, src), dtype=float)
-    d_dst = engine.beliefs[dst].dim
+    d_dst = ctx.beliefs[dst].dim
     x_msg = x_msg.reshape(K, n, d_dst)
-    n_hist = len(engine.beliefs[dst].history)
-    if _local(engine, factor.name):  # each replica's own (learned) coupling
+    n_hist = len(ctx.beliefs[dst].history)
+    if _local(ctx, factor.name):  # each replica's own (learned) coupling
         hist = [np.stack([np.asarray(reps.graphs[k].factors[factor.name].map(h[k], src))
                           for k in range(K)]).reshape(K, n, d_dst)
                 for h in b.history[:n_hist]]
@@ -389,8 +359,8 @@ def coupling_batched(engine: Engine, factor, frame: FrameContext, src: str, dst:
         hist = [np.asarray(factor.map(h.reshape(K * n, d), src)).reshape(K, n, d_dst)
                 for h in b.history[:n_hist]]
     hist += [x_msg.copy() for _ in range(n_hist - len(hist))]
-    lw0, ll = _evidence(engine, src)
-    engine.messages[(src, dst)] = BatchedMixtureMessage(x_msg, lw0 + ll, tuple(hist))
+    lw0, ll = _evidence(ctx, src)
+    ctx.messages[(src, dst)] = BatchedMixtureMessage(x_msg, lw0 + ll, tuple(hist))
     return None
 
 
@@ -403,42 +373,42 @@ def _row_log_normalize(lw: np.ndarray) -> np.ndarray:
 
 
 @RULES.register("fuse", BatchedParticles)
-def fuse_batched(engine: Engine, variable: str, frame: FrameContext) -> dict:
+def fuse_batched(ctx: RuleContext, variable: str, frame: FrameContext) -> dict:
     """Every replica's own weighted particles joined with its incoming mixture messages
     (product fusion: per replica, :func:`pgm.inference.pbp.fuse`)."""
-    if not _batched_mixture(engine):
-        return per_replica(fuse, "fuse")(engine, variable, frame)
-    b: BatchedParticles = engine.beliefs[variable]
-    lw0, ll = _evidence(engine, variable)
-    incoming = [m for (_, dst), m in engine.messages.items() if dst == variable]
+    if not _batched_mixture(ctx):
+        return per_replica(fuse, "fuse")(ctx, variable, frame)
+    b: BatchedParticles = ctx.beliefs[variable]
+    lw0, ll = _evidence(ctx, variable)
+    incoming = [m for (_, dst), m in ctx.messages.items() if dst == variable]
     lw = _row_log_normalize(np.concatenate([lw0 + ll] + [m.log_weights for m in incoming],
                                            axis=1))
     x = np.concatenate([b.x] + [m.x for m in incoming], axis=1)
     hist = tuple(np.concatenate([h] + [m.history[i] for m in incoming], axis=1)
                  for i, h in enumerate(b.history))
-    engine.beliefs[variable] = BatchedParticles._trusted(x, lw, hist, log_mass=np.zeros(b.K))
+    ctx.beliefs[variable] = BatchedParticles._trusted(x, lw, hist, log_mass=np.zeros(b.K))
     return {"own_mass": np.array([float(np.exp(row[:b.num]).sum()) for row in lw])}
 
 
 @RULES.register("estimate", BatchedParticles)
-def estimate_batched(engine: Engine, variable: str, frame: FrameContext) -> np.ndarray:
+def estimate_batched(ctx: RuleContext, variable: str, frame: FrameContext) -> np.ndarray:
     """``(K, d)`` weighted means."""
-    return engine.beliefs[variable].mean()
+    return ctx.beliefs[variable].mean()
 
 
 @RULES.register("resample", BatchedParticles)
-def resample_batched(engine: Engine, variable: str, frame: FrameContext) -> dict[str, Any]:
+def resample_batched(ctx: RuleContext, variable: str, frame: FrameContext) -> dict[str, Any]:
     """ESS-triggered resampling per replica, each with its own generator (a fused
     mixture: every replica back to the variable's particle count)."""
-    b: BatchedParticles = engine.beliefs[variable]
-    n = engine.num_particles[variable]
+    b: BatchedParticles = ctx.beliefs[variable]
+    n = ctx.num_particles[variable]
     ess = b.ess
     if b.num != n:
         rows = np.arange(b.K)
     else:
         rows = np.array([k for k in range(b.K)
-                         if ess_triggered(float(ess[k]), b.num, engine.ess_threshold)], int)
-    engine.beliefs[variable] = b.resample_rows(engine.replicas.generators(), engine.resampler, n,
+                         if ess_triggered(float(ess[k]), b.num, ctx.ess_threshold)], int)
+    ctx.beliefs[variable] = b.resample_rows(ctx.replicas.generators(), ctx.resampler, n,
                                                rows)
     return {"resampled": np.isin(np.arange(b.K), rows), "ess": ess}
 

@@ -7,11 +7,11 @@ held to them by running any model with ``rules=checked(table)``:
 * **likelihood** rules on a belief that likelihoods reweight (:class:`~pgm.Particles`)
   return a float array ``(N,)`` (``(K, N)`` on a plate's
   :class:`~pgm.core.batched.BatchedParticles`) (NaN counts as ``-inf``; ``+inf`` is refused), leave
-  ``engine.beliefs`` untouched — the same belief object, particles and weights
+  ``ctx.beliefs`` untouched — the same belief object, particles and weights
   unchanged — and the engine's evidence is then exactly that increment;
 * **prior** rules leave a belief for their variable; **transition** rules keep a
   weighted particle belief's particle count and never produce NaN particles;
-* **association** rules leave this frame's assignment in ``engine.assignment``: matched
+* **association** rules leave this frame's assignment in ``ctx.assignment``: matched
   replica and detection indices, as many of each, in range, none twice;
 * **resample** rules keep a particle belief's total mass (``log_mass``, to 1e-9);
 * **estimate** rules return a value; every rule returns ``None``, a dict of
@@ -50,7 +50,8 @@ from pgm.core.beliefs import Particles
 from pgm.core.errors import RuleContractError
 from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
 
-from .engine import Engine, RuleTable, likelihood_reweights
+from .context import RuleContext
+from .engine import RuleTable, likelihood_reweights
 
 __all__ = ["checked", "check_likelihood_increment"]
 
@@ -99,27 +100,27 @@ def _unchanged(snap) -> bool:
 
 def _wrap_factor_rule(key: type, rule):
     @functools.wraps(rule)
-    def run(engine: Engine, factor, frame, *message):
+    def run(ctx: RuleContext, factor, frame, *message):
         what = f"factor {factor.name!r}"
         var = factor.variables[0] if not message else message[1]
         if issubclass(key, LikelihoodFactor) and not message:
-            b = engine.beliefs[var]
+            b = ctx.beliefs[var]
             if likelihood_reweights(type(b)):
-                snaps = {v: _snapshot(x) for v, x in engine.beliefs.items()}
-                out = rule(engine, factor, frame)
+                snaps = {v: _snapshot(x) for v, x in ctx.beliefs.items()}
+                out = rule(ctx, factor, frame)
                 for v, snap in snaps.items():
-                    if engine.beliefs.get(v) is not snap[0] or not _unchanged(snap):
+                    if ctx.beliefs.get(v) is not snap[0] or not _unchanged(snap):
                         _fail(rule, what, f"changed the belief of {v!r}: a likelihood rule "
                                           f"returns its increment and never moves, reorders "
                                           f"or resamples particles")
                 return check_likelihood_increment(out, b.log_weights.shape, rule, what)
-        before = engine.beliefs.get(var)
-        out = rule(engine, factor, frame, *message)
+        before = ctx.beliefs.get(var)
+        out = rule(ctx, factor, frame, *message)
         if out is not None and not isinstance(out, dict):
             _fail(rule, what, f"returned {type(out).__name__}; expected None or a dict")
-        after = engine.beliefs.get(var)
+        after = ctx.beliefs.get(var)
         if getattr(key, "kind", None) == "association":
-            _check_assignment(engine, rule, what, frame)
+            _check_assignment(ctx, rule, what, frame)
         if issubclass(key, PriorFactor) and after is None:
             _fail(rule, what, f"left no belief for {var!r}")
         if (issubclass(key, TransitionFactor) and likelihood_reweights(type(before))
@@ -134,12 +135,12 @@ def _wrap_factor_rule(key: type, rule):
     return run
 
 
-def _check_assignment(engine: Engine, rule, what: str, frame) -> None:
-    a = engine.assignment
+def _check_assignment(ctx: RuleContext, rule, what: str, frame) -> None:
+    a = ctx.assignment
     if a is None:
-        _fail(rule, what, "left no assignment in engine.assignment")
+        _fail(rule, what, "left no assignment in ctx.assignment")
     rows, cols = np.asarray(a.rows), np.asarray(a.cols)
-    K = engine.num_targets  # noqa: N806
+    K = ctx.replicas.K if ctx.replicas is not None else 0  # noqa: N806
     M = 0 if frame.detections is None else len(frame.detections.scores)  # noqa: N806
     if rows.shape != cols.shape or rows.ndim != 1:
         _fail(rule, what, f"assigned {rows.shape} replicas to {cols.shape} detections")
@@ -152,17 +153,17 @@ def _check_assignment(engine: Engine, rule, what: str, frame) -> None:
 
 def _wrap_belief_rule(operation: str, rule):
     @functools.wraps(rule)
-    def run(engine: Engine, variable: str, frame):
+    def run(ctx: RuleContext, variable: str, frame):
         what = f"{operation} of {variable!r}"
-        before = engine.beliefs[variable]
-        out = rule(engine, variable, frame)
+        before = ctx.beliefs[variable]
+        out = rule(ctx, variable, frame)
         if operation == "estimate":
             if out is None:
                 _fail(rule, what, "returned no estimate")
             return out
         if out is not None and not isinstance(out, dict):
             _fail(rule, what, f"returned {type(out).__name__}; expected None or a dict")
-        after = engine.beliefs[variable]
+        after = ctx.beliefs[variable]
         if (operation == "resample" and isinstance(before, _PARTICLES) and before.num
                 and not np.allclose(after.log_mass, before.log_mass, rtol=0, atol=1e-9)):
             _fail(rule, what, f"changed the total mass (log {before.log_mass} -> "

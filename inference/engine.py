@@ -66,7 +66,6 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable, Iterable, Iterator
-from typing import Any
 
 import numpy as np
 
@@ -80,6 +79,7 @@ from pgm.core.rng import as_generator
 from pgm.factors import LikelihoodFactor
 
 from . import weighting
+from .context import RuleContext
 from .record import Hook, StepRecord, runtime_for
 from .resampling import get_resampler
 from .rules import (
@@ -92,7 +92,6 @@ from .rules import (
 from .schedule import STAGES, Schedule, derive_schedule, message_order
 from .settings import EngineSettings
 from .single import SINGLE_GRAPH
-from .state import StateSlots
 
 __all__ = ["Engine", "RuleTable", "DEFAULT_RULES", "StepRecord", "Schedule", "derive_schedule",
            "STAGES", "BELIEF_FOR_ROLE", "BELIEF_OPERATIONS", "RuleContractError",
@@ -161,7 +160,6 @@ class Engine:
         self.graph.meta["engine"] = self.settings.to_dict(full=True)  # saved with the run
         self.num_particles = self._particle_counts(self.settings.num_particles)
         self.resampler = get_resampler(self.settings.resampling)
-        self.ess_threshold = self.settings.ess_threshold
         self.rules = rules if rules is not None else DEFAULT_RULES
         self.belief_types = {**self.settings.belief_classes(), **dict(belief_types or {})}
         unknown = sorted(set(self.belief_types) - set(self.graph.variables))
@@ -169,39 +167,58 @@ class Engine:
             raise ValueError(f"belief_types names unknown variables {unknown}")
         self.schedule = derive_schedule(self.graph, self.settings.inframe_iterations,
                                         self.settings.fusion)
-        self.beliefs: dict[str, Any] = {}
-        #: per variable, this frame's ``(prior_log_weights, log_likelihood)`` (weight stage)
-        self.evidence: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-        #: this frame's messages ``(src, dst) -> message`` (in-frame stage)
-        self.messages: dict[tuple[str, str], Any] = {}
-        #: the state rules keep across frames, typed, per owner (a variable or factor
-        #: name; :mod:`pgm.inference.state`): PHD tracks, score models, ...
-        self.state = StateSlots()
-        self._learners = [f for f in self.graph.factors.values() if f.learns]
+        #: what the rules see (:class:`~pgm.inference.context.RuleContext`): the beliefs,
+        #: this frame's evidence and messages, the state slots, the generator, the
+        #: settings; ``engine.beliefs``, ``.evidence``, ``.messages``, ``.state``,
+        #: ``.assignment``, ``.replicas`` and ``.confidence`` read and write it
+        self.ctx = RuleContext(graph=self.graph, rng=self.rng, settings=self.settings,
+                               num_particles=self.num_particles, resampler=self.resampler,
+                               belief_type=self.belief_type,
+                               row_belief_type=self.row_belief_type)
         #: likelihoods that learn something from the first frame (a template)
         self._initializers = [f.name for f in self.graph.factors_by_kind("likelihood")
                               if type(f).initialize is not LikelihoodFactor.initialize]
         self._proposals = bool(self.graph.factors_by_kind("proposal"))
-        #: the graph's calibrated confidence at the last frame (kept where a proposal may
-        #: read it; :func:`pgm.core.readout.confidence`), or None
-        self.confidence: float | None = None
         self._groups_cache: dict[tuple, list[tuple[list[Factor], list[Rule], bool]]] = {}
         self._rule_cache: dict[tuple, Rule] = {}
         self.frame: FrameContext | None = None
-        #: this frame's assignment of detections to a plate's replicas (``assign`` stage;
-        #: :class:`pgm.inference.association.Assignment`), or None
-        self.assignment = None
         self.t = 0
         self._hooks: dict[str, list[Hook]] = {s: [] for s in STAGES}
         self._stage_functions = {s: getattr(self, f"_stage_{s}") for s in STAGES}
-        #: the plate (:class:`~pgm.core.plate.Plate`) and its replicas
-        #: (:class:`pgm.inference.plates.Replicas`), or None (set by the runtime)
-        self.plate = self.replicas = None
+        #: the plate (:class:`~pgm.core.plate.Plate`), or None (set by the runtime)
+        self.plate = None
         #: how this graph's frame runs (:class:`SingleGraph`, or the runtime registered
         #: for it: a plate's, :class:`pgm.inference.plates.PlateRuntime`)
         self.runtime = runtime_for(self.graph) or SINGLE_GRAPH
         self.runtime.setup(self)
         self._check_rules()
+
+    # -- the rules' state (engine.ctx) ---------------------------------------------------
+    def _ctx_field(name: str, doc: str):  # noqa: N805 - a property factory of the class body
+        return property(lambda self: getattr(self.ctx, name),
+                        lambda self, value: setattr(self.ctx, name, value), doc=doc)
+
+    beliefs = _ctx_field("beliefs", "Variable name → belief (``engine.ctx.beliefs``).")
+    evidence = _ctx_field("evidence", "Per variable, this frame's ``(prior_log_weights, "
+                                      "log_likelihood)`` (weight stage).")
+    messages = _ctx_field("messages", "This frame's messages ``(src, dst) -> message`` "
+                                      "(in-frame stage).")
+    state = _ctx_field("state", "The state rules keep across frames, typed, per owner "
+                                "(:mod:`pgm.inference.state`): PHD tracks, score models, ...")
+    assignment = _ctx_field("assignment", "This frame's assignment of detections to a "
+                                          "plate's replicas (``assign`` stage), or None.")
+    replicas = _ctx_field("replicas", "The plate's replicas "
+                                      "(:class:`pgm.inference.plates.Replicas`), or None.")
+    plate_spec = _ctx_field("plate_spec", "What the engine derived from the plate, or None.")
+    confidence = _ctx_field("confidence", "The graph's calibrated confidence at the last "
+                                          "frame (:func:`pgm.core.readout.confidence`), or "
+                                          "None.")
+    del _ctx_field
+
+    @property
+    def ess_threshold(self) -> float:
+        """Resample when ESS < ``ess_threshold`` × N."""
+        return self.settings.ess_threshold
 
     # -- set-up ------------------------------------------------------------------------
     def _particle_counts(self, num_particles) -> dict[str, int]:
@@ -318,12 +335,11 @@ class Engine:
         if not isinstance(frame, FrameContext):
             raise ValueError(f"step() needs a FrameContext, got {type(frame).__name__}")
         self.frame = frame
-        self.evidence = {}
-        self.messages = {}
-        self.assignment = None
+        ctx = self.ctx
+        ctx.evidence, ctx.messages, ctx.assignment = {}, {}, None
         # the record is filled as the stages run: a hook sees this frame's messages, ESS,
         # diagnostics and estimates so far (the messages' dict is the engine's own)
-        record = StepRecord(frame=frame.index, messages=self.messages)
+        record = StepRecord(frame=frame.index, messages=ctx.messages)
         self.runtime.step(self, frame, record, lifecycle)
         record.beliefs = dict(self.beliefs)
         record.messages = dict(self.messages)
@@ -332,16 +348,18 @@ class Engine:
         return record
 
     def _run(self, phases, frame: FrameContext, record: StepRecord, hooks: bool = True,
-             skip: tuple[str, ...] = ()) -> None:
-        """Run the stages ``phases`` (calling the hooks after each). A stage with nothing
-        to do is not called (the prior stage always is: it also initialises templates);
-        its hooks still are."""
+             skip: tuple[str, ...] = (), ctx: RuleContext | None = None) -> None:
+        """Run the stages ``phases`` on ``ctx`` (default: the engine's; a plate's newborns
+        have their own), calling the hooks after each. A stage with nothing to do is not
+        called (the prior stage always is: it also initialises templates); its hooks
+        still are."""
         stages = self._stage_functions
+        ctx = self.ctx if ctx is None else ctx
         for stage, items in phases:
             if stage in skip:
                 continue
             if items or stage == "prior":
-                stages[stage](items, frame, record)
+                stages[stage](ctx, items, frame, record)
             if hooks and self._hooks[stage]:
                 for hook in self._hooks[stage]:
                     hook(self, stage, frame, record)
@@ -354,18 +372,19 @@ class Engine:
             yield self.step(frame, lifecycle=lifecycle)
 
     # -- stages ------------------------------------------------------------------------
-    def _apply_factor(self, name: str, frame: FrameContext, record: StepRecord) -> None:
-        f = self.graph.factors[name]
-        info = self.rule_for(f)(self, f, frame)
+    def _apply_factor(self, ctx: RuleContext, name: str, frame: FrameContext,
+                      record: StepRecord) -> None:
+        f = ctx.graph.factors[name]
+        info = self.rule_for(f)(ctx, f, frame)
         if info:
             record.info[name] = info
 
-    def _stage_prior(self, items, frame, record) -> None:
+    def _stage_prior(self, ctx, items, frame, record) -> None:
         for name in items:
-            self._apply_factor(name, frame, record)
+            self._apply_factor(ctx, name, frame, record)
         if not self._initializers:
             return
-        for g in self.runtime.graphs(self):  # templates learned at the prior mean (each
+        for g in self.runtime.graphs(ctx):  # templates learned at the prior mean (each
             # replica its own)
             for name in self._initializers:
                 f = g.factors[name]
@@ -373,63 +392,58 @@ class Engine:
                 if priors:
                     f.initialize(frame, priors[0].mean())
 
-    def _stage_predict(self, items, frame, record) -> None:
+    def _stage_predict(self, ctx, items, frame, record) -> None:
         for name in items:
-            self._apply_factor(name, frame, record)
+            self._apply_factor(ctx, name, frame, record)
 
     _stage_interaction = _stage_predict
     _stage_assign = _stage_predict
 
-    def _stage_inframe(self, items, frame, record) -> None:
+    def _stage_inframe(self, ctx, items, frame, record) -> None:
         for item in items:
             if isinstance(item, tuple):
                 name, src, dst = item
-                f = self.graph.factors[name]
+                f = ctx.graph.factors[name]
                 rule = self.rules.lookup(type(f), self.belief_type(dst))
-                info = rule(self, f, frame, src, dst)
+                info = rule(ctx, f, frame, src, dst)
                 if info:
                     record.info.setdefault(name, {})[(src, dst)] = info
             else:
-                self._apply_factor(item, frame, record)
+                self._apply_factor(ctx, item, frame, record)
 
-    def _stage_fuse(self, items, frame, record) -> None:
+    def _stage_fuse(self, ctx, items, frame, record) -> None:
         for v in items:
-            info = self.rules.lookup("fuse", type(self.beliefs[v]))(self, v, frame)
+            info = self.rules.lookup("fuse", type(ctx.beliefs[v]))(ctx, v, frame)
             if info:
                 record.info.setdefault(v, {}).update(info)
 
-    def _stage_weight(self, items, frame, record) -> None:
+    def _stage_weight(self, ctx, items, frame, record) -> None:
         """Apply the likelihood factors (the weight-stage contract: module docstring;
         :mod:`pgm.inference.weighting`)."""
-        weighting.stage_weight(self, items, frame, record)
+        weighting.stage_weight(self, ctx, items, frame, record)
 
-    def _stage_resample(self, items, frame, record) -> None:
+    def _stage_resample(self, ctx, items, frame, record) -> None:
         for v in items:
-            rule = self.rules.lookup("resample", type(self.beliefs[v]))
-            info = rule(self, v, frame)
+            rule = self.rules.lookup("resample", type(ctx.beliefs[v]))
+            info = rule(ctx, v, frame)
             if info:
                 record.info.setdefault(v, {}).update(info)
             res = (info or {}).get("resampled", False)
             record.resampled[v] = res if isinstance(res, np.ndarray) else bool(res)
 
-    def _stage_estimate(self, items, frame, record) -> None:
+    def _stage_estimate(self, ctx, items, frame, record) -> None:
         for v in items:
-            rule = self.rules.lookup("estimate", type(self.beliefs[v]))
-            record.estimates[v] = rule(self, v, frame)
-        self.runtime.learn(self, items, frame, record)
+            rule = self.rules.lookup("estimate", type(ctx.beliefs[v]))
+            record.estimates[v] = rule(ctx, v, frame)
+        self.runtime.learn(ctx, items, frame, record)
 
-    def _stage_associate(self, items, frame, record) -> None:
+    def _stage_associate(self, ctx, items, frame, record) -> None:
         self.runtime.associate(self, frame, record)
 
     def log_likelihood(self, variable: str, x: np.ndarray, frame: FrameContext) -> np.ndarray:
         """Sum of ``variable``'s likelihood factors at particles ``x`` ``(N, d)``."""
-        total = np.zeros(x.shape[0])
-        for f in self.graph.factors_of(variable, "likelihood"):
-            total = total + f.log_likelihood(x, frame)
-        return total
+        return self.ctx.log_likelihood(variable, x, frame)
 
     def score_at(self, variable: str, value: np.ndarray, frame: FrameContext) -> float:
         """Summed log-likelihood of ``variable``'s likelihood factors at one value."""
-        x = np.asarray(value, dtype=float).reshape(1, -1)
-        return float(self.log_likelihood(variable, x, frame)[0])
-
+        return self.ctx.score_at(variable, value, frame)

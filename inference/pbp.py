@@ -30,7 +30,7 @@ Two fusion rules, chosen by the engine option ``fusion``:
     leaves-to-root and a root-to-leaves sweep; loopy graphs use flooding rounds
     (:func:`pgm.inference.engine.message_order`).
 
-Settings read from ``engine.settings`` (:class:`~pgm.inference.settings.EngineSettings`):
+Settings read from ``ctx.settings`` (:class:`~pgm.inference.settings.EngineSettings`):
 ``fusion``, ``message_weight`` (``"source"`` | ``"target"``), ``message_particles``
 (``M``; default ``N_β``: one message particle per predicted particle).
 
@@ -49,7 +49,6 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -57,10 +56,8 @@ from pgm.core.beliefs import Particles
 from pgm.core.numerics import log_normalize, logsumexp
 from pgm.factors import CouplingFactor
 
+from .context import RuleContext
 from .rules import RuleTable
-
-if TYPE_CHECKING:
-    from .engine import Engine
 
 __all__ = ["MixtureMessage", "ProductMessage", "coupling_message", "fuse"]
 
@@ -89,54 +86,54 @@ class ProductMessage:
     log_weights: np.ndarray
 
 
-def _evidence(engine: Engine, variable: str) -> tuple[np.ndarray, np.ndarray]:
-    b = engine.beliefs[variable]
-    return engine.evidence.get(variable, (b.log_weights, np.zeros(b.num)))
+def _evidence(ctx: RuleContext, variable: str) -> tuple[np.ndarray, np.ndarray]:
+    b = ctx.beliefs[variable]
+    return ctx.evidence.get(variable, (b.log_weights, np.zeros(b.num)))
 
 
-def _subsample(engine: Engine, log_weights: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
+def _subsample(ctx: RuleContext, log_weights: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
     """Indices of ``M`` message particles (``None``: all of them) and their prior
     log-weights (mass 1)."""
     n = log_weights.size
-    m = engine.settings.message_particles or n
+    m = ctx.settings.message_particles or n
     if m == n:
         return None, log_weights  # all particles; prior weights are the normalised posterior
-    idx = engine.resampler(engine.rng, np.exp(log_normalize(log_weights)), m)
+    idx = ctx.resampler(ctx.rng, np.exp(log_normalize(log_weights)), m)
     return idx, np.full(m, -np.log(m))
 
 
 @RULES.register(CouplingFactor, Particles)
-def coupling_message(engine: Engine, factor, frame, src: str, dst: str) -> dict | None:
+def coupling_message(ctx: RuleContext, factor, frame, src: str, dst: str) -> dict | None:
     """Compute the message ``src → dst`` of a coupling factor (mixture or product)."""
-    fusion = engine.settings.fusion
-    b_src: Particles = engine.beliefs[src]
-    prior_lw, log_lik = _evidence(engine, src)
+    fusion = ctx.settings.fusion
+    b_src: Particles = ctx.beliefs[src]
+    prior_lw, log_lik = _evidence(ctx, src)
     if fusion == "mixture":
-        idx, lw_prior = _subsample(engine, prior_lw)
+        idx, lw_prior = _subsample(ctx, prior_lw)
         pick = (lambda a: a) if idx is None else (lambda a: a[idx])  # noqa: E731
-        x_msg = np.asarray(factor.propagate(engine.rng, pick(b_src.x), src), dtype=float)
-        n_hist = len(engine.beliefs[dst].history)
+        x_msg = np.asarray(factor.propagate(ctx.rng, pick(b_src.x), src), dtype=float)
+        n_hist = len(ctx.beliefs[dst].history)
         hist = [np.asarray(factor.map(pick(h), src), dtype=float)
                 for h in b_src.history[:n_hist]]
         hist += [x_msg.copy() for _ in range(n_hist - len(hist))]
-        mode = engine.settings.message_weight
+        mode = ctx.settings.message_weight
         if mode == "source":
             lw = lw_prior + pick(log_lik)
         elif mode == "target":
-            lw = lw_prior + engine.log_likelihood(dst, x_msg, frame)
+            lw = lw_prior + ctx.log_likelihood(dst, x_msg, frame)
         else:
             raise ValueError(f"message_weight must be 'source' or 'target', got {mode!r}")
-        engine.messages[(src, dst)] = MixtureMessage(x_msg, lw, tuple(hist))
+        ctx.messages[(src, dst)] = MixtureMessage(x_msg, lw, tuple(hist))
         return None
     if fusion != "product":
         raise ValueError(f"unknown fusion {fusion!r}")
     cavity = prior_lw + log_lik
-    for (a, b), msg in engine.messages.items():
+    for (a, b), msg in ctx.messages.items():
         if b == src and a != dst:
             cavity = cavity + msg.log_values
-    idx, log_pi = _subsample(engine, log_normalize(cavity))
+    idx, log_pi = _subsample(ctx, log_normalize(cavity))
     x_src = b_src.x if idx is None else b_src.x[idx]
-    x_dst = engine.beliefs[dst].x
+    x_dst = ctx.beliefs[dst].x
     n, m = x_dst.shape[0], x_src.shape[0]
     rows = max(1, _CHUNK_ELEMENTS // max(1, m * x_dst.shape[1]))
     log_values = np.empty(n)
@@ -145,26 +142,26 @@ def coupling_message(engine: Engine, factor, frame, src: str, dst: str) -> dict 
         xd = x_dst[start:start + rows, None, :]
         lp = factor.log_prob(xd, x_src[None]) if dst_first else factor.log_prob(x_src[None], xd)
         log_values[start:start + rows] = logsumexp(lp + log_pi[None, :], axis=1)
-    engine.messages[(src, dst)] = ProductMessage(log_values, factor.map(x_src, src), log_pi)
+    ctx.messages[(src, dst)] = ProductMessage(log_values, factor.map(x_src, src), log_pi)
     return None
 
 
 @RULES.register("fuse", Particles)
-def fuse(engine: Engine, variable: str, frame) -> dict:
+def fuse(ctx: RuleContext, variable: str, frame) -> dict:
     """Combine ``variable``'s own weighted particles with its incoming messages."""
-    b: Particles = engine.beliefs[variable]
-    prior_lw, log_lik = _evidence(engine, variable)
-    incoming = [msg for (_, dst), msg in engine.messages.items() if dst == variable]
-    if engine.settings.fusion == "product":
+    b: Particles = ctx.beliefs[variable]
+    prior_lw, log_lik = _evidence(ctx, variable)
+    incoming = [msg for (_, dst), msg in ctx.messages.items() if dst == variable]
+    if ctx.settings.fusion == "product":
         lw = prior_lw + log_lik
         for msg in incoming:
             lw = lw + msg.log_values
-        engine.beliefs[variable] = b._trusted(b.x, log_normalize(lw), b.history, log_mass=0.0)
+        ctx.beliefs[variable] = b._trusted(b.x, log_normalize(lw), b.history, log_mass=0.0)
         return {}
     lw = np.concatenate([prior_lw + log_lik] + [m.log_weights for m in incoming])
     lw = log_normalize(lw)
     x = np.concatenate([b.x] + [m.x for m in incoming])
     hist = tuple(np.concatenate([h] + [m.history[k] for m in incoming])
                  for k, h in enumerate(b.history))
-    engine.beliefs[variable] = b._trusted(x, lw, hist, log_mass=0.0)
+    ctx.beliefs[variable] = b._trusted(x, lw, hist, log_mass=0.0)
     return {"own_mass": float(np.exp(lw[:b.num]).sum())}

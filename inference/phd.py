@@ -44,7 +44,7 @@ References
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -54,11 +54,9 @@ from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
 from pgm.factors.multitarget import PHDLikelihood
 from pgm.factors.scores import ScoreCalibration, shadowed
 
+from .context import RuleContext
 from .rules import RuleTable
 from .tracks import TrackManager
-
-if TYPE_CHECKING:
-    from .engine import Engine
 
 __all__ = ["phd_correct", "extract", "phd_factor_of", "appearance_log_scores", "score_terms"]
 
@@ -66,9 +64,9 @@ __all__ = ["phd_correct", "extract", "phd_factor_of", "appearance_log_scores", "
 RULES = RuleTable()
 
 
-def phd_factor_of(engine: Engine, variable: str) -> PHDLikelihood:
+def phd_factor_of(ctx: RuleContext, variable: str) -> PHDLikelihood:
     """The PHD measurement factor of a set variable."""
-    fs = [f for f in engine.graph.factors_of(variable, "likelihood")
+    fs = [f for f in ctx.graph.factors_of(variable, "likelihood")
           if isinstance(f, PHDLikelihood)]
     if len(fs) != 1:
         raise ValueError(f"set variable {variable!r} needs exactly one PHDLikelihood factor, "
@@ -76,13 +74,13 @@ def phd_factor_of(engine: Engine, variable: str) -> PHDLikelihood:
     return fs[0]
 
 
-def appearance_log_scores(engine: Engine, variable: str, x: np.ndarray, frame) -> np.ndarray | None:
+def appearance_log_scores(ctx: RuleContext, variable: str, x: np.ndarray, frame) -> np.ndarray | None:
     """``γ ×`` the summed log-scores of the appearance factors of ``variable`` (or None)."""
-    others = [f for f in engine.graph.factors_of(variable, "likelihood")
+    others = [f for f in ctx.graph.factors_of(variable, "likelihood")
               if not isinstance(f, PHDLikelihood)]
     if not others or x.shape[0] == 0:
         return None
-    gamma = phd_factor_of(engine, variable).appearance_temper
+    gamma = phd_factor_of(ctx, variable).appearance_temper
     return gamma * sum(np.asarray(f.log_likelihood(x, frame), dtype=float) for f in others)
 
 
@@ -115,7 +113,7 @@ def phd_correct(weights: np.ndarray, log_g: np.ndarray, factor: PHDLikelihood,
 @dataclass
 class PHDState:
     """What the PHD rules keep for a set variable across frames
-    (``engine.state.get(variable, PHDState)``).
+    (``ctx.state.get(variable, PHDState)``).
 
     Attributes
     ----------
@@ -145,7 +143,7 @@ class PHDState:
     score_terms: tuple | None = None
 
 
-def score_terms(engine: Engine, var: str, factor: PHDLikelihood, frame,
+def score_terms(ctx: RuleContext, var: str, factor: PHDLikelihood, frame,
                 m: int) -> tuple[float | np.ndarray, float | np.ndarray]:
     """This frame's clutter and birth densities ``(κ, ν_b)``: the factor's scalars when
     it ignores scores, else one per detection (:mod:`pgm.factors.scores`):
@@ -157,7 +155,7 @@ def score_terms(engine: Engine, var: str, factor: PHDLikelihood, frame,
     """
     if not factor.scores.enabled:
         return factor.kappa, factor.nu_birth
-    state = engine.state.get(var, PHDState)
+    state = ctx.state.get(var, PHDState)
     cached = state.score_terms
     if cached is not None and cached[0] is frame and np.size(cached[1]) == m:
         return cached[1], cached[2]
@@ -182,84 +180,84 @@ def score_terms(engine: Engine, var: str, factor: PHDLikelihood, frame,
     return out
 
 
-def _install_tracks(engine: Engine, variable: str) -> None:
-    f = phd_factor_of(engine, variable)
-    trans = engine.graph.factors_of(variable, "transition")
-    d = engine.graph.variables[variable].dim
+def _install_tracks(ctx: RuleContext, variable: str) -> None:
+    f = phd_factor_of(ctx, variable)
+    trans = ctx.graph.factors_of(variable, "transition")
+    d = ctx.graph.variables[variable].dim
     F = getattr(trans[0], "F", np.eye(d)) if trans else np.eye(d)
     s = f.tracks
-    engine.state.get(variable, PHDState).tracks = TrackManager(
+    ctx.state.get(variable, PHDState).tracks = TrackManager(
         F, f.H, np.sqrt(f.R), gate=s.gate, confirm_hits=s.confirm_hits,
         max_coast=s.max_coast, max_lost=s.max_lost, scale_index=f.scale_index,
         scaled=f.scaled if f.scale_index is not None else None)
 
 
 @RULES.register(PriorFactor, Intensity)
-def _prior_intensity(engine: Engine, factor, frame) -> None:
+def _prior_intensity(ctx: RuleContext, factor, frame) -> None:
     var = factor.variables[0]
-    d = engine.graph.variables[var].dim
+    d = ctx.graph.variables[var].dim
     mass = getattr(factor, "mass", 0.0)
     if mass > 0:
-        n = max(engine.num_particles[var], int(round(engine.num_particles[var] * mass)))
-        x = np.asarray(factor.sample(engine.rng, n), dtype=float).reshape(n, d)
-        engine.beliefs[var] = Intensity.uniform(x, mass=mass)
+        n = max(ctx.num_particles[var], int(round(ctx.num_particles[var] * mass)))
+        x = np.asarray(factor.sample(ctx.rng, n), dtype=float).reshape(n, d)
+        ctx.beliefs[var] = Intensity.uniform(x, mass=mass)
     else:
-        engine.beliefs[var] = Intensity.empty(d)
-    _install_tracks(engine, var)
+        ctx.beliefs[var] = Intensity.empty(d)
+    _install_tracks(ctx, var)
 
 
 @RULES.register(TransitionFactor, Intensity)
-def _predict_intensity(engine: Engine, factor, frame) -> None:
+def _predict_intensity(ctx: RuleContext, factor, frame) -> None:
     var = factor.variables[0]
-    b: Intensity = engine.beliefs[var]
+    b: Intensity = ctx.beliefs[var]
     x, lw, labels = b.x, b.log_weights, b.labels
     if b.newborn is not None and b.newborn.num:
         x = np.concatenate([x, b.newborn.x])
         lw = np.concatenate([lw, b.newborn.log_weights])
         if labels is not None:
-            labels = np.concatenate([labels, engine.state.get(var, PHDState).newborn_labels])
+            labels = np.concatenate([labels, ctx.state.get(var, PHDState).newborn_labels])
     if frame.camera_motion is not None:  # past states into this frame's image coordinates
-        names = engine.graph.variables[var].labels
+        names = ctx.graph.variables[var].labels
         x = warp_states(x, names, frame.camera_motion)
-        engine.state.get(var, PHDState).tracks.move(
+        ctx.state.get(var, PHDState).tracks.move(
             lambda s: warp_states(s, names, frame.camera_motion),
             motion_scale(frame.camera_motion))
     if x.shape[0]:
-        x = np.asarray(factor.sample(engine.rng, x), dtype=float)
+        x = np.asarray(factor.sample(ctx.rng, x), dtype=float)
     lw = lw + np.log(getattr(factor, "p_survive", 1.0))
-    engine.beliefs[var] = Intensity._trusted_set(x, lw, labels=labels)
+    ctx.beliefs[var] = Intensity._trusted_set(x, lw, labels=labels)
 
 
-def _update(engine: Engine, var: str, factor: PHDLikelihood, frame, precision=None,
+def _update(ctx: RuleContext, var: str, factor: PHDLikelihood, frame, precision=None,
             log_variance=None, sq=None) -> dict[str, Any]:
     """Corrector on the *predicted* persistent particles; returns the pieces."""
-    b: Intensity = engine.beliefs[var]
+    b: Intensity = ctx.beliefs[var]
     z = factor.measurements(frame)
     w = np.exp(b.log_weights) if b.num else np.zeros(0)
     log_g = factor.log_g(b.x, z, precision, log_variance, sq=sq)
-    log_app = appearance_log_scores(engine, var, b.x, frame)
-    kappa, nu = score_terms(engine, var, factor, frame, z.shape[0])
+    log_app = appearance_log_scores(ctx, var, b.x, frame)
+    kappa, nu = score_terms(ctx, var, factor, frame, z.shape[0])
     out = phd_correct(w, log_g, factor, log_app, kappa, nu)
     out["z"] = z
     out["x"] = b.x
     return out
 
 
-def _finish(engine: Engine, var: str, factor: PHDLikelihood, res: dict[str, Any],
+def _finish(ctx: RuleContext, var: str, factor: PHDLikelihood, res: dict[str, Any],
             r_hat: np.ndarray) -> None:
     """Write the updated persistent set and this frame's newborn particles."""
-    b: Intensity = engine.beliefs[var]
+    b: Intensity = ctx.beliefs[var]
     z, L = res["z"], res["L"]
     with np.errstate(divide="ignore"):
         lw = np.log(res["w"])
     newborn = None
-    state = engine.state.get(var, PHDState)
+    state = ctx.state.get(var, PHDState)
     nu = res.get("nu", factor.nu_birth)
     if np.ndim(nu):  # per detection (score model): births only where nu > 0
         keep = nu > 0
         z, L, nu = z[keep], L[keep], nu[keep]
     if z.shape[0] and factor.nu_birth > 0:
-        xb = factor.births(engine.rng, z, r_hat, b.dim)
+        xb = factor.births(ctx.rng, z, r_hat, b.dim)
         wb = np.repeat(nu / L / factor.n_birth, factor.n_birth)
         newborn = Particles._trusted(xb, np.log(wb), ())
         if b.labels is not None:  # one fresh lineage label per measurement
@@ -268,38 +266,38 @@ def _finish(engine: Engine, var: str, factor: PHDLikelihood, res: dict[str, Any]
             state.newborn_labels = np.repeat(np.arange(first, first + z.shape[0]),
                                              factor.n_birth)
     w_sum = float(res["w"].sum())
-    engine.beliefs[var] = Intensity._trusted_set(
+    ctx.beliefs[var] = Intensity._trusted_set(
         b.x, lw, newborn=newborn, labels=b.labels,
         log_mass=np.log(w_sum) if w_sum > 0 else None)
     state.last = res
 
 
 @RULES.register(LikelihoodFactor, Intensity)
-def _appearance_on_intensity(engine: Engine, factor, frame) -> None:
+def _appearance_on_intensity(ctx: RuleContext, factor, frame) -> None:
     """An appearance factor on a set: it enters inside the PHD corrector, not here."""
     return None
 
 
 @RULES.register(PHDLikelihood, Intensity)
-def _correct_intensity(engine: Engine, factor, frame) -> None:
+def _correct_intensity(ctx: RuleContext, factor, frame) -> None:
     var = factor.variables[0]
-    res = _update(engine, var, factor, frame)
-    _finish(engine, var, factor, res, factor.R)
+    res = _update(ctx, var, factor, frame)
+    _finish(ctx, var, factor, res, factor.R)
 
 
 @RULES.register("resample", Intensity)
-def _resample_intensity(engine: Engine, variable: str, frame) -> dict[str, Any]:
-    b: Intensity = engine.beliefs[variable]
+def _resample_intensity(ctx: RuleContext, variable: str, frame) -> dict[str, Any]:
+    b: Intensity = ctx.beliefs[variable]
     if b.num == 0:
         return {"resampled": False}
     mass = b.mass
-    budget = max(phd_factor_of(engine, variable).min_particles,
-                 int(round(engine.num_particles[variable] * mass)))
-    idx = engine.resampler(engine.rng, b.weights, budget)
+    budget = max(phd_factor_of(ctx, variable).min_particles,
+                 int(round(ctx.num_particles[variable] * mass)))
+    idx = ctx.resampler(ctx.rng, b.weights, budget)
     out = Intensity._trusted_set(b.x[idx], np.full(budget, np.log(mass / budget)),
                                  newborn=b.newborn, log_mass=np.log(mass),
                                  labels=None if b.labels is None else b.labels[idx])
-    engine.beliefs[variable] = out
+    ctx.beliefs[variable] = out
     return {"resampled": True, "particles": budget}
 
 
@@ -342,18 +340,18 @@ def extract(res: dict[str, Any], merge_gate: float, sigma: np.ndarray,
 
 
 @RULES.register("estimate", Intensity)
-def _estimate_intensity(engine: Engine, variable: str, frame) -> dict[str, Any]:
-    state = engine.state.find(variable, PHDState) or PHDState()
+def _estimate_intensity(ctx: RuleContext, variable: str, frame) -> dict[str, Any]:
+    state = ctx.state.find(variable, PHDState) or PHDState()
     res = state.last
-    b: Intensity = engine.beliefs[variable]
-    factor = phd_factor_of(engine, variable)
+    b: Intensity = ctx.beliefs[variable]
+    factor = phd_factor_of(ctx, variable)
     # merge gate and track gate are in units of max(nominal σ, VB σ̂): they must absorb
     # duplicate detections and motion error as well as measurement noise. Measured on
     # PETS09-S2L1: with the VB σ̂ alone (2-3 px) one person's duplicate detections were
     # not merged (VB-PHD MOTA 0.502, 390 FP); with this gate MOTA 0.673, IDF1 0.525
     gate_sigma = np.sqrt(np.maximum(factor.R, factor.R if state.r_hat is None
                                     else state.r_hat))
-    d = engine.graph.variables[variable].dim
+    d = ctx.graph.variables[variable].dim
     if res is None:
         states, zi = np.zeros((0, d)), np.zeros(0, int)
     else:

@@ -58,6 +58,7 @@ from pgm.factors import LikelihoodFactor
 from . import batched as _batched  # noqa: F401  (registers the batched rules)
 from .association import detection_boxes  # (and the exact Kalman replicas' rules)
 from .batched import box_columns, score_group  # noqa: F401  (box_columns: re-exported)
+from .context import RuleContext
 from .engine import Engine, StepRecord
 from .record import register_runtime
 from .single import SingleGraph
@@ -282,19 +283,13 @@ def add(engine: Engine, boxes: np.ndarray | None, frame: FrameContext,
             spec.next_id += 1
     newborn = Replicas(rngs, [_replica_graph(engine, v) for v in values], tracks,
                        [StateSlots() for _ in range(m)], parent=engine.rng)
-    saved = (engine.beliefs, engine.replicas, engine.evidence, engine.messages,
-             engine.assignment)
-    # newborns: their own first frame (no detection was assigned to them)
-    engine.beliefs, engine.replicas, engine.evidence, engine.messages = {}, newborn, {}, {}
-    engine.assignment = None
+    # newborns: their own first frame, on a context of their own (no detection was
+    # assigned to them)
+    ctx = engine.ctx.newborn(newborn)
     rec = StepRecord(frame=frame.index)
-    try:
-        engine._run(engine.schedule.first_frame, frame, rec, hooks=False,
-                    skip=("interaction", "associate"))
-        born = engine.beliefs
-    finally:
-        (engine.beliefs, engine.replicas, engine.evidence, engine.messages,
-         engine.assignment) = saved
+    engine._run(engine.schedule.first_frame, frame, rec, hooks=False,
+                skip=("interaction", "associate"), ctx=ctx)
+    born = ctx.beliefs
     first = engine.replicas.K
     for v, b in born.items():
         engine.beliefs[v] = engine.beliefs[v].concat(b)
@@ -357,7 +352,7 @@ def step(engine: Engine, frame: FrameContext, record: StepRecord, lifecycle: boo
             engine._run(engine.schedule.phases[:1], frame, record)
             for v in engine.graph.variables:
                 rule = engine.rules.lookup("estimate", type(engine.beliefs[v]))
-                record.estimates[v] = rule(engine, v, frame)
+                record.estimates[v] = rule(engine.ctx, v, frame)
             reps.est = dict(record.estimates)
         else:
             engine._run(engine.schedule.phases, frame, record, skip=("associate",))
@@ -387,12 +382,12 @@ def step(engine: Engine, frame: FrameContext, record: StepRecord, lifecycle: boo
         boxes=boxes, reported=shown, existence=existences(reps.tracks))
 
 
-def learn(engine: Engine, items: list[str], frame: FrameContext, record: StepRecord) -> None:
+def learn(ctx: RuleContext, items: list[str], frame: FrameContext, record: StepRecord) -> None:
     """After the estimate stage: every replica's learning factors are updated with its
     estimates and scores (as a single-graph engine updates its own)."""
-    reps = engine.replicas
+    reps = ctx.replicas
     reps.est = {v: np.asarray(record.estimates[v]) for v in items}
-    learners = engine.plate_spec.learners
+    learners = ctx.plate_spec.learners
     if not learners:
         return
     for k in range(reps.K):
@@ -525,13 +520,13 @@ class PlateRuntime(SingleGraph):
     def finish(self, engine: Engine, record: StepRecord) -> None:
         pass
 
-    def graphs(self, engine: Engine) -> list[FactorGraph]:
-        return engine.replicas.graphs
+    def graphs(self, ctx: RuleContext) -> list[FactorGraph]:
+        return ctx.replicas.graphs
 
-    def state_slots(self, engine: Engine) -> list[StateSlots]:
-        return engine.replicas.state
+    def state_slots(self, ctx: RuleContext) -> list[StateSlots]:
+        return ctx.replicas.state
 
-    def normalize(self, engine: Engine, variable: str, belief, before):
+    def normalize(self, ctx: RuleContext, variable: str, belief, before):
         """Normalised; a replica no particle of which explains the frame keeps its
         prediction ``before`` (second: which replicas did)."""
         return belief.normalized(fallback=before)

@@ -80,14 +80,18 @@ class RuleTable:
 
     Calling conventions
     -------------------
-    * prior, transition, conjugate factors: ``rule(engine, factor, frame)``; updates
-      ``engine.beliefs``; may return a dict of diagnostics;
+    A rule receives a :class:`~pgm.inference.context.RuleContext` ``ctx`` (the beliefs,
+    this frame's evidence and messages, the generator, the settings, its state slots),
+    never the engine:
+
+    * prior, transition, conjugate factors: ``rule(ctx, factor, frame)``; updates
+      ``ctx.beliefs``; may return a dict of diagnostics;
     * likelihood factors on a belief that likelihoods reweight (:class:`~pgm.Particles`):
-      ``rule(engine, factor, frame) -> log_lik`` of shape ``(N,)``, touching no belief;
+      ``rule(ctx, factor, frame) -> log_lik`` of shape ``(N,)``, touching no belief;
       on other beliefs, as a prior rule;
-    * coupling factors: ``rule(engine, factor, frame, src, dst)`` (one directed message);
+    * coupling factors: ``rule(ctx, factor, frame, src, dst)`` (one directed message);
     * belief operations (``fuse``, ``resample``, ``estimate``):
-      ``rule(engine, variable_name, frame)``.
+      ``rule(ctx, variable_name, frame)``.
 
     Diagnostics are stored in the step record under the factor's (or variable's) name.
     """

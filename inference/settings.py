@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["EngineSettings", "FUSIONS", "MESSAGE_WEIGHTS"]
+__all__ = ["EngineSettings", "FUSIONS", "MESSAGE_WEIGHTS", "BELIEF_FORMS", "register_belief_form"]
 
 FUSIONS = ("mixture", "product")
 MESSAGE_WEIGHTS = ("source", "target")
@@ -33,8 +33,27 @@ def _positive_int(name: str, value: Any) -> int:
     return int(value)
 
 
-#: the belief forms a model may declare for a variable (``EngineSettings.beliefs``)
-BELIEF_FORMS = ("particles", "gaussian", "intensity", "inverse-gamma")
+def _builtin_forms() -> dict[str, type]:
+    from pgm.core.beliefs import Intensity, Particles
+    from pgm.core.expfam import Gaussian, InverseGamma
+
+    return {"particles": Particles, "gaussian": Gaussian, "intensity": Intensity,
+            "inverse-gamma": InverseGamma}
+
+
+#: the belief forms a model may declare for a variable (``EngineSettings.beliefs``): name
+#: -> belief class (:func:`register_belief_form` adds one)
+BELIEF_FORMS: dict[str, type] = _builtin_forms()
+
+
+def register_belief_form(name: str, belief_type: type) -> None:
+    """Let models declare ``belief_type`` for a variable by ``name`` (saved in their
+    ``model.json``), as ``"gaussian"`` names :class:`~pgm.core.expfam.Gaussian`."""
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"a belief form is named by a non-empty string, got {name!r}")
+    if not isinstance(belief_type, type):
+        raise ValueError(f"belief form {name!r}: expected a class, got {belief_type!r}")
+    BELIEF_FORMS[name] = belief_type
 
 
 @dataclass(frozen=True)
@@ -108,12 +127,7 @@ class EngineSettings:
 
     def belief_classes(self) -> dict[str, type]:
         """``beliefs`` as belief classes."""
-        from pgm.core.beliefs import Intensity, Particles
-        from pgm.core.expfam import Gaussian, InverseGamma
-
-        classes = {"particles": Particles, "gaussian": Gaussian, "intensity": Intensity,
-                   "inverse-gamma": InverseGamma}
-        return {v: classes[form] for v, form in (self.beliefs or {}).items()}
+        return {v: BELIEF_FORMS[form] for v, form in (self.beliefs or {}).items()}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any] | None) -> EngineSettings:

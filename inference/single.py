@@ -1,10 +1,10 @@
 """How the engine runs a graph without a plate (:class:`SingleGraph`): the one runtime the
 engine core holds itself. A runtime is what differs between one graph and a plate of its
 replicas; the plate's (:class:`pgm.inference.plates.PlateRuntime`) registers itself with
-:func:`pgm.inference.record.register_runtime`. Each method takes the
-:class:`~pgm.inference.engine.Engine` it serves (typed ``Any``: the engine imports this
-module, not the other way).
-"""
+:func:`pgm.inference.record.register_runtime`. A runtime's methods that act on the rules'
+state take the :class:`~pgm.inference.context.RuleContext` they run on (a plate's
+newborns run on their own), the others the :class:`~pgm.inference.engine.Engine` they
+serve (typed ``Any``: the engine imports this module, not the other way)."""
 
 from __future__ import annotations
 
@@ -15,6 +15,7 @@ from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
 from pgm.core.readout import confidence
 
+from .context import RuleContext
 from .record import StepRecord
 from .state import StateSlots
 
@@ -55,30 +56,31 @@ class SingleGraph:
         if engine._proposals:
             engine.confidence = confidence(engine.graph, record)
 
-    def graphs(self, engine: Any) -> list[FactorGraph]:
+    def graphs(self, ctx: RuleContext) -> list[FactorGraph]:
         """The graphs whose factors the frame uses (one per replica of a plate)."""
-        return [engine.graph]
+        return [ctx.graph]
 
-    def state_slots(self, engine: Any) -> list[StateSlots]:
+    def state_slots(self, ctx: RuleContext) -> list[StateSlots]:
         """The rules' state slots (one per replica of a plate)."""
-        return [engine.state]
+        return [ctx.state]
 
-    def learn(self, engine: Any, items, frame: FrameContext, record: StepRecord) -> None:
+    def learn(self, ctx: RuleContext, items, frame: FrameContext, record: StepRecord) -> None:
         """After the estimate stage: the factors that learn are updated with the
         estimates and the likelihood scores there."""
-        if engine._learners:
-            scores = {v: engine.score_at(v, record.estimates[v], frame) for v in items
-                      if engine.graph.factors_of(v, "likelihood")}
-            for f in engine._learners:
+        learners = [f for f in ctx.graph.factors.values() if f.learns]
+        if learners:
+            scores = {v: ctx.score_at(v, record.estimates[v], frame) for v in items
+                      if ctx.graph.factors_of(v, "likelihood")}
+            for f in learners:
                 f.update(record.estimates, scores, frame)
 
-    def normalize(self, engine: Any, variable: str, belief, before):
+    def normalize(self, ctx: RuleContext, variable: str, belief, before):
         """A reweighted belief normalised; second, the rows kept at ``before`` (none)."""
         return belief.normalized(), None
 
-    def score_group(self, engine: Any, fs: list[Factor], frame: FrameContext) -> list:
+    def score_group(self, ctx: RuleContext, fs: list[Factor], frame: FrameContext) -> list:
         """Log-likelihoods of likelihood factors of one graph scored in one pass."""
-        return type(fs[0]).log_likelihood_batch(fs, [engine.beliefs[f.variables[0]].x
+        return type(fs[0]).log_likelihood_batch(fs, [ctx.beliefs[f.variables[0]].x
                                                      for f in fs], frame)
 
     def num_targets(self, engine: Any) -> int:

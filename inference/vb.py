@@ -37,7 +37,7 @@ References
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -47,12 +47,10 @@ from pgm.core.expfam import Gaussian, InverseGamma
 from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianTransition
 from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, PHDLikelihood, VBNoise
 
+from .context import RuleContext
 from .kalman import kalman_update, vb_akf_batch
 from .phd import PHDState, _finish, _update, phd_factor_of
 from .rules import RuleTable
-
-if TYPE_CHECKING:
-    from .engine import Engine
 
 __all__ = ["vb_akf_update", "gaussian_elbo_terms"]
 
@@ -62,54 +60,54 @@ RULES = RuleTable()
 
 # -- noise beliefs -------------------------------------------------------------------------
 @RULES.register(InverseGammaPrior, InverseGamma)
-def _prior_noise(engine: Engine, factor, frame) -> None:
-    engine.beliefs[factor.variables[0]] = factor.belief()
+def _prior_noise(ctx: RuleContext, factor, frame) -> None:
+    ctx.beliefs[factor.variables[0]] = factor.belief()
 
 
 @RULES.register(NoiseForgetting, InverseGamma)
-def _forget_noise(engine: Engine, factor, frame) -> None:
+def _forget_noise(ctx: RuleContext, factor, frame) -> None:
     var = factor.variables[0]
-    engine.beliefs[var] = engine.beliefs[var].forget(factor.rho, factor.alpha_min)
+    ctx.beliefs[var] = ctx.beliefs[var].forget(factor.rho, factor.alpha_min)
 
 
 @RULES.register("estimate", InverseGamma)
-def _estimate_noise(engine: Engine, variable: str, frame) -> np.ndarray:
-    return engine.beliefs[variable].r_hat()
+def _estimate_noise(ctx: RuleContext, variable: str, frame) -> np.ndarray:
+    return ctx.beliefs[variable].r_hat()
 
 
 # -- a plate's noise beliefs, all replicas at once ------------------------------------------
 @RULES.register(InverseGammaPrior, BatchedInverseGamma)
-def _prior_noise_batched(engine: Engine, factor, frame) -> None:
+def _prior_noise_batched(ctx: RuleContext, factor, frame) -> None:
     """Each replica's prior belief (its own copy of the prior factor's), stacked."""
-    engine.beliefs[factor.variables[0]] = BatchedInverseGamma.stack(
-        [g.factors[factor.name].belief() for g in engine.replicas.graphs])
+    ctx.beliefs[factor.variables[0]] = BatchedInverseGamma.stack(
+        [g.factors[factor.name].belief() for g in ctx.replicas.graphs])
 
 
 @RULES.register(NoiseForgetting, BatchedInverseGamma)
-def _forget_noise_batched(engine: Engine, factor, frame) -> None:
+def _forget_noise_batched(ctx: RuleContext, factor, frame) -> None:
     """The forgetting prediction of every replica's noise belief."""
     var = factor.variables[0]
-    engine.beliefs[var] = engine.beliefs[var].forget(factor.rho, factor.alpha_min)
+    ctx.beliefs[var] = ctx.beliefs[var].forget(factor.rho, factor.alpha_min)
 
 
 @RULES.register("estimate", BatchedInverseGamma)
-def _estimate_noise_batched(engine: Engine, variable: str, frame) -> np.ndarray:
+def _estimate_noise_batched(ctx: RuleContext, variable: str, frame) -> np.ndarray:
     """``β/α`` per replica, ``(K, d)``."""
-    return engine.beliefs[variable].r_hat()
+    return ctx.beliefs[variable].r_hat()
 
 
 
 # -- exact Gaussian rules (Kalman) ------------------------------------------------------------
 @RULES.register(GaussianPrior, Gaussian)
-def _prior_gaussian(engine: Engine, factor, frame) -> None:
-    engine.beliefs[factor.variables[0]] = Gaussian(factor.mean(), factor.cov)
+def _prior_gaussian(ctx: RuleContext, factor, frame) -> None:
+    ctx.beliefs[factor.variables[0]] = Gaussian(factor.mean(), factor.cov)
 
 
 @RULES.register(LinearGaussianTransition, Gaussian)
-def _predict_gaussian(engine: Engine, factor, frame) -> None:
+def _predict_gaussian(ctx: RuleContext, factor, frame) -> None:
     var = factor.variables[0]
-    g: Gaussian = engine.beliefs[var]
-    engine.beliefs[var] = Gaussian(factor.F @ g.mean, factor.F @ g.cov @ factor.F.T + factor.Q)
+    g: Gaussian = ctx.beliefs[var]
+    ctx.beliefs[var] = Gaussian(factor.F @ g.m, factor.F @ g.P @ factor.F.T + factor.Q)
 
 
 def _measurement(factor, frame):
@@ -120,25 +118,25 @@ def _measurement(factor, frame):
 
 
 def _kalman_update(g: Gaussian, H: np.ndarray, R: np.ndarray, z: np.ndarray) -> Gaussian:
-    m, P, _ = kalman_update(g.mean, g.cov, H, R, z)
+    m, P, _ = kalman_update(g.m, g.P, H, R, z)
     return Gaussian(m, P)
 
 
 @RULES.register(LinearGaussianLikelihood, Gaussian)
-def _update_gaussian(engine: Engine, factor, frame) -> None:
+def _update_gaussian(ctx: RuleContext, factor, frame) -> None:
     var = factor.variables[0]
     z = _measurement(factor, frame)
     if z is not None:
-        engine.beliefs[var] = _kalman_update(engine.beliefs[var], factor.H, factor.R, z)
+        ctx.beliefs[var] = _kalman_update(ctx.beliefs[var], factor.H, factor.R, z)
 
 
 @RULES.register("estimate", Gaussian)
-def _estimate_gaussian(engine: Engine, variable: str, frame) -> np.ndarray:
-    return engine.beliefs[variable].mean
+def _estimate_gaussian(ctx: RuleContext, variable: str, frame) -> np.ndarray:
+    return ctx.beliefs[variable].m
 
 
 @RULES.register("resample", Gaussian)
-def _no_resample_gaussian(engine: Engine, variable: str, frame) -> None:
+def _no_resample_gaussian(ctx: RuleContext, variable: str, frame) -> None:
     return None
 
 
@@ -146,8 +144,8 @@ def _no_resample_gaussian(engine: Engine, variable: str, frame) -> None:
 def gaussian_elbo_terms(g: Gaussian, prior: Gaussian, q: InverseGamma, q_pred: InverseGamma,
                         H: np.ndarray, z: np.ndarray) -> float:
     """ELBO of the VB-AKF: ``E_q[log N(z; Hx, R)] − KL(q(x)‖p(x)) − KL(q(R)‖p(R))``."""
-    r = z - H @ g.mean
-    hph = np.diag(H @ g.cov @ H.T)
+    r = z - H @ g.m
+    hph = np.diag(H @ g.P @ H.T)
     expected_loglik = (-0.5 * z.size * np.log(2 * np.pi) - 0.5 * q.expected_log_variance().sum()
                        - 0.5 * np.sum(q.expected_precision() * (r * r + hph)))
     return float(expected_loglik - g.kl(prior) - q.kl(q_pred))
@@ -163,7 +161,7 @@ def vb_akf_update(prior: Gaussian, q_pred: InverseGamma, H: np.ndarray, z: np.nd
         elbo.append(gaussian_elbo_terms(Gaussian(m[0], P[0]), prior,
                                         InverseGamma(alpha[0], beta[0]), q_pred, H, z))
 
-    m, P, alpha, beta, it = vb_akf_batch(prior.mean[None], prior.cov[None],
+    m, P, alpha, beta, it = vb_akf_batch(prior.m[None], prior.P[None],
                                          q_pred.alpha[None], q_pred.beta[None], H, z[None],
                                          tol, max_iter, on_iteration=record)
     g, q = Gaussian(m[0], P[0]), InverseGamma(alpha[0], beta[0])
@@ -172,9 +170,9 @@ def vb_akf_update(prior: Gaussian, q_pred: InverseGamma, H: np.ndarray, z: np.nd
 
 
 @RULES.register(VBNoise, Gaussian)
-def _vb_gaussian(engine: Engine, factor, frame) -> dict[str, Any] | None:
+def _vb_gaussian(ctx: RuleContext, factor, frame) -> dict[str, Any] | None:
     noise, target = factor.variables
-    liks = [f for f in engine.graph.factors_of(target, "likelihood")
+    liks = [f for f in ctx.graph.factors_of(target, "likelihood")
             if factor.likelihood in (None, f.name)]
     if len(liks) != 1:
         raise ValueError(f"factor {factor.name!r}: needs one likelihood on {target!r}")
@@ -184,9 +182,9 @@ def _vb_gaussian(engine: Engine, factor, frame) -> dict[str, Any] | None:
     z = _measurement(liks[0], frame)
     if z is None:
         return None
-    g, q, info = vb_akf_update(engine.beliefs[target], engine.beliefs[noise], liks[0].H, z,
+    g, q, info = vb_akf_update(ctx.beliefs[target], ctx.beliefs[noise], liks[0].H, z,
                                factor.tol, factor.max_iter)
-    engine.beliefs[target], engine.beliefs[noise] = g, q
+    ctx.beliefs[target], ctx.beliefs[noise] = g, q
     return info
 
 
@@ -213,14 +211,14 @@ def _kl_of(q: InverseGamma, p: InverseGamma, reps: np.ndarray) -> float:
     return InverseGamma(q.alpha[reps], q.beta[reps]).kl(InverseGamma(p.alpha[reps], p.beta[reps]))
 
 
-def _noise_prior(engine: Engine, noise: str) -> InverseGamma:
-    priors = engine.graph.factors_of(noise, "prior")
+def _noise_prior(ctx: RuleContext, noise: str) -> InverseGamma:
+    priors = ctx.graph.factors_of(noise, "prior")
     if not priors:
         raise ValueError(f"noise variable {noise!r} needs a prior for per-track beliefs")
     return priors[0].belief()
 
 
-def _vb_phd_fixed_point(engine: Engine, factor, frame, inv: np.ndarray,
+def _vb_phd_fixed_point(ctx: RuleContext, factor, frame, inv: np.ndarray,
                         q_pred: list[InverseGamma]) -> dict[str, Any]:
     """The VB-PHD fixed point with one noise belief per group of particles.
 
@@ -231,8 +229,8 @@ def _vb_phd_fixed_point(engine: Engine, factor, frame, inv: np.ndarray,
     summed over its own particles (``np.bincount``: no loop over particles).
     """
     noise, target = factor.variables
-    phd: PHDLikelihood = phd_factor_of(engine, target)
-    b: Intensity = engine.beliefs[target]
+    phd: PHDLikelihood = phd_factor_of(ctx, target)
+    b: Intensity = ctx.beliefs[target]
     n_groups, k = len(q_pred), phd.H.shape[0]
     a_hat = np.array([q.alpha for q in q_pred]).reshape(n_groups, k)
     b_hat = np.array([q.beta for q in q_pred]).reshape(n_groups, k)
@@ -258,9 +256,9 @@ def _vb_phd_fixed_point(engine: Engine, factor, frame, inv: np.ndarray,
         prec = np.array([q.expected_precision() for q in qs]).reshape(n_groups, k)
         logv = np.array([q.expected_log_variance() for q in qs]).reshape(n_groups, k)
         if n_groups == 1:  # one shared belief: (k,) vectors, no per-particle copies
-            res = _update(engine, target, phd, frame, prec[0], logv[0], sq=sq_dist)
+            res = _update(ctx, target, phd, frame, prec[0], logv[0], sq=sq_dist)
         else:
-            res = _update(engine, target, phd, frame, prec[inv], logv[inv], sq=sq_dist)
+            res = _update(ctx, target, phd, frame, prec[inv], logv[inv], sq=sq_dist)
         elbo.append(float(np.sum(np.log(res["L"])))  # KL once per tied group
                     - sum(_kl_of(q, p, reps) for q, p in zip(qs, q_pred, strict=True)))
         omega, W = res["omega"], res["W"]
@@ -289,20 +287,20 @@ def _vb_phd_fixed_point(engine: Engine, factor, frame, inv: np.ndarray,
             "res": res, "mass": post}
 
 
-def _vb_phd_per_track(engine: Engine, factor, frame) -> dict[str, Any]:
+def _vb_phd_per_track(ctx: RuleContext, factor, frame) -> dict[str, Any]:
     """VB-PHD with one inverse-Gamma belief per lineage label (``per_track=True``)."""
     noise, target = factor.variables
-    phd: PHDLikelihood = phd_factor_of(engine, target)
-    b: Intensity = engine.beliefs[target]
-    state = engine.state.get(target, PHDState)
+    phd: PHDLikelihood = phd_factor_of(ctx, target)
+    b: Intensity = ctx.beliefs[target]
+    state = ctx.state.get(target, PHDState)
     if b.labels is None:
         b = Intensity(b.x, b.log_weights, (), newborn=b.newborn,
                       labels=np.zeros(b.num, dtype=np.int64))
-        engine.beliefs[target] = b
+        ctx.beliefs[target] = b
         if state.next_label is None:
             state.next_label = 1
-    prior = _noise_prior(engine, noise)
-    forget = engine.graph.factors_of(noise, "transition")
+    prior = _noise_prior(ctx, noise)
+    forget = ctx.graph.factors_of(noise, "transition")
     known: dict[int, InverseGamma] = state.noise_by_label or {}
     uniq, inv = np.unique(b.labels, return_inverse=True)
     q_pred = []
@@ -312,7 +310,7 @@ def _vb_phd_per_track(engine: Engine, factor, frame) -> dict[str, Any]:
             q_pred.append(prior)
         else:
             q_pred.append(q.forget(forget[0].rho, forget[0].alpha_min) if forget else q)
-    out = _vb_phd_fixed_point(engine, factor, frame, inv, q_pred)
+    out = _vb_phd_fixed_point(ctx, factor, frame, inv, q_pred)
     alpha, beta, r_hat, post_mass = out["alpha"], out["beta"], out["r_hat"], out["mass"]
     state.noise_by_label = {lab: InverseGamma(alpha[g], beta[g])
                              for g, lab in enumerate(uniq.tolist())}
@@ -320,24 +318,24 @@ def _vb_phd_per_track(engine: Engine, factor, frame) -> dict[str, Any]:
         summary = (post_mass[:, None] * r_hat).sum(axis=0) / post_mass.sum()
     else:
         summary = prior.r_hat()
-    _finish(engine, target, phd, out["res"], prior.r_hat())
+    _finish(ctx, target, phd, out["res"], prior.r_hat())
     state.r_hat = summary
-    engine.beliefs[noise] = InverseGamma(prior.alpha, prior.alpha * summary)
+    ctx.beliefs[noise] = InverseGamma(prior.alpha, prior.alpha * summary)
     return {"iterations": out["iterations"], "elbo": out["elbo"], "r_hat": summary,
             "tracks": len(uniq),
             "r_hat_by_label": {lab: r_hat[g] for g, lab in enumerate(uniq.tolist())}}
 
 
 @RULES.register(VBNoise, Intensity)
-def _vb_phd(engine: Engine, factor, frame) -> dict[str, Any]:
+def _vb_phd(ctx: RuleContext, factor, frame) -> dict[str, Any]:
     if getattr(factor, "per_track", False):
-        return _vb_phd_per_track(engine, factor, frame)
+        return _vb_phd_per_track(ctx, factor, frame)
     noise, target = factor.variables
-    b: Intensity = engine.beliefs[target]
-    out = _vb_phd_fixed_point(engine, factor, frame, np.zeros(b.num, dtype=np.int64),
-                              [engine.beliefs[noise]])
+    b: Intensity = ctx.beliefs[target]
+    out = _vb_phd_fixed_point(ctx, factor, frame, np.zeros(b.num, dtype=np.int64),
+                              [ctx.beliefs[noise]])
     q = InverseGamma(out["alpha"][0], out["beta"][0])
-    engine.beliefs[noise] = q
-    _finish(engine, target, phd_factor_of(engine, target), out["res"], q.r_hat())
-    engine.state.get(target, PHDState).r_hat = q.r_hat()
+    ctx.beliefs[noise] = q
+    _finish(ctx, target, phd_factor_of(ctx, target), out["res"], q.r_hat())
+    ctx.state.get(target, PHDState).r_hat = q.r_hat()
     return {"iterations": out["iterations"], "elbo": out["elbo"], "r_hat": q.r_hat()}

@@ -16,6 +16,7 @@ from pgm.core.errors import RuleContractError
 from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 
+from .context import RuleContext
 from .record import StepRecord
 from .rules import GROUP_SCORING, Rule, likelihood_reweights
 from .state import ProposalState
@@ -55,62 +56,64 @@ def weight_groups(engine: Any, items) -> list[tuple[list[Factor], list[Rule], bo
         groups = engine._groups_cache[key] = resolved
     return groups
 
-def stage_weight(engine: Any, items, frame, record: StepRecord) -> None:
-    """Apply the likelihood factors (the weight-stage contract: module docstring)."""
+def stage_weight(engine: Any, ctx: RuleContext, items, frame, record: StepRecord) -> None:
+    """Apply the likelihood factors to the beliefs of ``ctx`` (the weight-stage contract:
+    module docstring)."""
     before: dict[str, Any] = {}  # reweighted beliefs as they entered the stage
     log_lik: dict[str, np.ndarray] = {}
     for fs, rules, batched in weight_groups(engine, items):
         vs = [f.variables[0] for f in fs]
         if batched:
-            lls = score_group(engine, fs, frame)
+            lls = score_group(engine, ctx, fs, frame)
         else:
-            lls = [likelihood_increment(engine, f, r, frame, record)
+            lls = [likelihood_increment(ctx, f, r, frame, record)
                    for f, r in zip(fs, rules, strict=True)]
         for f, v, ll in zip(fs, vs, lls, strict=True):
             if ll is None:  # a belief the rule updated itself
                 continue
-            b = engine.beliefs[v]
+            b = ctx.beliefs[v]
             ll = check_log_likelihood(f, ll, b.log_weights.shape)
             before.setdefault(v, b)
             log_lik[v] = log_lik[v] + ll if v in log_lik else ll
-            engine.beliefs[v] = b.reweight(ll)
+            ctx.beliefs[v] = b.reweight(ll)
     for v, b0 in before.items():
-        b = engine.beliefs[v]
-        engine.evidence[v] = (b0.log_weights, log_lik[v])
-        record.log_evidence[v] = b.log_mass - prior_log_mass(engine, v, b0)
+        b = ctx.beliefs[v]
+        ctx.evidence[v] = (b0.log_weights, log_lik[v])
+        record.log_evidence[v] = b.log_mass - prior_log_mass(engine, ctx, v, b0)
         record.ess[v] = b.ess
         # (a replica of a plate no particle of which explains the frame keeps its prediction)
-        engine.beliefs[v], bad = engine.runtime.normalize(engine, v, b, b0)
+        ctx.beliefs[v], bad = engine.runtime.normalize(ctx, v, b, b0)
         if bad is not None and bad.any():
-            engine.evidence[v] = (b0.log_weights, np.where(bad[:, None], 0.0, log_lik[v]))
+            ctx.evidence[v] = (b0.log_weights, np.where(bad[:, None], 0.0, log_lik[v]))
             record.info.setdefault(v, {})["degenerate"] = np.flatnonzero(bad)
 
-def prior_log_mass(engine: Any, variable: str, b0) -> Any:
+def prior_log_mass(engine: Any, ctx: RuleContext, variable: str, b0) -> Any:
     """The mass the frame's evidence is measured against: the belief's as the weight
     stage found it, or, after a proposal's weight correction, the mass before it."""
     if not engine._proposals:
         return b0.log_mass
     held = [None if (s := slot.find(variable, ProposalState)) is None else s.take()
-            for slot in engine.runtime.state_slots(engine)]
+            for slot in engine.runtime.state_slots(ctx)]
     if any(h is None for h in held):
         return b0.log_mass
     return held[0] if np.ndim(b0.log_mass) == 0 else np.array(held, dtype=float)
 
-def score_group(engine: Any, fs: list[Factor], frame: FrameContext) -> list[np.ndarray]:
+def score_group(engine: Any, ctx: RuleContext, fs: list[Factor], frame: FrameContext
+                ) -> list[np.ndarray]:
     """Log-likelihoods of a group of factors scored in one batched pass."""
-    return engine.runtime.score_group(engine, fs, frame)
+    return engine.runtime.score_group(ctx, fs, frame)
 
-def likelihood_increment(engine: Any, factor: Factor, rule: Rule, frame: FrameContext,
+def likelihood_increment(ctx: RuleContext, factor: Factor, rule: Rule, frame: FrameContext,
                          record: StepRecord) -> np.ndarray | None:
     """Call one likelihood rule; its increment, or None where it updated the belief."""
     v = factor.variables[0]
-    b = engine.beliefs[v]
-    out = rule(engine, factor, frame)
+    b = ctx.beliefs[v]
+    out = rule(ctx, factor, frame)
     if not likelihood_reweights(type(b)):
         if isinstance(out, dict) and out:
             record.info[factor.name] = out
         return None
-    if engine.beliefs[v] is not b:
+    if ctx.beliefs[v] is not b:
         raise RuleContractError(
             f"likelihood rule {getattr(rule, '__qualname__', rule)!r} for factor "
             f"{factor.name!r} replaced the belief of {v!r}: on {type(b).__name__} a "

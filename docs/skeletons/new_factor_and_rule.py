@@ -29,7 +29,7 @@ from collections import Counter
 import numpy as np
 
 import pgm
-from pgm.inference import DEFAULT_RULES, Engine
+from pgm.inference import DEFAULT_RULES, Engine, RuleContext
 from pgm.inference.conformance import checked
 
 parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -69,8 +69,8 @@ BETA = 0.8
 
 
 @rules.register(StudentTPoint, pgm.Particles)
-def tempered_student_t(engine: Engine, factor: StudentTPoint, frame) -> np.ndarray:
-    x = engine.beliefs[factor.variables[0]].x
+def tempered_student_t(ctx: RuleContext, factor: StudentTPoint, frame) -> np.ndarray:
+    x = ctx.beliefs[factor.variables[0]].x  # a rule sees a RuleContext, not the engine
     return BETA * factor.log_likelihood(x, frame)
 
 

@@ -39,7 +39,7 @@ from pgm.core.beliefs import ParticleArrays, Particles
 from pgm.core.expfam import Gaussian, InverseGamma
 
 __all__ = ["BatchedParticles", "BatchedGaussian", "BatchedInverseGamma", "Replicated",
-           "batched_type", "is_batched"]
+           "batched_type", "is_batched", "register_batched"]
 
 
 def is_batched(belief: Any) -> bool:
@@ -176,6 +176,12 @@ class BatchedParticles(ParticleArrays):
             return np.zeros((0, self.dim))
         return np.stack([w[k] @ self.x[k] for k in range(self.K)])
 
+    def cov(self) -> np.ndarray:
+        """``(K, d, d)`` weighted covariances (each row as :meth:`Particles.cov`)."""
+        if not self.K:
+            return np.zeros((0, self.dim, self.dim))
+        return np.stack([r.cov() for r in self.rows()])
+
     # -- transformations ----------------------------------------------------------------
     def normalized(self, fallback: BatchedParticles | None = None
                    ) -> tuple[BatchedParticles, np.ndarray]:
@@ -277,6 +283,33 @@ class Replicated:
         """Number of replicas."""
         return len(self.items)
 
+    @property
+    def dim(self) -> int:
+        """Dimension of each replica's belief (0 with no replica)."""
+        return self.items[0].dim if self.items else 0
+
+    @property
+    def log_mass(self) -> np.ndarray:
+        """``(K,)``: each replica's ``log_mass``."""
+        return np.array([r.log_mass for r in self.items], dtype=float)
+
+    def _stacked(self, method: str, shape: tuple[int, ...]) -> np.ndarray:
+        if not self.items:
+            return np.zeros((0,) + shape)
+        return np.stack([getattr(r, method)() for r in self.items])
+
+    def mean(self) -> np.ndarray:
+        """``(K, d)``: each replica's mean."""
+        return self._stacked("mean", (self.dim,))
+
+    def cov(self) -> np.ndarray:
+        """``(K, d, d)``: each replica's covariance."""
+        return self._stacked("cov", (self.dim, self.dim))
+
+    def estimate(self) -> np.ndarray:
+        """``(K, d)``: each replica's point estimate."""
+        return self._stacked("estimate", (self.dim,))
+
     def select(self, indices: Sequence[int] | np.ndarray) -> Replicated:
         """The replicas at ``indices``."""
         return type(self)([self.items[int(i)] for i in indices])
@@ -350,13 +383,13 @@ class BatchedGaussian(_ArrayBatch):
 
     >>> from pgm.core.expfam import Gaussian
     >>> b = BatchedGaussian.stack([Gaussian(np.zeros(2), np.eye(2))] * 3)
-    >>> b.K, b.dim, b.row(1).cov.shape
+    >>> b.K, b.dim, b.row(1).cov().shape
     (3, 2, (2, 2))
     """
 
     row_type: ClassVar[type | None] = Gaussian
-    _fields = ("mean", "cov")
-    __slots__ = ("mean", "cov")
+    _fields = ("m", "P")
+    __slots__ = ("m", "P")
 
     def __init__(self, mean: np.ndarray, cov: np.ndarray):
         mean = np.asarray(mean, dtype=float)
@@ -364,8 +397,9 @@ class BatchedGaussian(_ArrayBatch):
         if mean.ndim != 2 or cov.shape != mean.shape + mean.shape[1:]:
             raise ValueError(f"BatchedGaussian: means (K, d) and covariances (K, d, d), got "
                              f"{mean.shape} and {cov.shape}")
-        self.mean = mean
-        self.cov = cov
+        #: the means ``(K, d)`` and covariances ``(K, d, d)``
+        self.m = mean
+        self.P = cov
 
     @classmethod
     def empty(cls, dim: int) -> BatchedGaussian:
@@ -374,7 +408,7 @@ class BatchedGaussian(_ArrayBatch):
 
     @classmethod
     def stack(cls, rows: Sequence[Any]) -> BatchedGaussian:
-        """The batch of the Gaussians ``rows`` (each with ``mean`` and ``cov``)."""
+        """The batch of the Gaussians ``rows``."""
         if not rows:
             return cls(np.zeros((0, 0)), np.zeros((0, 0, 0)))
         return super().stack(rows)
@@ -382,11 +416,24 @@ class BatchedGaussian(_ArrayBatch):
     @property
     def dim(self) -> int:
         """Dimension of each replica's state."""
-        return self.mean.shape[1]
+        return self.m.shape[1]
+
+    @property
+    def log_mass(self) -> np.ndarray:
+        """``(K,)`` zeros: each replica's belief is a density."""
+        return np.zeros(self.K)
+
+    def mean(self) -> np.ndarray:
+        """The ``(K, d)`` means."""
+        return self.m
+
+    def cov(self) -> np.ndarray:
+        """The ``(K, d, d)`` covariances."""
+        return self.P
 
     def estimate(self) -> np.ndarray:
         """The point estimates of the belief protocol: the ``(K, d)`` means."""
-        return self.mean
+        return self.m
 
 
 class BatchedInverseGamma(_ArrayBatch):
@@ -418,6 +465,30 @@ class BatchedInverseGamma(_ArrayBatch):
         """``β/α`` per replica and component, ``(K, d)``."""
         return self.beta / self.alpha
 
+    @property
+    def dim(self) -> int:
+        """Components per replica."""
+        return self.alpha.shape[1]
+
+    @property
+    def log_mass(self) -> np.ndarray:
+        """``(K,)`` zeros: each replica's belief is a density."""
+        return np.zeros(self.K)
+
+    def mean(self) -> np.ndarray:
+        """``E[σ²]`` per replica and component ``(K, d)`` (NaN where ``α ≤ 1``)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(self.alpha > 1, self.beta / (self.alpha - 1), np.nan)
+
+    def cov(self) -> np.ndarray:
+        """``(K, d, d)``: each replica's :meth:`InverseGamma.cov`."""
+        return np.stack([self.row(k).cov() for k in range(self.K)]) if self.K else \
+            np.zeros((0,) + self.alpha.shape[1:] * 2)
+
+    def estimate(self) -> np.ndarray:
+        """The plug-in variances ``β/α`` ``(K, d)`` (:meth:`InverseGamma.estimate`)."""
+        return self.r_hat()
+
     def forget(self, rho: float, alpha_min: float = 0.0) -> BatchedInverseGamma:
         """:meth:`InverseGamma.forget` of every replica."""
         a, b = rho * self.alpha, rho * self.beta
@@ -426,20 +497,35 @@ class BatchedInverseGamma(_ArrayBatch):
 
 
 _REPLICATED: dict[type, type] = {}
+#: the batched form of each belief type that has one (row type -> batched class)
+_BATCHED: dict[type, type] = {}
+
+
+def register_batched(cls: type) -> type:
+    """Class decorator: ``cls`` is the batched form of ``cls.row_type`` (what a plate keeps
+    for a variable whose replicas hold that belief). A belief type without one is kept
+    :class:`Replicated`, one object per replica."""
+    row_type = getattr(cls, "row_type", None)
+    if not isinstance(row_type, type):
+        raise ValueError(f"{cls.__name__} names no row_type (the belief of one replica)")
+    _BATCHED[row_type] = cls
+    return cls
+
+
+for _cls in (BatchedParticles, BatchedGaussian, BatchedInverseGamma):
+    register_batched(_cls)
 
 
 def batched_type(row_type: type) -> type:
-    """The batched belief class for ``row_type``: :class:`BatchedParticles` for
-    :class:`~pgm.Particles`, :class:`BatchedGaussian` for
-    :class:`~pgm.core.expfam.Gaussian`, ``Replicated[row_type]`` for any other belief (a subclass
-    of ``Particles`` has no batched form unless it is given one: the engine refuses it in
-    a plate)."""
-    if row_type is Particles:
-        return BatchedParticles
-    if row_type is Gaussian:
-        return BatchedGaussian
-    if row_type is InverseGamma:
-        return BatchedInverseGamma
+    """The batched belief class for ``row_type``: its registered form
+    (:func:`register_batched`: :class:`BatchedParticles` for :class:`~pgm.Particles`,
+    :class:`BatchedGaussian` for :class:`~pgm.core.expfam.Gaussian`,
+    :class:`BatchedInverseGamma`), else ``Replicated[row_type]`` (a subclass of
+    ``Particles`` has no batched form unless it is given one: the engine refuses it in a
+    plate)."""
+    cls = _BATCHED.get(row_type)
+    if cls is not None:
+        return cls
     cls = _REPLICATED.get(row_type)
     if cls is None:
         cls = type(f"Replicated[{row_type.__name__}]", (Replicated,),

@@ -90,6 +90,22 @@ class InverseGamma:
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(self.alpha > 1, self.beta / (self.alpha - 1), np.nan)
 
+    def cov(self) -> np.ndarray:
+        """``Var[σ²]`` on the diagonal, ``β² / ((α − 1)² (α − 2))`` (NaN where ``α ≤ 2``): the
+        components are independent."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            var = np.where(self.alpha > 2, self.beta ** 2 / ((self.alpha - 1) ** 2
+                                                            * (self.alpha - 2)), np.nan)
+        return np.diag(var)
+
+    def estimate(self) -> np.ndarray:
+        """The point estimate of the belief protocol: the plug-in variance ``β/α`` of the
+        VB updates (:meth:`r_hat`; defined for every ``α``, unlike :meth:`mean`)."""
+        return self.r_hat()
+
+    #: a density: mass 1
+    log_mass = 0.0
+
     def forget(self, rho: float, alpha_min: float = 0.0) -> InverseGamma:
         """Forgetting prediction ``α̂ = ρα, β̂ = ρβ`` (eq. (18) of [#feng2015]), floored.
 
@@ -109,35 +125,57 @@ class InverseGamma:
                             + a0 * (np.log(b) - np.log(b0)) + a * (b0 - b) / b))
 
 
-@dataclass(frozen=True)
 class Gaussian:
-    """``N(mean, cov)``; ``information()`` gives the natural parameters ``(J, h)``."""
+    """``N(mean, cov)``; ``information()`` gives the natural parameters ``(J, h)``.
 
-    mean: np.ndarray
-    cov: np.ndarray
+    The belief protocol (:mod:`pgm.core.protocol`): ``mean()``, ``cov()``, ``estimate()``
+    (the mean), ``log_mass`` (0: a density), ``dim``. The arrays themselves are ``m``
+    ``(d,)`` and ``P`` ``(d, d)``, read-only, in the Kalman filter's notation.
+    """
 
-    def __post_init__(self) -> None:
-        m = np.atleast_1d(np.asarray(self.mean, dtype=float))
-        c = np.atleast_2d(np.asarray(self.cov, dtype=float))
+    __slots__ = ("m", "P")
+    #: a density: mass 1
+    log_mass = 0.0
+
+    def __init__(self, mean: np.ndarray, cov: np.ndarray):
+        m = np.atleast_1d(np.asarray(mean, dtype=float))
+        c = np.atleast_2d(np.asarray(cov, dtype=float))
         if c.shape != (m.size, m.size):
             raise ValueError(f"cov shape {c.shape} does not match mean of length {m.size}")
         check_finite_param("mean", m)
         check_finite_param("cov", c)
-        object.__setattr__(self, "mean", m)
-        object.__setattr__(self, "cov", c)
+        object.__setattr__(self, "m", m)
+        object.__setattr__(self, "P", c)
+
+    def __setattr__(self, name: str, value) -> None:
+        raise AttributeError(f"Gaussian is immutable: {name!r} cannot be set")
+
+    def __repr__(self) -> str:
+        return f"Gaussian(mean={self.m!r}, cov={self.P!r})"
+
+    def __reduce__(self):  # copies and pickles by the constructor (the slots are frozen)
+        return (Gaussian, (self.m, self.P))
 
     @property
     def dim(self) -> int:
-        return self.mean.size
+        return self.m.size
+
+    def mean(self) -> np.ndarray:
+        """The mean ``(d,)``."""
+        return self.m
+
+    def cov(self) -> np.ndarray:
+        """The covariance ``(d, d)``."""
+        return self.P
 
     def estimate(self) -> np.ndarray:
         """The point estimate of the belief protocol: the mean."""
-        return self.mean
+        return self.m
 
     def information(self) -> tuple[np.ndarray, np.ndarray]:
         """``(J, h) = (Σ⁻¹, Σ⁻¹ μ)``."""
-        J = np.linalg.inv(self.cov)
-        return J, J @ self.mean
+        J = np.linalg.inv(self.P)
+        return J, J @ self.m
 
     @classmethod
     def from_information(cls, J: np.ndarray, h: np.ndarray) -> Gaussian:
@@ -153,21 +191,21 @@ class Gaussian:
 
     def sample(self, rng: np.random.Generator, num: int) -> np.ndarray:
         """``num`` draws, shape ``(num, d)``."""
-        return rng.multivariate_normal(self.mean, self.cov, size=num)
+        return rng.multivariate_normal(self.m, self.P, size=num)
 
     def log_prob(self, x: np.ndarray) -> np.ndarray:
         """Log-density at ``x`` ``(N, d)``."""
         x = np.atleast_2d(x)
-        L = np.linalg.cholesky(self.cov)
-        u = np.linalg.solve(L, (x - self.mean).T)
+        L = np.linalg.cholesky(self.P)
+        u = np.linalg.solve(L, (x - self.m).T)
         return (-0.5 * np.sum(u * u, axis=0) - np.sum(np.log(np.diag(L)))
                 - 0.5 * self.dim * np.log(2 * np.pi))
 
     def kl(self, other: Gaussian) -> float:
         """``KL(self ‖ other)``."""
         d = self.dim
-        J0 = np.linalg.inv(other.cov)
-        diff = other.mean - self.mean
-        _, ld1 = np.linalg.slogdet(self.cov)
-        _, ld0 = np.linalg.slogdet(other.cov)
-        return float(0.5 * (np.trace(J0 @ self.cov) + diff @ J0 @ diff - d + ld0 - ld1))
+        J0 = np.linalg.inv(other.P)
+        diff = other.m - self.m
+        _, ld1 = np.linalg.slogdet(self.P)
+        _, ld0 = np.linalg.slogdet(other.P)
+        return float(0.5 * (np.trace(J0 @ self.P) + diff @ J0 @ diff - d + ld0 - ld1))

@@ -97,7 +97,7 @@ def _rows(belief):
     if isinstance(belief, Particles):
         return [belief.x, belief.log_weights, *belief.history]
     if isinstance(belief, Gaussian):
-        return [belief.mean, belief.cov]
+        return [belief.mean(), belief.cov()]
     if isinstance(belief, InverseGamma):
         return [np.asarray(belief.alpha), np.asarray(belief.beta)]
     raise AssertionError(type(belief))
@@ -214,8 +214,8 @@ def test_plate_beliefs_are_batched_and_operations_match_particles():
     assert batched_type(Gaussian).row_type is Gaussian
     assert batched_type(Gaussian) is BatchedGaussian  # means (K, d), covariances (K, d, d)
     g = BatchedGaussian.stack([Gaussian(np.arange(2.0) + k, np.eye(2) * (k + 1)) for k in range(3)])
-    assert np.array_equal(g.row(2).mean, [2.0, 3.0]) and np.array_equal(g.row(1).cov, 2 * np.eye(2))
-    assert g.select([2, 0]).concat(g).K == 5 and np.array_equal(g.select([2]).mean, g.mean[[2]])
+    assert np.array_equal(g.row(2).mean(), [2.0, 3.0]) and np.array_equal(g.row(1).cov(), 2 * np.eye(2))
+    assert g.select([2, 0]).concat(g).K == 5 and np.array_equal(g.select([2]).mean(), g.mean()[[2]])
     assert batched_type(InverseGamma) is BatchedInverseGamma
     q = BatchedInverseGamma.stack([InverseGamma.from_sigma([1.0, 2.0], 5.0)] * 2)
     np.testing.assert_array_equal(q.forget(0.8, 2.0).row(1).alpha,

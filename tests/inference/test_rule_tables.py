@@ -40,7 +40,7 @@ def kalman_update():
                   belief_types={"x": Gaussian})
     _apply(eng, "lik", FrameContext(1, measurements=np.array([1.0])))
     g = eng.beliefs["x"]
-    return (g.mean, g.cov), (np.array([0.5]), np.array([[0.5]]))
+    return (g.mean(), g.cov()), (np.array([0.5]), np.array([[0.5]]))
 
 
 def kalman_predict():
@@ -52,7 +52,7 @@ def kalman_predict():
                   belief_types={"x": Gaussian})
     _apply(eng, "cv")
     g = eng.beliefs["x"]
-    return (g.mean, g.cov), (np.array([3.0, 2.0]), np.array([[5.1, 4.0], [4.0, 4.2]]))
+    return (g.mean(), g.cov()), (np.array([3.0, 2.0]), np.array([[5.1, 4.0], [4.0, 4.2]]))
 
 
 def noise_forgetting():

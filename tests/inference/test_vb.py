@@ -14,7 +14,7 @@ def _problem(seed=0):
     prior = Gaussian(rng.normal(size=4), np.diag(rng.uniform(1.0, 3.0, size=4)))
     q_pred = InverseGamma(np.full(2, 2.5), np.array([0.4, 3.0]))
     H = np.eye(2, 4)
-    z = prior.mean[:2] + rng.normal(size=2) * 4.0
+    z = prior.mean()[:2] + rng.normal(size=2) * 4.0
     return prior, q_pred, H, z
 
 
@@ -35,10 +35,10 @@ def test_each_iteration_raises_the_elbo(seed):
 def test_single_update_is_the_batched_fixed_point():
     prior, q_pred, H, z = _problem()
     g, q, info = vb_akf_update(prior, q_pred, H, z, tol=1e-10, max_iter=30)
-    m, P, alpha, beta, it = vb_akf_batch(prior.mean[None], prior.cov[None],
+    m, P, alpha, beta, it = vb_akf_batch(prior.m[None], prior.P[None],
                                          q_pred.alpha[None], q_pred.beta[None], H, z[None],
                                          1e-10, 30)
-    np.testing.assert_array_equal(g.mean, m[0])
-    np.testing.assert_array_equal(g.cov, P[0])
+    np.testing.assert_array_equal(g.mean(), m[0])
+    np.testing.assert_array_equal(g.cov(), P[0])
     np.testing.assert_array_equal(q.beta, beta[0])
     assert info["iterations"] == it

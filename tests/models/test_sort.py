@@ -62,8 +62,8 @@ def test_one_target_is_the_kalman_filter(box_state):
         eng.step(_frame(t + 1, b))
         belief = eng.beliefs["box"]
         assert belief.K == 1
-        np.testing.assert_allclose(belief.mean[0], kf.filtered_means[t], rtol=1e-10, atol=1e-9)
-        np.testing.assert_allclose(belief.cov[0], kf.filtered_covs[t], rtol=1e-10, atol=1e-9)
+        np.testing.assert_allclose(belief.mean()[0], kf.filtered_means[t], rtol=1e-10, atol=1e-9)
+        np.testing.assert_allclose(belief.cov()[0], kf.filtered_covs[t], rtol=1e-10, atol=1e-9)
 
 
 def test_vb_sort_one_replica_is_the_vb_adaptive_kalman_filter():
@@ -92,7 +92,7 @@ def test_vb_sort_one_replica_is_the_vb_adaptive_kalman_filter():
         rec = eng.step(_frame(t + 1, b))
         assert rec.info["target"]["births"] == (t == 0)  # one track throughout
         oracle.step(FrameContext(t + 1, measurements=None if t == 0 else z[t]))
-        np.testing.assert_allclose(eng.beliefs["box"].mean[0], oracle.beliefs["x"].mean,
+        np.testing.assert_allclose(eng.beliefs["box"].mean()[0], oracle.beliefs["x"].mean(),
                                    rtol=1e-9, atol=1e-8)
         q, q0 = eng.beliefs["noise"].row(0), oracle.beliefs["noise"]
         np.testing.assert_allclose(q.beta / q.alpha, q0.beta / q0.alpha, rtol=1e-9)
@@ -203,7 +203,7 @@ def test_sort_graph_saves_loads_and_draws(tmp_path):
         eng = Engine(graph, 0)
         for t, b in enumerate(boxes):
             eng.step(_frame(t + 1, b))
-        runs.append(eng.beliefs["box"].mean.copy())
+        runs.append(eng.beliefs["box"].mean().copy())
     np.testing.assert_array_equal(runs[0], runs[1])
 
 
@@ -245,7 +245,7 @@ def test_camera_motion_moves_the_kalman_states(box_state):
             eng.step(ctx)
             b = np.r_[A[:, :2] @ b[:2] + A[:, 2], b[2:] * 1.02]
         assert eng.num_targets == 1
-        vel[cmc] = eng.beliefs["box"].mean[0, 4:]
+        vel[cmc] = eng.beliefs["box"].mean()[0, 4:]
     assert np.abs(vel[True]).max() < 1e-6
     assert np.abs(vel[False]).max() > 1.0
 
@@ -311,7 +311,7 @@ def test_ocsort_recovery_reupdate_and_life_cycle():
     assert eng.num_targets == 1 and eng.tracks[0].track_id == track_id
     assert rec.info["detection"]["reupdated"].tolist() == [0]
     assert rec.info["target"]["reported"].tolist() == [False]  # one match in a row
-    v_cx = eng.beliefs["box"].mean[0, 4]
+    v_cx = eng.beliefs["box"].mean()[0, 4]
     assert 0.0 < v_cx < 6.0  # re-filtered along the gap: slowed, not reversed
     for t in range(13, 15):
         rec = eng.step(_frame(t, back + (t - 12) * step))
@@ -575,7 +575,7 @@ def test_botsort_corner_state_is_the_centre_and_size_filter_under_camera_motion(
         eng.step(FrameContext(t + 1, detections=ctx.detections,
                               camera_motion=None if t == 0 else A))
         assert eng.num_targets == 1
-        m = eng.beliefs["box"].mean[0]
+        m = eng.beliefs["box"].mean()[0]
         means.append(np.r_[(m[:2] + m[2:4]) / 2, m[2:4] - m[:2], (m[4:6] + m[6:]) / 2,
                            m[6:] - m[4:6]])
     np.testing.assert_allclose(means, _xcycwh_oracle(cx, motions), rtol=1e-9, atol=1e-8)
@@ -621,7 +621,7 @@ def test_botsort_and_cbiou_settings_save_load_and_check():
             for t, b in enumerate(boxes):
                 ctx = _frame(t + 1, b)
                 eng.step(FrameContext(t + 1, detections=ctx.detections, camera_motion=A))
-            runs.append(eng.beliefs["box"].mean.copy())
+            runs.append(eng.beliefs["box"].mean().copy())
         np.testing.assert_array_equal(runs[0], runs[1])
     with pytest.raises(ValueError, match="'tracks'"):
         DetectionAssociation("box", rounds=[{"tracks": "old"}])

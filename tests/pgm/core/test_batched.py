@@ -63,7 +63,7 @@ def test_gaussian_and_noise_batches_and_the_type_table():
     g = [Gaussian(np.full(2, k), np.eye(2) * (k + 1)) for k in range(3)]
     bg = BatchedGaussian.stack(g)
     assert bg.K == 3 and bg.dim == 2
-    np.testing.assert_array_equal(bg.row(2).cov, g[2].cov)
+    np.testing.assert_array_equal(bg.row(2).cov(), g[2].cov())
     assert bg.select([1]).concat(bg.select([0])).K == 2
     q = BatchedInverseGamma(np.full((2, 3), 4.0), np.full((2, 3), 2.0))
     np.testing.assert_allclose(q.r_hat(), 0.5)
@@ -89,6 +89,6 @@ def test_every_belief_gives_its_point_estimate():
     np.testing.assert_array_equal(BatchedParticles.stack(rows).estimate(),
                                   np.stack([p.mean() for p in rows]))
     g = [Gaussian(np.full(2, k), np.eye(2)) for k in range(3)]
-    assert g[1].estimate() is g[1].mean
+    assert g[1].estimate() is g[1].mean()
     np.testing.assert_array_equal(BatchedGaussian.stack(g).estimate(),
-                                  np.stack([x.mean for x in g]))
+                                  np.stack([x.mean() for x in g]))
