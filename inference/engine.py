@@ -88,6 +88,9 @@ from .rules import (
     Rule,
     RuleTable,
     likelihood_reweights,
+    per_replica,
+    rule_name,
+    saved_rules,
 )
 from .schedule import STAGES, Schedule, derive_schedule, message_order
 from .settings import EngineSettings
@@ -103,6 +106,10 @@ __all__ = ["Engine", "RuleTable", "DEFAULT_RULES", "StepRecord", "Schedule", "de
 BELIEF_FOR_ROLE: dict[str, type] = {"part": Particles, "state": Particles,
                                     "latent": Particles, "set": Intensity,
                                     "noise": InverseGamma}
+
+
+#: the stages whose items are factors (the others' are variables)
+_FACTOR_STAGES = ("prior", "predict", "assign", "inframe", "weight", "interaction")
 
 
 class Engine:
@@ -131,7 +138,11 @@ class Engine:
     fusion : {"mixture", "product"}, optional
         Particle-BP fusion rule (:mod:`pgm.inference.pbp`).
     rules : RuleTable, optional
-        Defaults to :data:`DEFAULT_RULES`.
+        Defaults to :data:`DEFAULT_RULES` — except for the factors a saved model names
+        a rule for (``graph.meta["rules"]``, written by every engine: factor name →
+        ``"module:function"``), which run with that rule, found by name (a one-line
+        ``ValueError`` naming it where it cannot be found: never a run with another
+        rule). Given, the table decides every factor's rule.
     belief_types : dict, optional
         Variable name → belief class, overriding :data:`BELIEF_FOR_ROLE` (e.g.
         :class:`~pgm.core.expfam.Gaussian` for an exact Kalman filter). For a plate
@@ -158,7 +169,7 @@ class Engine:
             num_particles=num_particles, resampling=resampling, ess_threshold=ess_threshold,
             inframe_iterations=inframe_iterations, fusion=fusion)
         self.graph.meta["engine"] = self.settings.to_dict(full=True)  # saved with the run
-        self.num_particles = self._particle_counts(self.settings.num_particles)
+        self.num_particles = self.settings.particle_counts(self.graph)
         self.resampler = get_resampler(self.settings.resampling)
         self.rules = rules if rules is not None else DEFAULT_RULES
         self.belief_types = {**self.settings.belief_classes(), **dict(belief_types or {})}
@@ -181,6 +192,9 @@ class Engine:
         self._proposals = bool(self.graph.factors_by_kind("proposal"))
         self._groups_cache: dict[tuple, list[tuple[list[Factor], list[Rule], bool]]] = {}
         self._rule_cache: dict[tuple, Rule] = {}
+        #: per factor name, the rule a saved model named for it (``graph.meta["rules"]``)
+        self._factor_rules: dict[str, tuple[Rule, bool]] = (
+            {} if rules is not None else saved_rules(self.graph))
         self.frame: FrameContext | None = None
         self.t = 0
         self._hooks: dict[str, list[Hook]] = {s: [] for s in STAGES}
@@ -192,6 +206,8 @@ class Engine:
         self.runtime = runtime_for(self.graph) or SINGLE_GRAPH
         self.runtime.setup(self)
         self._check_rules()
+        #: which rule serves each factor, by importable name: saved with the run
+        self.graph.meta["rules"] = self._rule_names()
 
     # -- the rules' state (engine.ctx) ---------------------------------------------------
     def _ctx_field(name: str, doc: str):  # noqa: N805 - a property factory of the class body
@@ -221,17 +237,6 @@ class Engine:
         return self.settings.ess_threshold
 
     # -- set-up ------------------------------------------------------------------------
-    def _particle_counts(self, num_particles) -> dict[str, int]:
-        names = [v.name for v in self.graph.variables.values() if v.role != "noise"]
-        if isinstance(num_particles, dict):
-            unknown = set(num_particles) - set(names)
-            if unknown:
-                raise ValueError(f"num_particles names unknown variables {sorted(unknown)}")
-            counts = {n: num_particles.get(n, EngineSettings.num_particles) for n in names}
-        else:
-            counts = {n: num_particles for n in names}
-        return {n: int(c) for n, c in counts.items()}  # validated by EngineSettings
-
     def row_belief_type(self, variable: str) -> type:
         """Belief class of one replica of a variable (from its role)."""
         role = self.graph.variables[variable].role
@@ -253,9 +258,34 @@ class Engine:
                 return self.belief_type(v)
         return self.belief_type(factor.variables[0])
 
+    def _rule_names(self) -> dict[str, str]:
+        """Factor name → the importable name of the rule that serves it."""
+        names = {}
+        for phases in (self.schedule.first_frame, self.schedule.phases):
+            for stage, items in phases:
+                for item in items:
+                    if stage in _FACTOR_STAGES:
+                        name = item[0] if isinstance(item, tuple) else item
+                        f = self.graph.factors[name]
+                        dst = item[2] if isinstance(item, tuple) else None
+                        names[name] = rule_name(self._rule(f, dst))
+        return names
+
+    def _rule(self, factor: Factor, dst: str | None = None) -> Rule:
+        """The rule for ``factor`` (a coupling's: for its message to ``dst``)."""
+        saved = self._factor_rules.get(factor.name)
+        if saved is not None:
+            rule, replicated = saved
+            return per_replica(rule, type(factor)) if replicated else rule
+        if dst is not None:
+            return self.rules.lookup(type(factor), self.belief_type(dst))
+        return self.rule_for(factor)
+
     def rule_for(self, factor: Factor) -> Rule:
         """The rule this engine applies to ``factor`` (looked up once per factor type and
         belief type: both are fixed for an engine's life)."""
+        if factor.name in self._factor_rules:
+            return self._rule(factor)
         key = (type(factor), factor.variables)
         rule = self._rule_cache.get(key)
         if rule is None:
@@ -265,12 +295,13 @@ class Engine:
 
     def _check_rules(self) -> None:
         """Fail at construction, naming the factor, if some stage has no rule."""
-        factor_stages = ("prior", "predict", "assign", "inframe", "weight", "interaction")
         for phases in (self.schedule.first_frame, self.schedule.phases):
             for stage, items in phases:
                 for item in items:
-                    if stage in factor_stages:
+                    if stage in _FACTOR_STAGES:
                         f = self.graph.factors[item[0] if isinstance(item, tuple) else item]
+                        if f.name in self._factor_rules:
+                            continue
                         bt = self.factor_belief_type(f)
                         if not self.rules.has(type(f), bt):
                             raise ValueError(f"factor {f.name!r}: no inference rule for "
@@ -332,6 +363,17 @@ class Engine:
         Hooks (:meth:`add_hook`) run after each stage of the frame's schedule; for a plate,
         on the replicas there are (none on a frame without replicas; only ``predict`` on a
         missing frame), and not on the first-frame stages of replicas born in the frame."""
+        *_, (_, record) = self.stages(frame, lifecycle=lifecycle)  # run to the end
+        return record
+
+    def stages(self, frame: FrameContext, *, lifecycle: bool = True
+               ) -> Iterator[tuple[str, StepRecord]]:
+        """Step through one frame stage by stage (notebooks, the viewer, teaching): yields
+        ``(stage, record)`` after each stage where :meth:`step` runs hooks — the record as
+        filled so far (this frame's messages, ESS, VB diagnostics, estimates; the beliefs
+        are ``engine.beliefs``) — and last ``("done", record)``, the frame complete.
+        :meth:`step` is this generator run to its end; run it to its end too before the
+        next frame (a frame left half-way leaves the engine half-way through it)."""
         if not isinstance(frame, FrameContext):
             raise ValueError(f"step() needs a FrameContext, got {type(frame).__name__}")
         self.frame = frame
@@ -340,19 +382,26 @@ class Engine:
         # the record is filled as the stages run: a hook sees this frame's messages, ESS,
         # diagnostics and estimates so far (the messages' dict is the engine's own)
         record = StepRecord(frame=frame.index, messages=ctx.messages)
-        self.runtime.step(self, frame, record, lifecycle)
+        yield from self.runtime.step_stages(self, frame, record, lifecycle)
         record.beliefs = dict(self.beliefs)
         record.messages = dict(self.messages)
         self.runtime.finish(self, record)
         self.t += 1
-        return record
+        yield "done", record
 
     def _run(self, phases, frame: FrameContext, record: StepRecord, hooks: bool = True,
              skip: tuple[str, ...] = (), ctx: RuleContext | None = None) -> None:
         """Run the stages ``phases`` on ``ctx`` (default: the engine's; a plate's newborns
-        have their own), calling the hooks after each. A stage with nothing to do is not
-        called (the prior stage always is: it also initialises templates); its hooks
-        still are."""
+        have their own), calling the hooks after each (:meth:`_run_stages`)."""
+        for _ in self._run_stages(phases, frame, record, hooks, skip, ctx):
+            pass
+
+    def _run_stages(self, phases, frame: FrameContext, record: StepRecord, hooks: bool = True,
+                    skip: tuple[str, ...] = (), ctx: RuleContext | None = None
+                    ) -> Iterator[tuple[str, StepRecord]]:
+        """Run the stages ``phases``, yielding after each whose hooks run (``hooks``). A
+        stage with nothing to do is not called (the prior stage always is: it also
+        initialises templates); its hooks still are."""
         stages = self._stage_functions
         ctx = self.ctx if ctx is None else ctx
         for stage, items in phases:
@@ -360,9 +409,10 @@ class Engine:
                 continue
             if items or stage == "prior":
                 stages[stage](ctx, items, frame, record)
-            if hooks and self._hooks[stage]:
+            if hooks:
                 for hook in self._hooks[stage]:
                     hook(self, stage, frame, record)
+                yield stage, record
 
     def run(self, frames: Iterable[FrameContext], *, lifecycle: bool = True
             ) -> Iterator[StepRecord]:
@@ -404,8 +454,7 @@ class Engine:
             if isinstance(item, tuple):
                 name, src, dst = item
                 f = ctx.graph.factors[name]
-                rule = self.rules.lookup(type(f), self.belief_type(dst))
-                info = rule(ctx, f, frame, src, dst)
+                info = self._rule(f, dst)(ctx, f, frame, src, dst)
                 if info:
                     record.info.setdefault(name, {})[(src, dst)] = info
             else:

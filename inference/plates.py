@@ -40,7 +40,7 @@ Example
 from __future__ import annotations
 
 import copy
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -68,7 +68,8 @@ from .tracks import Track, confirm_tracks, existences, match, reported, update_t
 if TYPE_CHECKING:
     from pgm.core.plate import Plate
 
-__all__ = ["Replicas", "plate_boxes", "add", "remove", "associate", "setup", "step", "learn"]
+__all__ = ["Replicas", "plate_boxes", "add", "remove", "associate", "setup", "step",
+           "step_stages", "learn"]
 
 
 # -------------------------------------------------------------------------------------
@@ -342,27 +343,36 @@ def _keep(engine: Engine, idx: np.ndarray) -> None:
 # one frame
 # -------------------------------------------------------------------------------------
 def step(engine: Engine, frame: FrameContext, record: StepRecord, lifecycle: bool) -> None:
+    """The engine's frame for a plate graph (:func:`step_stages` run to its end)."""
+    for _ in step_stages(engine, frame, record, lifecycle):
+        pass
+
+
+def step_stages(engine: Engine, frame: FrameContext, record: StepRecord, lifecycle: bool
+                ) -> Iterator[tuple[str, StepRecord]]:
     """The engine's frame for a plate graph: the schedule on the replicas there are, then
-    the ``associate`` stage. A frame with neither image nor detections is *missing*: the
-    replicas are only predicted (no weighting, learning, resampling, births or deaths)."""
+    the ``associate`` stage, yielding after each stage whose hooks run. A frame with
+    neither image nor detections is *missing*: the replicas are only predicted (no
+    weighting, learning, resampling, births or deaths)."""
     reps = engine.replicas
     missing = frame.image is None and frame.detections is None and frame.measurements is None
     if reps.K:
         if missing:
-            engine._run(engine.schedule.phases[:1], frame, record)
+            yield from engine._run_stages(engine.schedule.phases[:1], frame, record)
             for v in engine.graph.variables:
                 rule = engine.rules.lookup("estimate", type(engine.beliefs[v]))
                 record.estimates[v] = rule(engine.ctx, v, frame)
             reps.est = dict(record.estimates)
         else:
-            engine._run(engine.schedule.phases, frame, record, skip=("associate",))
+            yield from engine._run_stages(engine.schedule.phases, frame, record,
+                                          skip=("associate",))
     elif not missing:  # no replica yet: the association still reads the frame's detections
         # (a score model learned on the video sees every frame; births read mapped scores)
         engine._run([p for p in engine.schedule.phases if p[0] == "assign"], frame, record,
                     hooks=False)
     info = record.info.setdefault(engine.plate.name, {})
     if lifecycle and not missing:
-        engine._run([("associate", [engine.plate.name])], frame, record)
+        yield from engine._run_stages([("associate", [engine.plate.name])], frame, record)
     info["missing"] = missing
     reps = engine.replicas
     record.estimates = {v: reps.est.get(v, np.zeros((0, engine.graph.variables[v].dim)))
@@ -503,7 +513,7 @@ class PlateRuntime(SingleGraph):
     group_scoring = "replicas"  # the replicas' copies of a factor scored together
 
     setup = staticmethod(setup)
-    step = staticmethod(step)
+    step_stages = staticmethod(step_stages)
     learn = staticmethod(learn)
     associate = staticmethod(associate)
     add = staticmethod(add)

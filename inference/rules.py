@@ -23,7 +23,8 @@ from typing import Any
 from pgm.core.factor import Factor
 
 __all__ = ["RuleTable", "DEFAULT_RULES", "BELIEF_OPERATIONS", "Rule", "likelihood_reweights",
-           "GROUP_SCORING", "scores_in_groups", "register_replica_adapter"]
+           "GROUP_SCORING", "scores_in_groups", "register_replica_adapter", "declare",
+           "rule_name", "find_rule", "saved_rules", "use_rules", "per_replica", "PER_REPLICA"]
 
 #: operations on one variable's belief (rules keyed by name, not by a factor class)
 BELIEF_OPERATIONS = ("fuse", "resample", "estimate")
@@ -61,6 +62,14 @@ def scores_in_groups(kind: str) -> Callable[[Rule], Rule]:
 _REPLICA_ADAPTER: Callable[[Rule, Any], Rule] | None = None
 
 
+def per_replica(rule: Rule, key: type | str) -> Rule:
+    """``rule`` (a single-graph rule) run once per replica of a plate (the adapter the
+    batched rules' module registers)."""
+    if _REPLICA_ADAPTER is None:  # pragma: no cover - set on import of pgm.inference
+        raise RuntimeError("no replica adapter registered: import pgm.inference")
+    return _REPLICA_ADAPTER(rule, key)
+
+
 def register_replica_adapter(adapter: Callable[[Rule, Any], Rule]) -> None:
     """Set how a replica's rule runs on a batched belief (``adapter(rule, key)``)."""
     global _REPLICA_ADAPTER
@@ -69,6 +78,135 @@ def register_replica_adapter(adapter: Callable[[Rule, Any], Rule]) -> None:
 
 def _key_name(key: type | str) -> str:
     return key if isinstance(key, str) else key.__name__
+
+
+# -------------------------------------------------------------------------------------
+# rules that travel with their factor class and with a saved model
+# -------------------------------------------------------------------------------------
+def declare(factor_class: type, belief_type: type) -> Callable[[Rule], Rule]:
+    """Decorator: ``factor_class``'s own rule on ``belief_type``, declared where the class
+    is defined (``factor_class.declared_rules``). Every :class:`RuleTable` finds it (at the
+    class's place in the factor's MRO, after a rule a table registers for that same
+    class), so the rule goes wherever the factor goes: a graph built anywhere, a saved
+    model reloaded in another process once the class's module is imported.
+
+    >>> from pgm.core.beliefs import Particles
+    >>> from pgm.factors import LikelihoodFactor
+    >>> class Flat(LikelihoodFactor):
+    ...     def log_likelihood(self, x, frame):
+    ...         return x[:, 0] * 0.0
+    >>> @declare(Flat, Particles)
+    ... def flat_rule(ctx, factor, frame):
+    ...     return factor.log_likelihood(ctx.beliefs[factor.variables[0]].x, frame)
+    >>> RuleTable().lookup(Flat, Particles) is flat_rule
+    True
+    """
+    RuleTable._check_key(factor_class, belief_type)
+    if isinstance(factor_class, str):
+        raise ValueError("declare() takes a factor class; register belief operations in a "
+                         "RuleTable")
+
+    def deco(rule: Rule) -> Rule:
+        own = factor_class.__dict__.get("declared_rules")
+        if own is None:  # the class's own table, not one inherited from its base
+            own = {}
+            factor_class.declared_rules = own
+        own[belief_type] = rule
+        _DECLARED_VERSION[0] += 1
+        return rule
+
+    return deco
+
+
+#: bumped by :func:`declare` so that tables drop lookups resolved before it
+_DECLARED_VERSION = [0]
+#: the mark of a rule run once per replica of a plate in a saved rule name
+PER_REPLICA = " [per replica]"
+
+
+def use_rules(graph: Any, rules: dict[str, Rule]) -> Any:
+    """``graph`` with ``rules`` (factor name → rule) recorded as the rules that serve those
+    factors (``graph.meta["rules"]``): an :class:`~pgm.inference.Engine` given no table
+    runs them, and the graph saves them by name — how a model config attaches a rule of
+    its own to a factor without touching :data:`DEFAULT_RULES`. Each rule must be
+    findable by name (defined at module level). Returns the graph (changed in place)."""
+    named = dict(graph.meta.get("rules") or {})
+    for factor, rule in rules.items():
+        if factor not in graph.factors:
+            raise ValueError(f"use_rules: graph {graph.name!r} has no factor {factor!r}")
+        name = rule_name(rule)
+        found, _ = find_rule(name, f"factor {factor!r}")
+        if found is not rule and getattr(rule, "row_rule", None) is None:
+            raise ValueError(f"factor {factor!r}: rule {name!r} does not name the function "
+                             f"given (define it at module level)")
+        named[factor] = name
+    graph.meta["rules"] = named
+    return graph
+
+
+def saved_rules(graph: Any) -> dict[str, tuple[Rule, bool]]:
+    """The rules a saved model names per factor (``graph.meta["rules"]``), found by name
+    (:func:`find_rule`): factor name → ``(rule, runs once per replica)``."""
+    saved = graph.meta.get("rules")
+    if not saved:
+        return {}
+    if not isinstance(saved, dict):
+        raise ValueError(f"graph {graph.name!r}: meta['rules'] must map factor names to rule "
+                         f"names, got {type(saved).__name__}")
+    out = {}
+    for name, rule in saved.items():
+        if name not in graph.factors:
+            raise ValueError(f"graph {graph.name!r}: meta['rules'] names unknown factor "
+                             f"{name!r}")
+        out[name] = find_rule(rule, f"factor {name!r}")
+    return out
+
+
+def rule_name(rule: Rule) -> str:
+    """The importable name ``"module:qualname"`` of ``rule`` (a plate's per-replica run of
+    a single-graph rule is named by that rule, marked :data:`PER_REPLICA`)."""
+    row = getattr(rule, "row_rule", None)
+    if row is not None:
+        return rule_name(row) + PER_REPLICA
+    return f"{getattr(rule, '__module__', '?')}:{getattr(rule, '__qualname__', repr(rule))}"
+
+
+def find_rule(name: str, what: str) -> tuple[Rule, bool]:
+    """The rule a saved model names (``"module:qualname"``, :func:`rule_name`) and whether
+    it runs once per replica; a ``ValueError`` of one line naming it and ``what`` (the
+    factor) where it cannot be found. Only a module already imported or one of the
+    toolkit's is looked in: loading a model runs no code of its own (a user's rules are
+    imported by the user, ``pgm track --import MODULE_OR_FILE``)."""
+    import importlib
+    import sys
+
+    if not isinstance(name, str) or ":" not in name:
+        raise ValueError(f"{what}: saved rule {name!r} is not a 'module:function' name")
+    per_replica = name.endswith(PER_REPLICA)
+    base = name[:-len(PER_REPLICA)] if per_replica else name
+    module_name, _, qualname = base.partition(":")
+    module = sys.modules.get(module_name)
+    if module is None and (module_name == "pgm" or module_name.startswith("pgm.")):
+        try:
+            module = importlib.import_module(module_name)
+        except ImportError:
+            module = None
+    if module is None:
+        raise ValueError(f"{what}: its rule {base!r} cannot be found: module {module_name!r} "
+                         f"is not imported (import it first; on the command line: --import "
+                         f"MODULE_OR_FILE)")
+    if "<locals>" in qualname:
+        raise ValueError(f"{what}: its rule {base!r} was defined inside a function and cannot "
+                         f"be loaded; define it at module level to save a model that uses it")
+    obj: Any = module
+    for part in qualname.split("."):
+        obj = getattr(obj, part, None)
+        if obj is None:
+            raise ValueError(f"{what}: its rule {base!r} cannot be found: {module_name!r} has "
+                             f"no {qualname!r}")
+    if not callable(obj):
+        raise ValueError(f"{what}: saved rule {base!r} is not callable")
+    return obj, per_replica
 
 
 class RuleTable:
@@ -99,6 +237,7 @@ class RuleTable:
     def __init__(self, rules: dict[tuple[type | str, type], Rule] | None = None):
         self._rules: dict[tuple[type | str, type], Rule] = dict(rules or {})
         self._resolved: dict[tuple[type | str, type], Rule] = {}
+        self._declared_version = _DECLARED_VERSION[0]
 
     @staticmethod
     def _check_key(key: type | str, belief_type: type) -> None:
@@ -128,13 +267,14 @@ class RuleTable:
             k for k in key.__mro__ if isinstance(k, type) and issubclass(k, Factor)]
         row_type = getattr(belief_type, "row_type", None)
         for k in keys:
+            declared = () if isinstance(k, str) else k.__dict__.get("declared_rules", {})
             for b in belief_type.__mro__:
-                rule = self._rules.get((k, b))
+                rule = self._rules.get((k, b)) or (declared.get(b) if declared else None)
                 if rule is not None:
                     return rule
             if row_type is not None:  # a batched belief: the replica's rule, per replica
                 for b in row_type.__mro__:
-                    rule = self._rules.get((k, b))
+                    rule = self._rules.get((k, b)) or (declared.get(b) if declared else None)
                     if rule is not None:
                         if _REPLICA_ADAPTER is None:  # pragma: no cover - set on import
                             raise RuntimeError("no replica adapter registered: import "
@@ -144,6 +284,9 @@ class RuleTable:
 
     def lookup(self, key: type | str, belief_type: type) -> Rule:
         """The rule for ``key`` (a factor class or a belief operation) on ``belief_type``."""
+        if self._declared_version != _DECLARED_VERSION[0]:
+            self._resolved.clear()
+            self._declared_version = _DECLARED_VERSION[0]
         hit = self._resolved.get((key, belief_type))
         if hit is not None:
             return hit

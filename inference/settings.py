@@ -125,6 +125,19 @@ class EngineSettings:
                                  f"{sorted(BELIEF_FORMS)}, got {self.beliefs!r}")
             object.__setattr__(self, "beliefs", dict(self.beliefs))
 
+    def particle_counts(self, graph: Any) -> dict[str, int]:
+        """Particles per variable of ``graph`` (every variable but noise ones) from
+        ``num_particles`` (one int for all, or name → int, the others the default)."""
+        names = [v.name for v in graph.variables.values() if v.role != "noise"]
+        if isinstance(self.num_particles, dict):
+            unknown = set(self.num_particles) - set(names)
+            if unknown:
+                raise ValueError(f"num_particles names unknown variables {sorted(unknown)}")
+            counts = {n: self.num_particles.get(n, EngineSettings.num_particles) for n in names}
+        else:
+            counts = {n: self.num_particles for n in names}
+        return {n: int(c) for n, c in counts.items()}  # validated by EngineSettings
+
     def belief_classes(self) -> dict[str, type]:
         """``beliefs`` as belief classes."""
         return {v: BELIEF_FORMS[form] for v, form in (self.beliefs or {}).items()}

@@ -8,6 +8,7 @@ serve (typed ``Any``: the engine imports this module, not the other way)."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from typing import Any
 
 from pgm.core.factor import Factor
@@ -44,11 +45,13 @@ class SingleGraph:
         """The belief class the engine keeps for ``variable`` (one replica's: ``row_type``)."""
         return row_type
 
-    def step(self, engine: Any, frame: FrameContext, record: StepRecord,
-             lifecycle: bool) -> None:
-        """Run one frame's stages (the first frame's on the first call)."""
-        engine._run(engine.schedule.first_frame if engine.t == 0 else engine.schedule.phases,
-                    frame, record)
+    def step_stages(self, engine: Any, frame: FrameContext, record: StepRecord,
+                    lifecycle: bool) -> Iterator[tuple[str, StepRecord]]:
+        """Run one frame's stages (the first frame's on the first call), yielding after
+        each (:meth:`pgm.inference.engine.Engine.stages`)."""
+        yield from engine._run_stages(
+            engine.schedule.first_frame if engine.t == 0 else engine.schedule.phases,
+            frame, record)
 
     def finish(self, engine: Any, record: StepRecord) -> None:
         """After the frame (its record complete): the graph's calibrated confidence, kept

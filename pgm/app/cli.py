@@ -54,9 +54,11 @@ from .cli_args import (
     _positive_int,
     _probability,
     _record_options,
+    import_user_code,
     load_model_file,
     parse_box,
     parse_drop_frames,
+    scan_imports,
 )
 from .cli_tools import GPDM_HELP_DEFAULTS, add_learn_parser
 from .cli_track import add_model_options, default_model
@@ -102,6 +104,7 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
                    help="ground-truth file: initialises from frame 1 when --init is absent "
                         "and writes metrics.json (default: the sequence's own, if any)")
     t.add_argument("--out", type=_path("--out"), required=True, help="output folder")
+    _import_option(t)
     t.add_argument("--particles", type=_positive_int("--particles"), default=None,
                    help="particles per variable (default: the model's)")
     add_model_options(t, model_config)
@@ -170,6 +173,7 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
     g = sub.add_parser("graph", help="draw a model's factor graph")
     g.add_argument("model", help=f"model name ({names}) or a model .json")
     g.add_argument("--out", type=_path("--out"), required=True, help="FILE.png, .svg, .pdf or .dot")
+    _import_option(g)
     add_model_options(g, model_config)
 
     add_learn_parser(sub)
@@ -186,6 +190,14 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
     for module in _extensions():
         module.add_parser(sub)
     return p
+
+
+def _import_option(parser) -> None:
+    parser.add_argument("--import", dest="imports", action="append", default=[],
+                        metavar="MODULE_OR_FILE",
+                        help="import a module or .py file of your own factors, rules or "
+                             "models first (a saved model using them then loads); "
+                             "repeatable (default: none)")
 
 
 #: modules adding sub-commands: each has ``add_parser(subparsers)`` and ``COMMANDS``
@@ -313,6 +325,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     reads its options too (``args.model_config``: its :class:`~pgm.models.config.ModelConfig`,
     ``None`` for a saved ``.json``)."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    for spec in scan_imports(argv):  # the user's factors and rules, before any model
+        import_user_code(spec)
     config, name = _model_of(argv)
     parser = build_parser(config)
     parser.model_name = name

@@ -208,6 +208,56 @@ def _given(args: argparse.Namespace | None, opt: str) -> bool:
     return value is not None and value is not False
 
 
+def import_user_code(spec: str) -> None:
+    """``--import MODULE_OR_FILE``: import a user's module (a dotted name on the path) or
+    file (``.py``, imported under its stem) that defines factors, their rules or models,
+    so that a saved model using them loads. The user asks for this code to run; a model
+    file itself never runs any. A failure is a one-line :class:`InputError`."""
+    import importlib
+    import importlib.util
+
+    if not isinstance(spec, str) or not spec:
+        raise InputError("--import needs a module name or a .py file")
+    path = Path(spec)
+    if path.suffix == ".py" or path.exists():
+        if not path.is_file() or path.suffix != ".py":
+            raise InputError(f"--import {spec}: not a .py file")
+        name = path.stem
+        if not name.isidentifier():
+            raise InputError(f"--import {spec}: {name!r} is not a module name (rename the file)")
+        held = sys.modules.get(name)
+        if held is not None:
+            if Path(getattr(held, "__file__", "") or "").resolve() == path.resolve():
+                return
+            raise InputError(f"--import {spec}: a module named {name!r} is already imported "
+                             f"from {getattr(held, '__file__', None) or 'elsewhere'}")
+        found = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(found)
+        sys.modules[name] = module
+        try:
+            found.loader.exec_module(module)
+        except Exception as exc:  # noqa: BLE001 - the user's code: any failure, one line
+            sys.modules.pop(name, None)
+            raise InputError(f"--import {spec}: {type(exc).__name__}: {one_line(exc)}") from None
+        return
+    try:
+        importlib.import_module(spec)
+    except Exception as exc:  # noqa: BLE001 - the user's code: any failure, one line
+        raise InputError(f"--import {spec}: {type(exc).__name__}: {one_line(exc)}") from None
+
+
+def scan_imports(argv: list[str]) -> list[str]:
+    """The values of every ``--import X`` / ``--import=X`` in ``argv`` (read before the
+    model is: its file may name the user's factors and rules)."""
+    out = []
+    for i, a in enumerate(argv):
+        if a == "--import" and i + 1 < len(argv):
+            out.append(argv[i + 1])
+        elif a.startswith("--import="):
+            out.append(a.split("=", 1)[1])
+    return out
+
+
 def load_model_file(path: str | Path):
     """A saved ``model.json`` as a :class:`~pgm.core.graph.FactorGraph` (plain JSON, no
     code runs); every malformation is an :class:`InputError` naming the file."""

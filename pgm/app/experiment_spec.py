@@ -388,6 +388,33 @@ def _check_single_object(model: ModelSpec, where: str) -> None:
         raise InputError(f"{where}: {one_line(exc)}") from None
 
 
+def _imports(value: Any, base: Path, where: str) -> list[str]:
+    """A model entry's ``import = "FILE.py"`` (or a list, or module names): imported now
+    (a saved model naming their factors loads) and given to every run as ``--import``."""
+    from pgm.app.cli_args import import_user_code
+
+    if value is None:
+        return []
+    items = value if isinstance(value, list) else [value]
+    out = []
+    for item in items:
+        if not isinstance(item, str) or not item:
+            raise InputError(f"{where}: import must be a .py file or a module name, got "
+                             f"{item!r}")
+        if item.endswith(".py"):
+            p = Path(item).expanduser()
+            p = p if p.is_absolute() else base / p
+            if not p.is_file():
+                raise InputError(f"{where}: import: no such file: {item!r} (relative to {base})")
+            item = str(p.resolve())
+        try:
+            import_user_code(item)
+        except InputError as exc:
+            raise InputError(f"{where}: {one_line(exc)}") from None
+        out.append(item)
+    return out
+
+
 def _models(value: Any, base: Path, where: str) -> tuple[ModelSpec, ...]:
     from pgm.app import cli
     from pgm.models import get_config, model_names
@@ -404,6 +431,7 @@ def _models(value: Any, base: Path, where: str) -> tuple[ModelSpec, ...]:
         if not isinstance(name, str) or not name:
             raise InputError(f"{here}: name is missing (a model of "
                              f"{names}, or a saved model.json)")
+        imports = _imports(entry.get("import"), base, here)  # the user's factors and rules
         saved = name.endswith(".json")
         if saved:
             p = Path(name).expanduser()
@@ -435,9 +463,9 @@ def _models(value: Any, base: Path, where: str) -> tuple[ModelSpec, ...]:
         if any(m.label == label for m in out):
             raise InputError(f"{here}: two models are labelled {label!r}; give each its own "
                              f"label = \"...\"")
-        tokens: list[str] = []
+        tokens: list[str] = [f"--import={p}" for p in imports]
         for key, opt in entry.items():
-            if key not in ("name", "label"):
+            if key not in ("name", "label", "import"):
                 tokens += _option_tokens(key, opt, base, here, name)
         detector = entry.get("detector")
         spec = ModelSpec(label, name, tuple(tokens), multi,

@@ -183,9 +183,11 @@ def factor_from_dict(d: dict[str, Any]) -> Factor:
         find_names(lambda: type_name in _REGISTRY, module if isinstance(module, str) else None)
         cls = _REGISTRY.get(type_name)
     if cls is None:
+        where = f" ({d['module']})" if isinstance(d.get("module"), str) else ""
         raise ValueError(
-            f"unknown factor type {type_name!r}: import the module that defines it before "
-            f"loading (known: {sorted(_REGISTRY)})")
+            f"unknown factor type {type_name!r}{where}: import the module that defines it "
+            f"before loading (on the command line: --import MODULE_OR_FILE; known: "
+            f"{sorted(_REGISTRY)})")
     try:
         return cls(*variables, name=d.get("name"), **d.get("params", {}))
     except TypeError as exc:

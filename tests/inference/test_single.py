@@ -35,9 +35,9 @@ def test_a_registered_runtime_runs_the_graphs_it_applies_to():
     calls = []
 
     class Counting(SingleGraph):
-        def step(self, engine, frame, record, lifecycle):
+        def step_stages(self, engine, frame, record, lifecycle):
             calls.append(frame.index)
-            super().step(engine, frame, record, lifecycle)
+            yield from super().step_stages(engine, frame, record, lifecycle)
 
     mine = Counting()
     register_runtime(lambda g: g.name == graph.name, mine)
