@@ -12,13 +12,17 @@ target's belief and the noise belief each frame, dispatched on the target's beli
 * ``Intensity`` — the VB-PHD filter (§II-B of [#feng2015]): the PHD corrector with
   ``log g̃(z|x) = −(d/2) ln 2π − ½ Σ_i (ln β_i − ψ(α_i)) − ½ Σ_i (α_i/β_i)(z − Hx)_i²``,
   then ``α = α̂ + ½ Σ_z W_z``, ``β = β̂ + ½ Σ_z Σ_j ω_jz (z − Hx_j)²`` over persistent
-  particles; the first pass uses ``α = α̂ + ½ min(|Z|, p_D Σ_j w_j)``, ``β = β̂``.
+  particles; the first pass uses ``α = α̂ + ½ min(|Z|, p_D Σ_j w_j)``, ``β = β̂``;
+* ``Particles`` — any likelihood with the conjugate contract ``noise_residuals(x, frame)``
+  (residuals with independent Gaussian noise of the noise variances): the predicted
+  particles reweighted by ``exp E[log p(y | x, σ²)]``, then ``α = α̂ + ½``,
+  ``β = β̂ + ½ Σ_i w_i r_i²``, repeated.
 
 With ``VBNoise(tie=...)`` the tied components share one variance: their statistics are
 summed (``α`` gains ``|group|/2`` per unit of association weight) and the ELBO counts each
 group's KL once.
 
-Both stop when the relative change of ``R̂ = β/α`` is below ``tol`` or after
+All stop when the relative change of ``R̂ = β/α`` is below ``tol`` or after
 ``max_iter`` passes, and record the ELBO after every state update
 (``record.info[factor]["elbo"]``); it never decreases.
 
@@ -37,12 +41,13 @@ References
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from pgm.core.batched import BatchedInverseGamma
-from pgm.core.beliefs import Intensity
+from pgm.core.beliefs import Intensity, Particles
 from pgm.core.expfam import Gaussian, InverseGamma
 from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianTransition
 from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, PHDLikelihood, VBNoise
@@ -169,16 +174,23 @@ def vb_akf_update(prior: Gaussian, q_pred: InverseGamma, H: np.ndarray, z: np.nd
     return g, q, {"iterations": it, "elbo": elbo, "r_hat": q.r_hat()}
 
 
-@RULES.register(VBNoise, Gaussian)
-def _vb_gaussian(ctx: RuleContext, factor, frame) -> dict[str, Any] | None:
-    noise, target = factor.variables
-    liks = [f for f in ctx.graph.factors_of(target, "likelihood")
+def _vb_likelihood(ctx: RuleContext, factor):
+    """The one likelihood a :class:`VBNoise` factor parameterises (untied)."""
+    liks = [f for f in ctx.graph.factors_of(factor.variables[1], "likelihood")
             if factor.likelihood in (None, f.name)]
     if len(liks) != 1:
-        raise ValueError(f"factor {factor.name!r}: needs one likelihood on {target!r}")
+        raise ValueError(f"factor {factor.name!r}: needs one likelihood on "
+                         f"{factor.variables[1]!r}")
     if getattr(factor, "tie", None) is not None:
         raise ValueError(f"factor {factor.name!r}: tied noise components are implemented "
                          f"for the VB-PHD (Intensity) rule only")
+    return liks[0]
+
+
+@RULES.register(VBNoise, Gaussian)
+def _vb_gaussian(ctx: RuleContext, factor, frame) -> dict[str, Any] | None:
+    noise, target = factor.variables
+    liks = [_vb_likelihood(ctx, factor)]
     z = _measurement(liks[0], frame)
     if z is None:
         return None
@@ -186,6 +198,71 @@ def _vb_gaussian(ctx: RuleContext, factor, frame) -> dict[str, Any] | None:
                                factor.tol, factor.max_iter)
     ctx.beliefs[target], ctx.beliefs[noise] = g, q
     return info
+
+
+# -- mean-field VB on particles: any likelihood that gives its noise residuals ----------------
+@dataclass
+class VBParticleState:
+    """The beliefs this frame's VB fixed point started from (``frame``: its index), so that
+    a second in-frame pass restarts from them instead of updating twice."""
+
+    frame: int | None = None
+    before: tuple[Any, Any] | None = None
+
+
+def _expected_loglik(r2: np.ndarray, q: InverseGamma) -> np.ndarray:
+    """``E_q(σ²)[log N(r; 0, diag σ²)]`` per particle from squared residuals ``(N, k)``."""
+    return -0.5 * (r2.shape[1] * np.log(2 * np.pi) + q.expected_log_variance().sum()
+                   + r2 @ q.expected_precision())
+
+
+@RULES.register(VBNoise, Particles)
+def _vb_particles(ctx: RuleContext, factor, frame) -> dict[str, Any] | None:
+    """Mean-field VB between a particle belief ``q(x)`` and an inverse-Gamma noise belief
+    ``q(σ²)`` for a likelihood with the conjugate contract (``noise_residuals(x, frame)``:
+    residuals with independent Gaussian noise of variances ``σ²``). Coordinate ascent:
+    ``q(x)`` reweights the predicted particles by ``exp E_q(σ²)[log p(y | x, σ²)]``;
+    ``q(σ²_j) = IG(α̂_j + 1/2, β̂_j + E_q(x)[r_j²] / 2)``; until ``R̂ = β/α`` moves by less
+    than ``tol`` (relative) or ``max_iter`` passes; the ELBO of each pass is recorded
+    (non-decreasing: each step maximises it in one factor)."""
+    noise, target = factor.variables
+    lik = _vb_likelihood(ctx, factor)
+    residuals = getattr(lik, "noise_residuals", None)
+    if residuals is None:
+        raise ValueError(f"factor {factor.name!r}: likelihood {lik.name!r} gives no "
+                         f"noise_residuals(x, frame), the conjugate contract of VB over its "
+                         f"noise (pgm.inference.vb)")
+    state = ctx.state.get(factor.name, VBParticleState)
+    if state.frame != frame.index:  # the frame's first pass: keep where it starts
+        state.frame, state.before = frame.index, (ctx.beliefs[target], ctx.beliefs[noise])
+    b0, q_pred = state.before
+    r = residuals(b0.x, frame)
+    if r is None:
+        return None
+    r2 = np.asarray(r, dtype=float) ** 2
+    if r2.shape != (b0.num, q_pred.dim):
+        raise ValueError(f"factor {factor.name!r}: {lik.name!r} gave residuals of shape "
+                         f"{r2.shape}, expected ({b0.num}, {q_pred.dim}) (one per noise "
+                         f"component)")
+    lw0 = b0.log_weights - b0.log_mass
+    q, elbo, it = q_pred, [], 0
+    for it in range(1, factor.max_iter + 1):  # noqa: B007 - the count is reported
+        lw = lw0 + _expected_loglik(r2, q)
+        w = np.exp(lw - lw.max())
+        w /= w.sum()
+        new = InverseGamma(q_pred.alpha + 0.5, q_pred.beta + 0.5 * (w @ r2))
+        ell = _expected_loglik(r2, new)
+        kl_x = float(np.sum(w * (np.log(np.maximum(w, 1e-300)) - lw0)))
+        elbo.append(float(w @ ell) - kl_x - new.kl(q_pred))
+        change = np.max(np.abs(new.r_hat() - q.r_hat()) / q.r_hat())
+        q = new
+        if change < factor.tol:
+            break
+    ell = _expected_loglik(r2, q)
+    ctx.beliefs[target] = b0.reweight(ell).normalized()
+    ctx.evidence[target] = (b0.log_weights, ell)
+    ctx.beliefs[noise] = q
+    return {"iterations": it, "elbo": elbo, "r_hat": q.r_hat()}
 
 
 # -- the VB-PHD filter ------------------------------------------------------------------------

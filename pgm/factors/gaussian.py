@@ -550,14 +550,22 @@ class LinearGaussianLikelihood(LikelihoodFactor):
     def check(self, variables: dict[str, Variable]) -> None:
         self._check_dim(variables, self.variables[0], self.H.shape[1], "H's column count")
 
-    def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
+    def noise_residuals(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray | None:
+        """The conjugate contract of VB over this factor's noise
+        (:mod:`pgm.inference.vb`): the residuals ``y − H x`` ``(N, k)``, whose components
+        carry independent zero-mean Gaussian noise of the noise variable's variances; None
+        on a frame without a measurement."""
         z = ctx.measurements
         if isinstance(z, dict):
             z = z.get(self.key if self.key is not None else self.variables[0])
         if z is None:
+            return None
+        return np.asarray(z, dtype=float).reshape(-1) - x @ self.H.T
+
+    def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
+        r = self.noise_residuals(x, ctx)  # (N, k)
+        if r is None:
             return np.zeros(x.shape[0])
-        y = np.asarray(z, dtype=float).reshape(-1)
-        r = y - x @ self.H.T  # (N, k)
         from scipy.linalg import solve_triangular
 
         u = solve_triangular(self._chol, r.T, lower=True)  # (k, N)

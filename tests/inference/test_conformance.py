@@ -102,6 +102,10 @@ CASES = {
     "pbp-product": (_two_parts, _parts_frames, {"fusion": "product"}),
     "vb-akf": (_vb_akf, lambda: [FrameContext(t + 1, measurements=np.array([0.1 * t, 0.0]))
                                  for t in range(4)], {"belief_types": {"x": Gaussian}}),
+    # the same noise node on a particle belief (mean-field VB with particles)
+    "vb-particles": (_vb_akf, lambda: [FrameContext(t + 1, measurements=np.array([0.1 * t,
+                                                                                  0.0]))
+                                       for t in range(4)], {}),
     "phd": (lambda: _phd(phd), _set_frames, {}),
     # a plate's batched rules (births from detections, then every stage on K replicas)
     "plate": (lambda: _plate(1), _plate_frames, {}),
