@@ -46,6 +46,7 @@ from pgm.factors.association import (
 )
 from pgm.factors.multitarget import VBNoise
 
+from .association_terms import _extensions
 from .batched import per_replica
 from .context import RuleContext
 from .kalman import kalman_update_batch, vb_akf_batch
@@ -134,7 +135,8 @@ def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
            rounds: list[dict[str, Any]], last: np.ndarray | None = None,
            direction: np.ndarray | None = None, direction_weight: float = 0.0,
            appearance: np.ndarray | None = None, appearance_weight: float = 0.0,
-           confirmed: np.ndarray | None = None, tracked: np.ndarray | None = None
+           confirmed: np.ndarray | None = None, tracked: np.ndarray | None = None,
+           extra: np.ndarray | None = None, allowed: np.ndarray | None = None
            ) -> Assignment:
     """Assign detections ``boxes`` (centre, ``(M, 4)``) with mapped ``scores`` to predicted
     boxes ``pred`` ``(K, 4)`` in ``rounds`` (:class:`~pgm.factors.association.
@@ -147,13 +149,16 @@ def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
     one with ``"appearance"``); pairs below the round's gate (on the IoU, or the fused
     IoU × score) are no match. ``confirmed`` ``(K,)``: which replicas have an identity,
     ``tracked`` ``(K,)``: which were matched in the previous frame (a round's
-    ``"tracks"`` pool: :data:`~pgm.factors.association.TRACK_POOLS`)."""
+    ``"tracks"`` pool: :data:`~pgm.factors.association.TRACK_POOLS`). ``extra`` ``(K, M)``
+    is added to what every round maximises and only pairs ``allowed`` ``(K, M)`` may match
+    (the factor's terms and gates)."""
     from scipy.optimize import linear_sum_assignment
 
     K, M = len(pred), len(boxes)  # noqa: N806
     iou = iou_matrix(pred, boxes) if K and M else np.zeros((K, M))
     r0 = rounds[0]
     if len(rounds) == 1 and r0["against"] == "prediction" and K and M and \
+            extra is None and allowed is None and \
             appearance is None and not r0["direction"] and r0.get("tracks", "all") == "all" \
             and not r0.get("fuse_score") and not r0.get("buffer") and \
             r0["min_score"] == -np.inf and r0["max_score"] == np.inf:
@@ -191,8 +196,15 @@ def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
             cost = gate + direction_weight * direction[np.ix_(ks, js)]
         if r.get("appearance") and appearance is not None and appearance_weight:
             cost = cost + appearance_weight * appearance[np.ix_(ks, js)]
+        if extra is not None:
+            cost = cost + extra[np.ix_(ks, js)]
+        if allowed is not None:  # a pair a gate forbids is never taken
+            mask = allowed[np.ix_(ks, js)]
+            cost = np.where(mask, cost, -1e9)
         a, b = linear_sum_assignment(cost, maximize=True)
         ok = gate[a, b] >= r["iou"]
+        if allowed is not None:
+            ok &= mask[a, b]
         rows.append(ks[a[ok]])
         cols.append(js[b[ok]])
         made.append(np.full(int(ok.sum()), i))
@@ -308,6 +320,8 @@ def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> dict[str
     looks = _appearance(ctx, factor, frame, boxes)
     extra: dict[str, Any] = {} if looks is None else {
         "appearance": looks, "appearance_weight": factor.appearance_weight}
+    if factor.terms or factor.gates:  # the association's extension points
+        extra.update(_extensions(ctx, factor, frame, pred, boxes, scores))
     if factor.uses_pools:  # which replicas have an identity, which were matched last frame
         tracks = ctx.replicas.tracks
         extra.update(confirmed=np.array([t.track_id is not None for t in tracks], dtype=bool),

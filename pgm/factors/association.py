@@ -262,6 +262,16 @@ class DetectionAssociation(Factor):
         term. Saved as the factors' declarations.
     appearance_weight : float
         Its weight (against an IoU in [0, 1]).
+    terms, gates : list of dict, optional
+        The association's extension points, applied in every round: a *term*
+        ``{"fn": f, "weight": w, "args": {...}}`` adds ``w × f(inputs, **args)`` ``(K, M)``
+        to what the round maximises; a *gate* ``{"fn": g, "args": {...}}`` allows only the
+        pairs where ``g(inputs, **args)`` ``(K, M)`` is true. ``inputs`` is
+        :class:`pgm.inference.association_terms.AssociationInputs` (predicted boxes, the
+        replicas' state means and covariances, the detections and their scores, the
+        frame); ``f`` and ``g`` are functions defined at module level (given, or named
+        ``"module:function"``; saved by name, found again as rules are), e.g.
+        :func:`pgm.inference.association_terms.mahalanobis_gate`.
     """
 
     kind = "association"
@@ -271,8 +281,11 @@ class DetectionAssociation(Factor):
     def __init__(self, variable: str, *, rounds: list[dict[str, Any]] | None = None,
                  score_map: str = "none", direction_weight: float = 0.2, delta_t: int = 3,
                  appearance: list | None = None, appearance_weight: float = 0.5,
-                 name: str | None = None):
+                 terms: list[dict[str, Any]] | None = None,
+                 gates: list[dict[str, Any]] | None = None, name: str | None = None):
         super().__init__(variable, name=name)
+        self.terms = [self._extension(t, "term") for t in (terms or [])]
+        self.gates = [self._extension(g, "gate") for g in (gates or [])]
         self.appearance: list | None = None
         if appearance is not None:
             from pgm.core.factor import factor_from_dict
@@ -331,6 +344,30 @@ class DetectionAssociation(Factor):
                                 "fuse_score": bool(r.get("fuse_score")),
                                 "buffer": float(buffer)})
 
+    def _extension(self, item: Any, what: str) -> dict[str, Any]:
+        """A term or gate as ``{"fn": "module:function", "weight", "args"}``."""
+        if callable(item):
+            item = {"fn": item}
+        if not isinstance(item, dict) or "fn" not in item or set(item) - {"fn", "weight",
+                                                                          "args"}:
+            raise ValueError(f"factor {self.name!r}: an association {what} is a dict with "
+                             f"'fn' (and 'weight', 'args'), got {item!r}")
+        fn = item["fn"]
+        if callable(fn):
+            fn = f"{fn.__module__}:{fn.__qualname__}"
+        if not isinstance(fn, str) or ":" not in fn or "<locals>" in fn:
+            raise ValueError(f"factor {self.name!r}: an association {what}'s fn is a function "
+                             f"defined at module level (or its 'module:function' name), got "
+                             f"{item['fn']!r}")
+        args = item.get("args") or {}
+        if not isinstance(args, dict):
+            raise ValueError(f"factor {self.name!r}: an association {what}'s args is a dict")
+        out: dict[str, Any] = {"fn": fn, "args": dict(args)}
+        if what == "term":
+            out["weight"] = float(check_finite_param(f"{self.name}.{what}.weight",
+                                                     item.get("weight", 1.0)))
+        return out
+
     @property
     def uses_pools(self) -> bool:
         """Whether a round takes a pool of the replicas (``"tracks"`` other than all)."""
@@ -367,6 +404,10 @@ class DetectionAssociation(Factor):
         if self.appearance is not None:
             p.update(appearance=[a.to_dict() for a in self.appearance],
                      appearance_weight=self.appearance_weight)
+        if self.terms:
+            p["terms"] = [dict(t) for t in self.terms]
+        if self.gates:
+            p["gates"] = [dict(g) for g in self.gates]
         return p
 
     def appearance_model(self) -> list | None:
