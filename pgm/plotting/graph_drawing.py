@@ -115,15 +115,32 @@ def layout(graph: FactorGraph) -> dict[str, np.ndarray]:
             if f.kind == "likelihood":
                 out[f"z:{f.name}"] = pos[v] + 2.0 * np.array([np.cos(ang), np.sin(ang)])
         else:
-            centre = np.mean([pos[v] for v in f.variables], axis=0)
-            if f.kind == "conjugate":
-                centre = centre + np.array([0.0, 0.6])
-            out[f.name] = centre
-    for (_x0, _y0, _x1, y1), p in zip(plate_boxes(graph, out), graph.plates, strict=True):
-        for f in graph.factors.values():  # on the plate's top edge, right of the variable
+            out[f.name] = np.mean([pos[v] for v in f.variables], axis=0)
+    for f in graph.factors_by_kind("conjugate"):  # between the noise node and the
+        # likelihood(s) it parameterises (drawn linked to them)
+        liks = parameterised(graph, f)
+        if liks:
+            out[f.name] = 0.5 * (pos[f.variables[0]] + np.mean([out[n] for n in liks], axis=0))
+    for (x0, _y0, _x1, y1), p in zip(plate_boxes(graph, out), graph.plates, strict=True):
+        for f in graph.factors.values():  # on the plate's edge: they couple the replicas
             if f.kind == "interaction" and f.variables[0] in p.variables:
                 out[f.name] = np.array([out[f.variables[0]][0] + 1.2, y1])
+            elif f.kind == "association" and f.variables[0] in p.variables:
+                out[f.name] = np.array([x0, out[f.variables[0]][1] - 0.9])
     return out
+
+
+#: factor kinds that couple all the replicas of a plate: drawn on its edge, not inside
+ACROSS_PLATE = ("interaction", "association")
+
+
+def parameterised(graph: FactorGraph, factor) -> list[str]:
+    """The likelihood factors a conjugate factor parameterises (its ``likelihood``, or
+    every likelihood of its target)."""
+    lik = getattr(factor, "likelihood", None)
+    if lik:
+        return [lik] if lik in graph.factors else []
+    return [f.name for f in graph.factors_of(factor.variables[1], "likelihood")]
 
 
 def plate_outlines(graph: FactorGraph, pos: dict[str, np.ndarray]) -> list[tuple]:
@@ -133,13 +150,14 @@ def plate_outlines(graph: FactorGraph, pos: dict[str, np.ndarray]) -> list[tuple
 
 def plate_boxes(graph: FactorGraph, pos: dict[str, np.ndarray]
                 ) -> list[tuple[float, float, float, float]]:
-    """``(x0, y0, x1, y1)`` of each plate: around its variables and their factors (not the
-    observed frames, not the interaction factors, which sit on its edge)."""
+    """``(x0, y0, x1, y1)`` of each plate: around its variables, their factors and each
+    replica's observations (not the factors between replicas, which sit on its edge)."""
     out = []
     for p in graph.plates:
-        names = list(p.variables) + [f.name for f in graph.factors.values()
-                                     if f.kind != "interaction"
-                                     and all(v in p.variables for v in f.variables)]
+        inside = [f for f in graph.factors.values() if f.kind not in ACROSS_PLATE
+                  and all(v in p.variables for v in f.variables)]
+        names = list(p.variables) + [f.name for f in inside] + [
+            f"z:{f.name}" for f in inside if f.kind == "likelihood"]
         pts = np.array([pos[n] for n in names if n in pos])
         lo, hi = pts.min(axis=0) - 0.75, pts.max(axis=0) + 0.75
         out.append((float(lo[0]), float(lo[1]), float(hi[0] + 0.4), float(hi[1])))
@@ -173,8 +191,8 @@ def draw(graph: FactorGraph, path: str | Path | None = None, ax=None,
     for (x0, y0, x1, y1), p in zip(plate_boxes(graph, pos), graph.plates, strict=True):
         ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fc="none", ec="#333", lw=1.4,
                                zorder=0.5))
-        ax.text(x1 - 0.12, y0 + 0.12, p.size_label, ha="right", va="bottom", fontsize=12,
-                style="italic", zorder=4)
+        ax.text(x1 + 0.1, y0 + 0.05, p.size_label, ha="left", va="bottom", fontsize=12,
+                style="italic", zorder=4)  # outside the corner, clear of the labels in it
         ax.text(x0 + 0.12, y1 - 0.12, p.name, ha="left", va="top", fontsize=8, color="#333",
                 zorder=4)
     for f in graph.factors_by_kind("interaction"):
@@ -183,6 +201,16 @@ def draw(graph: FactorGraph, path: str | Path | None = None, ax=None,
                 zorder=1)
         ax.text(q[0] + 0.65, q[1] + 0.65, "j≠k", ha="left", va="bottom", fontsize=7,
                 color="#2a9d8f")
+    for f in graph.factors_by_kind("association"):  # all replicas against the detections
+        q = pos[f.name]
+        ax.plot([q[0], q[0] - 0.6], [q[1], q[1] - 0.6], color="#b08900", lw=1.2, ls="--",
+                zorder=1)
+        ax.text(q[0] - 0.65, q[1] - 0.65, "all k", ha="right", va="top", fontsize=7,
+                color="#b08900")
+    for f in graph.factors_by_kind("conjugate"):  # the likelihood whose noise it sets
+        for lik in parameterised(graph, f):
+            ax.plot(*zip(pos[f.name], pos[lik], strict=True), color="#7b2cbf", lw=1.2,
+                    ls=":", zorder=1)
     for f in graph.factors.values():
         for v in f.variables:
             ax.plot(*zip(pos[f.name], pos[v], strict=True), color="#444", lw=1.2, zorder=1)
@@ -209,6 +237,13 @@ def draw(graph: FactorGraph, path: str | Path | None = None, ax=None,
         if f.kind == "interaction":  # on the plate's edge: label outside it
             ax.text(p[0] - 0.2, p[1] + 0.25, label, ha="right", va="bottom", fontsize=7,
                     zorder=4)
+        elif f.kind == "association":  # on the plate's left edge: label outside it
+            ax.text(p[0] - 0.22, p[1] + 0.05, label, ha="right", va="center", fontsize=7,
+                    zorder=4)
+        elif f.kind == "prior" and len(f.variables) == 1:
+            # up-left of its variable: the label left of it, clear of the variable's name
+            # and of the transition's label above the variable
+            ax.text(p[0] - 0.22, p[1], label, ha="right", va="center", fontsize=7, zorder=4)
         else:
             ax.text(p[0], p[1] - 0.32, label, ha="center", va="top", fontsize=7, zorder=4)
     for v in graph.variables.values():
@@ -222,12 +257,14 @@ def draw(graph: FactorGraph, path: str | Path | None = None, ax=None,
     ax.autoscale_view()
     xs = np.array([p[0] for p in pos.values()])
     ys = np.array([p[1] for p in pos.values()])
-    ax.set_xlim(xs.min() - 1.5, xs.max() + (2.4 if graph.plates else 1.8))
+    left = 3.2 if graph.factors_by_kind("association") else 1.5
+    ax.set_xlim(xs.min() - left, xs.max() + (2.4 if graph.plates else 1.8))
     ax.set_ylim(ys.min() - 1.0, ys.max() + (1.6 if graph.plates else 1.0))
     ax.axis("off")
     kinds = sorted({f.kind for f in graph.factors.values()})
     handles = [Rectangle((0, 0), 1, 1, fc=KIND_COLOURS[k], ec="k") for k in kinds]
-    ax.legend(handles, kinds, loc="lower right", fontsize=7, frameon=False)
+    ax.legend(handles, kinds, loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7,
+              frameon=False)  # beside the drawing, never over it
     ax.set_title(title or graph.name)
     if own_fig and path is not None:
         fig.savefig(path, bbox_inches="tight", dpi=120)
