@@ -142,3 +142,18 @@ def test_citation_and_changelog_name_the_version():
     changelog = (ROOT / "CHANGELOG.md").read_text()
     assert "## [Unreleased]" in changelog
     assert f"## [{pgm.__version__}]" in changelog
+
+
+def test_the_factor_reference_is_current():
+    """``docs/factors.md`` is what ``docs/factor_reference.py`` writes from the docstrings
+    and the rule table: a new factor or rule shows up there, or this fails."""
+    import runpy
+
+    ns = runpy.run_path(str(ROOT / "docs" / "factor_reference.py"), run_name="factor_ref")
+    assert ns["main"](["--check"]) == 0, "run: python docs/factor_reference.py"
+    text = (ROOT / "docs" / "factors.md").read_text()
+    from pgm.core.factor import registered_factor_types
+
+    for name, cls in registered_factor_types().items():
+        if cls.__module__.startswith("pgm."):
+            assert f"### `{name}`" in text, name

@@ -90,27 +90,50 @@ def default_model(source: str | None, multi_target_hint: bool) -> str:
 
 
 def _with_init_box(graph, box_cxcywh: np.ndarray, path: str):
-    """A saved single-object graph moved to start on ``box_cxcywh``: its one Gaussian
-    prior over ``(cx, cy, w, h, ...)`` gets the box as the first four components of its
-    mean (the others, e.g. an angle, and everything else are kept)."""
+    """A saved single-object graph moved to start on ``box_cxcywh``: every prior over a
+    ``(cx, cy, w, h)`` box is re-centred as the target's box moves and scales from the
+    saved one (``meta["reference_box"]``, else the bounding box of the output variables'
+    prior means), so the parts of a part graph keep their places on the target; the
+    covariances and everything else are kept. Unchanged where the box is the saved one."""
+    from types import SimpleNamespace
+
+    from pgm.core.boxes import box_coding
     from pgm.core.graph import FactorGraph
-    from pgm.factors.gaussian import GaussianPrior
+    from pgm.inference.plates import plate_boxes
 
     priors = [f for f in graph.factors.values() if f.kind == "prior"]
-    ok = (len(priors) == 1 and isinstance(priors[0], GaussianPrior)
-          and priors[0].mean_.size >= 4)
-    if not ok:
-        raise InputError(f"cannot move saved model {path} to a new initial box: it has "
-                         f"{len(priors)} priors (one over cx, cy, w, h, ... is needed); "
-                         f"leave out --init/--gt to start where it was saved, or build it with "
+    movable = [f for f in priors if hasattr(f, "born_at") and hasattr(f, "mean")
+               and box_coding(graph.variables[f.variables[0]].labels) == "cxcywh"]
+    if not priors or len(movable) != len(priors):
+        raise InputError(f"cannot move saved model {path} to a new initial box: its priors "
+                         f"are not all Gaussian priors over (cx, cy, w, h); leave out "
+                         f"--init/--gt to start where it was saved, or build it with "
                          f"--model NAME")
-    old = priors[0]
-    mean = np.array(old.mean_, dtype=float).reshape(-1)
-    mean[:4] = np.asarray(box_cxcywh, dtype=float)
-    new = GaussianPrior(old.variables[0], mean=mean, cov=old.cov, name=old.name)
-    factors = [new if f is old else f for f in graph.factors.values()]
-    return FactorGraph(list(graph.variables.values()), factors, name=graph.name,
-                       meta=graph.meta)
+    means = {f.variables[0]: np.asarray(f.mean(), dtype=float).reshape(-1)[:4]
+             for f in movable}
+    ref = graph.meta.get("reference_box")
+    outputs = [v for v in graph.output if v in means] or list(means)
+    ref = (np.asarray(ref, dtype=float) if ref is not None else
+           plate_boxes(SimpleNamespace(variables=graph.variables, output=outputs),
+                       {v: means[v][None] for v in outputs})[0])
+    box = np.asarray(box_cxcywh, dtype=float)
+    if np.array_equal(box, ref):
+        return graph
+    sw, sh = box[2] / ref[2], box[3] / ref[3]
+    moved = {}
+    for f in movable:
+        v = f.variables[0]
+        p = means[v]
+        moved[f.name] = f.born_at({"cx": box[0] + (p[0] - ref[0]) * sw,
+                                   "cy": box[1] + (p[1] - ref[1]) * sh,
+                                   "w": p[2] * sw, "h": p[3] * sh},
+                                  graph.variables[v].labels)
+    factors = [moved.get(f.name, f) for f in graph.factors.values()]
+    meta = dict(graph.meta)
+    if "reference_box" in meta:
+        meta["reference_box"] = box.tolist()
+    return FactorGraph(list(graph.variables.values()), factors, name=graph.name, meta=meta,
+                       plates=graph.plates)
 
 
 def _kind(args: argparse.Namespace, saved) -> str:

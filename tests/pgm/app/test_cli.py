@@ -315,3 +315,29 @@ def test_multi_target_scores_flag_is_saved_in_the_model(mot_dir, tmp_path, capsy
               "--scores", "logistic"])
     assert exc.value.code == 2
     assert_one_line_error(2, capsys.readouterr().err, "--scores")
+
+
+def test_a_saved_part_graph_reruns_on_a_folder_with_ground_truth(tmp_path, capsys):
+    """Neither --init nor --gt: the sequence's own first box starts the saved model — the
+    same run where it was saved, every part moved with the target's box on another."""
+    seq = tmp_path / "scene"
+    demo_scene(seed=1, n_frames=8).write_otb(seq)
+    other = tmp_path / "other"
+    demo_scene(seed=2, n_frames=8).write_otb(other)
+    first, again, moved = tmp_path / "a", tmp_path / "b", tmp_path / "c"
+    common = ["--max-frames", "6", "--no-video", "--quiet"]
+    assert run_cli(capsys, "track", seq, "--model", "part-graph", "--out", first, *common)[0] == 0
+    code, _, err = run_cli(capsys, "track", seq, "--model", first / "model.json", "--out",
+                           again, *common)
+    assert code == 0, err
+    assert (first / "tracks.txt").read_text() == (again / "tracks.txt").read_text()
+    code, _, err = run_cli(capsys, "track", other, "--model", first / "model.json", "--out",
+                           moved, "--init", "60,90,40,100", *common)
+    assert code == 0, err
+    saved = json.loads((moved / "model.json").read_text())
+    priors = [f for f in saved["factors"] if f["kind"] == "prior"]
+    assert len(priors) >= 2
+    tops = [np.asarray(f["params"]["mean"])[:4] for f in priors]
+    lo = min(m[1] - m[3] / 2 for m in tops)
+    hi = max(m[1] + m[3] / 2 for m in tops)
+    assert lo == pytest.approx(90 - 1, abs=1e-6) and hi == pytest.approx(90 - 1 + 100, abs=1e-6)
