@@ -623,12 +623,25 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                    help="dask: the scheduler, e.g. tcp://10.0.0.5:8786 (default: start a "
                         "LocalCluster of --jobs workers)")
     b.add_argument("--quiet", action="store_true", help="no line per finished run")
+    b.add_argument("--import", dest="imports", action="append", default=[],
+                   metavar="MODULE_OR_FILE",
+                   help="import a module or .py file of your own factors, rules or models "
+                        "first, here and in every run (as a model entry's import = ...); "
+                        "repeatable (default: none)")
     return b
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
     """``pgm bench``: load, run, write the tables, print where they are."""
     experiment = load_experiment(args.experiment)
+    if args.imports:  # every run imports them too (pgm.app.cli imported them here)
+        import dataclasses
+
+        tokens = tuple(f"--import={Path(i).resolve() if i.endswith('.py') else i}"
+                       for i in args.imports)
+        experiment = dataclasses.replace(experiment, models=tuple(
+            dataclasses.replace(m, options=tokens + tuple(m.options))
+            for m in experiment.models))
     progress = None if args.quiet else (lambda line: print(line, file=sys.stderr,
                                                            flush=True))
     result = run_experiment(experiment, args.out, jobs=args.jobs, backend=args.backend,

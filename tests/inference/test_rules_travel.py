@@ -232,3 +232,50 @@ def test_an_experiment_imports_a_models_factors_for_every_run(tmp_path):
     assert spec.options[0] == f"--import={(tmp_path / 'bench_user_factors.py').resolve()}"
     with pytest.raises(InputError, match="no such file"):
         _models([{"name": "model.json", "import": "gone.py"}], tmp_path, "exp.toml")
+
+
+BENCH_USER = '''
+import numpy as np
+from pgm.core.beliefs import Particles
+from pgm.factors import LikelihoodFactor
+from pgm.inference.rules import declare
+
+
+class BenchFlagFlat(LikelihoodFactor):
+    def log_likelihood(self, x, ctx):
+        return np.zeros(len(x))
+
+
+@declare(BenchFlagFlat, Particles)
+def flat_rule(ctx, factor, frame):
+    return np.zeros(ctx.beliefs[factor.variables[0]].num)
+'''
+
+
+def test_pgm_bench_imports_a_users_code_for_every_run(tmp_path, capsys):
+    from pgm.models import colour_pf
+    from pgm.synthetic import demo_scene
+
+    demo_scene(seed=0, n_frames=4).write_otb(tmp_path / "scene")
+    (tmp_path / "bench_flag_user.py").write_text(BENCH_USER)
+    x, y, w, h = 20, 100, 30, 80
+    d = colour_pf.build_graph(colour_pf.Params(init_box=(x + w / 2, y + h / 2, w, h),
+                                               num_particles=20)).to_dict()
+    var = d["variables"][0]["name"]
+    d["factors"].append({"type": "BenchFlagFlat", "module": "bench_flag_user", "name": "flat",
+                         "kind": "likelihood", "variables": [var], "params": {}})
+    (tmp_path / "model.json").write_text(json.dumps(d))
+    (tmp_path / "exp.toml").write_text(
+        'name = "flag"\nroot_seed = 1\nseeds = 1\nmax_frames = 3\nwrite_video = false\n'
+        'sequences = ["scene"]\n[[models]]\nname = "model.json"\nlabel = "mine"\n')
+    code, _, err = run_cli(capsys, "bench", tmp_path / "exp.toml", "--out", tmp_path / "out",
+                           "--quiet")
+    assert code == 2 and "BenchFlagFlat" in err  # the saved model names a factor not imported
+    code, _, err = run_cli(capsys, "bench", tmp_path / "exp.toml", "--out", tmp_path / "out",
+                           "--quiet", "--import", tmp_path / "bench_flag_user.py")
+    assert code == 0, err
+    rows = (tmp_path / "out" / "results.csv").read_text().strip().splitlines()
+    assert len(rows) == 2  # a header and the one run
+    (task,) = (tmp_path / "out" / "runs").rglob("task.json")
+    options = json.loads(task.read_text())["run"]["options"]
+    assert any(o.startswith("--import=") for o in options)
