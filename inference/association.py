@@ -136,8 +136,8 @@ def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
            direction: np.ndarray | None = None, direction_weight: float = 0.0,
            appearance: np.ndarray | None = None, appearance_weight: float = 0.0,
            confirmed: np.ndarray | None = None, tracked: np.ndarray | None = None,
-           extra: np.ndarray | None = None, allowed: np.ndarray | None = None
-           ) -> Assignment:
+           extra: np.ndarray | None = None, allowed: np.ndarray | None = None,
+           per_round: list | None = None) -> Assignment:
     """Assign detections ``boxes`` (centre, ``(M, 4)``) with mapped ``scores`` to predicted
     boxes ``pred`` ``(K, 4)`` in ``rounds`` (:class:`~pgm.factors.association.
     DetectionAssociation`): in each, the Hungarian assignment between the replicas of the
@@ -151,14 +151,15 @@ def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
     ``tracked`` ``(K,)``: which were matched in the previous frame (a round's
     ``"tracks"`` pool: :data:`~pgm.factors.association.TRACK_POOLS`). ``extra`` ``(K, M)``
     is added to what every round maximises and only pairs ``allowed`` ``(K, M)`` may match
-    (the factor's terms and gates)."""
+    (the factor's terms and gates); ``per_round`` gives them per round instead, one
+    ``(extra, allowed)`` each (either None)."""
     from scipy.optimize import linear_sum_assignment
 
     K, M = len(pred), len(boxes)  # noqa: N806
     iou = iou_matrix(pred, boxes) if K and M else np.zeros((K, M))
     r0 = rounds[0]
     if len(rounds) == 1 and r0["against"] == "prediction" and K and M and \
-            extra is None and allowed is None and \
+            extra is None and allowed is None and per_round is None and \
             appearance is None and not r0["direction"] and r0.get("tracks", "all") == "all" \
             and not r0.get("fuse_score") and not r0.get("buffer") and \
             r0["min_score"] == -np.inf and r0["max_score"] == np.inf:
@@ -173,6 +174,8 @@ def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
     cols: list[np.ndarray] = []
     made: list[np.ndarray] = []
     for i, r in enumerate(rounds):
+        if per_round is not None:
+            extra, allowed = per_round[i]
         ks = np.flatnonzero(free & _pool(r.get("tracks", "all"), K, confirmed, tracked))
         js = np.flatnonzero(unused & (scores >= r["min_score"]) & (scores < r["max_score"]))
         if not len(ks) or not len(js):
@@ -320,7 +323,7 @@ def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> dict[str
     looks = _appearance(ctx, factor, frame, boxes)
     extra: dict[str, Any] = {} if looks is None else {
         "appearance": looks, "appearance_weight": factor.appearance_weight}
-    if factor.terms or factor.gates:  # the association's extension points
+    if factor.extended:  # the association's extension points
         extra.update(_extensions(ctx, factor, frame, pred, boxes, scores))
     if factor.uses_pools:  # which replicas have an identity, which were matched last frame
         tracks = ctx.replicas.tracks

@@ -47,14 +47,15 @@ class AssociationInputs:
 
 
 def _extensions(ctx: RuleContext, factor, frame: FrameContext, pred: np.ndarray,
-                boxes: np.ndarray, scores: np.ndarray) -> dict[str, np.ndarray]:
-    """The factor's terms summed (``extra``) and gates joined (``allowed``)."""
+                boxes: np.ndarray, scores: np.ndarray) -> dict[str, Any]:
+    """The factor's terms summed (``extra``) and gates joined (``allowed``), and each
+    round's own on top (``per_round``: one ``(extra, allowed)`` per round, None where a
+    round adds nothing)."""
     var = factor.variables[0]
     b = ctx.beliefs[var]
     inputs = AssociationInputs(pred, b.mean(), b.cov(), boxes, np.asarray(scores, float),
                                tuple(ctx.graph.variables[var].labels), var, ctx.graph, frame)
     shape = (len(pred), len(boxes))
-    out: dict[str, np.ndarray] = {}
 
     def call(item: dict[str, Any], what: str) -> np.ndarray:
         fn, _ = find_rule(item["fn"], f"factor {factor.name!r}: association {what}")
@@ -64,13 +65,25 @@ def _extensions(ctx: RuleContext, factor, frame: FrameContext, pred: np.ndarray,
                              f"returned shape {got.shape}, expected {shape}")
         return got
 
-    if factor.terms:
-        out["extra"] = sum(t["weight"] * call(t, "term").astype(float) for t in factor.terms)
-    if factor.gates:
-        allowed = np.ones(shape, dtype=bool)
-        for g in factor.gates:
-            allowed &= call(g, "gate").astype(bool)
-        out["allowed"] = allowed
+    def combine(terms, gates, extra=None, allowed=None):
+        for t in terms:
+            add = t["weight"] * call(t, "term").astype(float)
+            extra = add if extra is None else extra + add
+        for g in gates:
+            ok = call(g, "gate").astype(bool)
+            allowed = ok if allowed is None else allowed & ok
+        return extra, allowed
+
+    extra, allowed = combine(factor.terms, factor.gates)
+    out: dict[str, Any] = {}
+    if any(r["terms"] or r["gates"] for r in factor.rounds):
+        out["per_round"] = [combine(r["terms"], r["gates"], extra, allowed)
+                            for r in factor.rounds]
+    else:
+        if extra is not None:
+            out["extra"] = extra
+        if allowed is not None:
+            out["allowed"] = allowed
     return out
 
 

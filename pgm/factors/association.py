@@ -263,7 +263,9 @@ class DetectionAssociation(Factor):
     appearance_weight : float
         Its weight (against an IoU in [0, 1]).
     terms, gates : list of dict, optional
-        The association's extension points, applied in every round: a *term*
+        The association's extension points, applied in every round (a round's own
+        ``"terms"`` and ``"gates"`` keys add to them in that round only: ByteTrack's
+        low-score round with a gate of one's own, say): a *term*
         ``{"fn": f, "weight": w, "args": {...}}`` adds ``w × f(inputs, **args)`` ``(K, M)``
         to what the round maximises; a *gate* ``{"fn": g, "args": {...}}`` allows only the
         pairs where ``g(inputs, **args)`` ``(K, M)`` is true. ``inputs`` is
@@ -276,7 +278,7 @@ class DetectionAssociation(Factor):
 
     kind = "association"
     _KEYS = frozenset({"iou", "min_score", "max_score", "against", "direction", "appearance",
-                       "tracks", "fuse_score", "buffer"})
+                       "tracks", "fuse_score", "buffer", "terms", "gates"})
 
     def __init__(self, variable: str, *, rounds: list[dict[str, Any]] | None = None,
                  score_map: str = "none", direction_weight: float = 0.2, delta_t: int = 3,
@@ -342,7 +344,11 @@ class DetectionAssociation(Factor):
                                 "against": against, "direction": bool(r.get("direction")),
                                 "appearance": bool(r.get("appearance")), "tracks": tracks,
                                 "fuse_score": bool(r.get("fuse_score")),
-                                "buffer": float(buffer)})
+                                "buffer": float(buffer),
+                                "terms": [self._extension(t, "term")
+                                          for t in (r.get("terms") or [])],
+                                "gates": [self._extension(g, "gate")
+                                          for g in (r.get("gates") or [])]})
 
     def _extension(self, item: Any, what: str) -> dict[str, Any]:
         """A term or gate as ``{"fn": "module:function", "weight", "args"}``."""
@@ -367,6 +373,12 @@ class DetectionAssociation(Factor):
             out["weight"] = float(check_finite_param(f"{self.name}.{what}.weight",
                                                      item.get("weight", 1.0)))
         return out
+
+    @property
+    def extended(self) -> bool:
+        """Whether terms or gates of one's own take part (the factor's or a round's)."""
+        return bool(self.terms or self.gates
+                    or any(r["terms"] or r["gates"] for r in self.rounds))
 
     @property
     def uses_pools(self) -> bool:
@@ -397,6 +409,10 @@ class DetectionAssociation(Factor):
                 d["fuse_score"] = True
             if r["buffer"]:
                 d["buffer"] = r["buffer"]
+            if r["terms"]:
+                d["terms"] = [dict(t) for t in r["terms"]]
+            if r["gates"]:
+                d["gates"] = [dict(g) for g in r["gates"]]
             rounds.append(d)
         p: dict[str, Any] = {"rounds": rounds, "score_map": self.score_map}
         if any(r["direction"] for r in self.rounds):

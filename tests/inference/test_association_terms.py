@@ -113,3 +113,27 @@ def test_terms_and_gates_are_saved_by_name():
     eng = Engine(bad, 0)
     with pytest.raises(ValueError, match="no_such_mod"):
         _walk(eng, 2)
+
+
+def test_a_rounds_own_gate_acts_in_that_round_only():
+    """ByteTrack's rounds, the Mahalanobis gate added to the low-score round only: a
+    low-score jump is refused there, a high-score one still taken by the first round."""
+    from pgm.models import bytetrack
+
+    base = bytetrack.build_graph(bytetrack.Params())
+    rounds = base.factors_by_kind("association")[0].params()["rounds"]
+    assert len(rounds) == 2
+    gated_rounds = [rounds[0], {**rounds[1], "gates": [{"fn": mahalanobis_gate}]}]
+    results = {}
+    for name, graph in (("plain", base), ("gated", _with(base, rounds=gated_rounds))):
+        for score in (0.95, 0.3):
+            eng = Engine(graph, 0)
+            _walk(eng)
+            b = np.array([[131.0, 50.0, 100.0, 200.0]])
+            eng.step(FrameContext(9, detections=Detections(b, np.array([score]))))
+            results[(name, score)] = len(eng.assignment.rows)
+    assert results[("plain", 0.3)] == 1 and results[("gated", 0.3)] == 0
+    assert results[("plain", 0.95)] == 1 and results[("gated", 0.95)] == 1
+    back = FactorGraph.from_dict(_with(base, rounds=gated_rounds).to_dict())
+    saved = back.factors_by_kind("association")[0].params()["rounds"]
+    assert "gates" not in saved[0] and saved[1]["gates"][0]["fn"].endswith(":mahalanobis_gate")
