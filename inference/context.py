@@ -26,7 +26,7 @@ from pgm.core.frame import FrameContext
 
 from .state import StateSlots
 
-__all__ = ["RuleContext"]
+__all__ = ["RuleContext", "ctx_field"]
 
 
 class RuleContext:
@@ -132,3 +132,10 @@ class RuleContext:
             evidence={v: (a[k], ll[k]) for v, (a, ll) in self.evidence.items()},
             messages={key: m.row(k) for key, m in self.messages.items()},
             confidence=self.confidence)
+
+
+def ctx_field(name: str, doc: str) -> property:
+    """A property reading and writing ``self.ctx.<name>`` (the engine's view of its
+    rules' context)."""
+    return property(lambda self: getattr(self.ctx, name),
+                    lambda self, value: setattr(self.ctx, name, value), doc=doc)

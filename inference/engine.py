@@ -79,7 +79,7 @@ from pgm.core.rng import as_generator
 from pgm.factors import LikelihoodFactor
 
 from . import weighting
-from .context import RuleContext
+from .context import RuleContext, ctx_field
 from .record import Hook, StepRecord, runtime_for
 from .resampling import get_resampler
 from .rules import (
@@ -196,6 +196,7 @@ class Engine:
         self._factor_rules: dict[str, tuple[Rule, bool]] = (
             {} if rules is not None else saved_rules(self.graph))
         self.frame: FrameContext | None = None
+        self._in_frame: int | None = None  # the frame whose stages are running, if any
         self.t = 0
         self._hooks: dict[str, list[Hook]] = {s: [] for s in STAGES}
         self._stage_functions = {s: getattr(self, f"_stage_{s}") for s in STAGES}
@@ -210,31 +211,22 @@ class Engine:
         self.graph.meta["rules"] = self._rule_names()
 
     # -- the rules' state (engine.ctx) ---------------------------------------------------
-    def _ctx_field(name: str, doc: str):  # noqa: N805 - a property factory of the class body
-        return property(lambda self: getattr(self.ctx, name),
-                        lambda self, value: setattr(self.ctx, name, value), doc=doc)
+    beliefs = ctx_field("beliefs", "Variable name → belief (``engine.ctx.beliefs``).")
+    evidence = ctx_field("evidence", "Per variable, this frame's ``(prior_log_weights, "
+                                     "log_likelihood)`` (weight stage).")
+    messages = ctx_field("messages", "This frame's messages ``(src, dst) -> message``.")
+    state = ctx_field("state", "The state rules keep across frames, typed, per owner "
+                               "(:mod:`pgm.inference.state`): PHD tracks, score models, ...")
+    assignment = ctx_field("assignment", "This frame's assignment of detections to a "
+                                         "plate's replicas (``assign`` stage), or None.")
+    replicas = ctx_field("replicas", "The plate's replicas (:class:`pgm.inference.plates."
+                                     "Replicas`), or None.")
+    plate_spec = ctx_field("plate_spec", "What the engine derived from the plate, or None.")
+    confidence = ctx_field("confidence", "The graph's calibrated confidence at the last "
+                                         "frame (:func:`pgm.core.readout.confidence`).")
 
-    beliefs = _ctx_field("beliefs", "Variable name → belief (``engine.ctx.beliefs``).")
-    evidence = _ctx_field("evidence", "Per variable, this frame's ``(prior_log_weights, "
-                                      "log_likelihood)`` (weight stage).")
-    messages = _ctx_field("messages", "This frame's messages ``(src, dst) -> message`` "
-                                      "(in-frame stage).")
-    state = _ctx_field("state", "The state rules keep across frames, typed, per owner "
-                                "(:mod:`pgm.inference.state`): PHD tracks, score models, ...")
-    assignment = _ctx_field("assignment", "This frame's assignment of detections to a "
-                                          "plate's replicas (``assign`` stage), or None.")
-    replicas = _ctx_field("replicas", "The plate's replicas "
-                                      "(:class:`pgm.inference.plates.Replicas`), or None.")
-    plate_spec = _ctx_field("plate_spec", "What the engine derived from the plate, or None.")
-    confidence = _ctx_field("confidence", "The graph's calibrated confidence at the last "
-                                          "frame (:func:`pgm.core.readout.confidence`), or "
-                                          "None.")
-    del _ctx_field
-
-    @property
-    def ess_threshold(self) -> float:
-        """Resample when ESS < ``ess_threshold`` × N."""
-        return self.settings.ess_threshold
+    ess_threshold = property(lambda self: self.settings.ess_threshold,
+                             doc="Resample when ESS < ``ess_threshold`` × N.")
 
     # -- set-up ------------------------------------------------------------------------
     def row_belief_type(self, variable: str) -> type:
@@ -376,23 +368,32 @@ class Engine:
         next frame (a frame left half-way leaves the engine half-way through it)."""
         if not isinstance(frame, FrameContext):
             raise ValueError(f"step() needs a FrameContext, got {type(frame).__name__}")
+        if self._in_frame is not None:
+            raise ValueError(f"frame {self._in_frame} was left half-way (its stages() not run "
+                             f"to the end): the engine's beliefs are mid-frame; run that "
+                             f"generator to its end first")
         self.frame = frame
+        self._in_frame = frame.index
         ctx = self.ctx
         ctx.evidence, ctx.messages, ctx.assignment = {}, {}, None
         # the record is filled as the stages run: a hook sees this frame's messages, ESS,
         # diagnostics and estimates so far (the messages' dict is the engine's own)
         record = StepRecord(frame=frame.index, messages=ctx.messages)
-        yield from self.runtime.step_stages(self, frame, record, lifecycle)
-        record.beliefs = dict(self.beliefs)
-        record.messages = dict(self.messages)
-        self.runtime.finish(self, record)
+        try:
+            yield from self.runtime.step_stages(self, frame, record, lifecycle)
+            record.beliefs = dict(self.beliefs)
+            record.messages = dict(self.messages)
+            self.runtime.finish(self, record)
+        except Exception:  # an error ends the frame (a generator left open does not)
+            self._in_frame = None
+            raise
         self.t += 1
+        self._in_frame = None
         yield "done", record
 
     def _run(self, phases, frame: FrameContext, record: StepRecord, hooks: bool = True,
              skip: tuple[str, ...] = (), ctx: RuleContext | None = None) -> None:
-        """Run the stages ``phases`` on ``ctx`` (default: the engine's; a plate's newborns
-        have their own), calling the hooks after each (:meth:`_run_stages`)."""
+        """:meth:`_run_stages` run through (``ctx``: a plate's newborns have their own)."""
         for _ in self._run_stages(phases, frame, record, hooks, skip, ctx):
             pass
 

@@ -44,3 +44,22 @@ def test_a_plates_stages_end_with_the_association():
     assert names[0][-2:] == ["associate", "done"]
     assert "predict" in names[-1] and names[-1][-2:] == ["associate", "done"]
     assert eng.num_targets >= 1
+
+
+def test_a_frame_left_half_way_is_a_clear_error_and_a_failed_one_is_not():
+    import pytest
+
+    g = linear_gaussian.build_graph(linear_gaussian.Params())
+    eng = Engine(g, 0, num_particles=100)
+    frames = _frames(3)
+    walk = eng.stages(frames[0])
+    next(walk)  # the prior stage only
+    with pytest.raises(ValueError, match="half-way"):
+        eng.step(frames[1])
+    for _ in walk:  # run to its end: the engine goes on
+        pass
+    eng.step(frames[1])
+    bad = FrameContext(3, measurements=np.array([0.0, 1.0, 2.0]))  # wrong size: an error
+    with pytest.raises(ValueError):
+        eng.step(bad)
+    assert eng.step(frames[2]).frame == 3  # an error ends the frame; the next one runs
