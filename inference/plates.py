@@ -48,7 +48,14 @@ import numpy as np
 
 from pgm.core.batched import BatchedGaussian, BatchedParticles, batched_type
 from pgm.core.beliefs import Particles
-from pgm.core.boxes import box_coding, cxcywh_to_xywh, iou_xywh, state_boxes
+from pgm.core.boxes import (
+    bounding_box,
+    box_coding,
+    cxcywh_to_xywh,
+    iou_xywh,
+    place_parts,
+    state_boxes,
+)
 from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
@@ -75,23 +82,11 @@ __all__ = ["Replicas", "plate_boxes", "add", "remove", "associate", "setup", "st
 # -------------------------------------------------------------------------------------
 # boxes of a plate model
 # -------------------------------------------------------------------------------------
-def _bounding(boxes: list[np.ndarray]) -> np.ndarray:
-    """Bounding box ``(..., 4)`` (cx, cy, w, h) of several boxes of the same shape."""
-    if len(boxes) == 1:
-        return boxes[0]
-    b = np.stack(boxes)
-    x0 = (b[..., 0] - b[..., 2] / 2).min(0)
-    x1 = (b[..., 0] + b[..., 2] / 2).max(0)
-    y0 = (b[..., 1] - b[..., 3] / 2).min(0)
-    y1 = (b[..., 1] + b[..., 3] / 2).max(0)
-    return np.stack([(x0 + x1) / 2, (y0 + y1) / 2, x1 - x0, y1 - y0], axis=-1)
-
-
 def plate_boxes(graph: FactorGraph, estimates: dict[str, np.ndarray]) -> np.ndarray:
     """The targets' boxes ``(K, 4)`` (cx, cy, w, h): the bounding box of the output
     variables' boxes in ``estimates`` (each ``(K, d)``; any box coding of
     :data:`pgm.core.boxes.BOX_CODINGS`)."""
-    return _bounding([state_boxes(graph.variables[v].labels, estimates[v],
+    return bounding_box([state_boxes(graph.variables[v].labels, estimates[v],
                                   f"plate variable {v!r}") for v in graph.output])
 
 
@@ -233,10 +228,7 @@ def _replica_graph(engine: Engine, values: dict[str, dict[str, float]] | None) -
 def _part_values(engine: Engine, box: np.ndarray) -> dict[str, dict[str, float]]:
     """Each variable's box for a target whose box is ``box`` (cx, cy, w, h)."""
     spec = engine.plate_spec
-    ref = spec.reference_box
-    sw, sh = box[2] / ref[2], box[3] / ref[3]
-    return {v: {"cx": box[0] + (p[0] - ref[0]) * sw, "cy": box[1] + (p[1] - ref[1]) * sh,
-                "w": p[2] * sw, "h": p[3] * sh} for v, p in spec.prior_boxes.items()}
+    return place_parts(box, spec.reference_box, spec.prior_boxes)
 
 
 def add(engine: Engine, boxes: np.ndarray | None, frame: FrameContext,

@@ -258,7 +258,7 @@ def _vb_particles(ctx: RuleContext, factor, frame) -> dict[str, Any] | None:
         q = new
         if change < factor.tol:
             break
-    ell = _expected_loglik(r2, q)
+    # ``ell`` is already the expected log-likelihood under the final ``q``
     ctx.beliefs[target] = b0.reweight(ell).normalized()
     ctx.evidence[target] = (b0.log_weights, ell)
     ctx.beliefs[noise] = q

@@ -69,6 +69,12 @@ from pgm.core.factor import register_finder as _register_finder  # noqa: E402
 
 _register_finder(_find_toolkit_names)
 
+from pgm.core.graph import register_drawing as _register_drawing  # noqa: E402
+from pgm.plotting.graph_drawing import draw as _draw  # noqa: E402
+from pgm.plotting.graph_drawing import to_dot as _to_dot  # noqa: E402
+
+_register_drawing(_draw, _to_dot)
+
 __all__ = [
     "Variable", "ROLES", "Factor", "PriorFactor", "TransitionFactor", "LikelihoodFactor",
     "CouplingFactor", "ConjugateFactor", "GaussianPrior", "LinearGaussianTransition",

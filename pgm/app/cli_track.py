@@ -95,11 +95,8 @@ def _with_init_box(graph, box_cxcywh: np.ndarray, path: str):
     saved one (``meta["reference_box"]``, else the bounding box of the output variables'
     prior means), so the parts of a part graph keep their places on the target; the
     covariances and everything else are kept. Unchanged where the box is the saved one."""
-    from types import SimpleNamespace
-
-    from pgm.core.boxes import box_coding
+    from pgm.core.boxes import bounding_box, box_coding, place_parts
     from pgm.core.graph import FactorGraph
-    from pgm.inference.plates import plate_boxes
 
     priors = [f for f in graph.factors.values() if f.kind == "prior"]
     movable = [f for f in priors if hasattr(f, "born_at") and hasattr(f, "mean")
@@ -113,21 +110,14 @@ def _with_init_box(graph, box_cxcywh: np.ndarray, path: str):
              for f in movable}
     ref = graph.meta.get("reference_box")
     outputs = [v for v in graph.output if v in means] or list(means)
-    ref = (np.asarray(ref, dtype=float) if ref is not None else
-           plate_boxes(SimpleNamespace(variables=graph.variables, output=outputs),
-                       {v: means[v][None] for v in outputs})[0])
+    ref = (np.asarray(ref, dtype=float) if ref is not None
+           else bounding_box([means[v] for v in outputs]))
     box = np.asarray(box_cxcywh, dtype=float)
     if np.array_equal(box, ref):
         return graph
-    sw, sh = box[2] / ref[2], box[3] / ref[3]
-    moved = {}
-    for f in movable:
-        v = f.variables[0]
-        p = means[v]
-        moved[f.name] = f.born_at({"cx": box[0] + (p[0] - ref[0]) * sw,
-                                   "cy": box[1] + (p[1] - ref[1]) * sh,
-                                   "w": p[2] * sw, "h": p[3] * sh},
-                                  graph.variables[v].labels)
+    values = place_parts(box, ref, means)
+    moved = {f.name: f.born_at(values[f.variables[0]], graph.variables[f.variables[0]].labels)
+             for f in movable}
     factors = [moved.get(f.name, f) for f in graph.factors.values()]
     meta = dict(graph.meta)
     if "reference_box" in meta:

@@ -10,14 +10,11 @@ import math
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from .experiment_spec import RESULTS_CSV, RESULTS_MD, SUMMARY_CSV, Experiment
-
-if TYPE_CHECKING:
-    from .experiment import RunSpec
+from .experiment_spec import RESULTS_CSV, RESULTS_MD, SUMMARY_CSV, Experiment, RunSpec
 
 
 # -- the table -------------------------------------------------------------------------------

@@ -544,3 +544,70 @@ def load_experiment(path: str | Path) -> Experiment:
                          f"run ({MAX_RUNS} at most)")
     _check_pairs(sequences, models, where)
     return Experiment(p, name, root, seeds, max_frames, write_video, sequences, models)
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run of an experiment: what a task needs (paths, never frames).
+
+    Attributes
+    ----------
+    index : int
+        Position in the table (by sequence, model, seed).
+    sequence, source : str
+        The sequence's name and absolute path.
+    model, model_name : str
+        The model's label and name (or saved-model path).
+    options : tuple of str
+        ``pgm track`` arguments of the model entry.
+    seed : int
+        The seed's label (its folder name).
+    root_seed : int
+    spawn_key : tuple of int
+        ``(seed, sequence position, model position)``: see :func:`run_seed_sequence`.
+    seed_int : int
+        ``--seed`` of the run: :func:`run_seed_sequence` made a 64-bit integer.
+    max_frames : int or None
+    write_video : bool
+    """
+
+    index: int
+    sequence: str
+    source: str
+    model: str
+    model_name: str
+    options: tuple[str, ...]
+    seed: int
+    root_seed: int
+    spawn_key: tuple[int, ...]
+    seed_int: int
+    max_frames: int | None
+    write_video: bool
+
+    @property
+    def label(self) -> str:
+        """``sequence/model/seed``."""
+        return f"{self.sequence}/{self.model}/{self.seed}"
+
+    def folder(self, out: str | Path) -> Path:
+        """``out/runs/<sequence>/<model>/<seed>``."""
+        return Path(out) / "runs" / self.sequence / self.model / str(self.seed)
+
+    def argv(self, out: str | Path) -> list[str]:
+        """The run as ``pgm track`` arguments (without the program name)."""
+        argv = ["track", self.source, "--model", self.model_name,
+                "--out", str(self.folder(out)), "--seed", str(self.seed_int), "--quiet"]
+        if not self.write_video:
+            argv.append("--no-video")
+        if self.max_frames is not None:
+            argv += ["--max-frames", str(self.max_frames)]
+        return argv + list(self.options)
+
+    def record(self) -> dict[str, Any]:
+        """What decides the run's result (``task.json`` holds it, and a finished run
+        is reused only while the experiment still asks for the same)."""
+        return {"sequence": self.sequence, "source": self.source, "model": self.model,
+                "model_name": self.model_name, "options": list(self.options),
+                "seed": self.seed, "root_seed": self.root_seed,
+                "spawn_key": list(self.spawn_key), "seed_int": self.seed_int,
+                "max_frames": self.max_frames, "write_video": self.write_video}

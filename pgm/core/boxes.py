@@ -15,7 +15,8 @@ import functools
 
 import numpy as np
 
-__all__ = ["xywh_to_cxcywh", "cxcywh_to_xywh", "iou_xywh", "iou_matrix", "centre_xywh", "BOX_LABELS",
+__all__ = ["bounding_box", "place_parts", "xywh_to_cxcywh", "cxcywh_to_xywh", "iou_xywh",
+           "iou_matrix", "centre_xywh", "BOX_LABELS",
            "box_columns", "BOX_CODINGS", "box_coding", "box_code_columns", "encode_boxes",
            "decode_boxes", "state_boxes", "mean_box_size"]
 
@@ -156,6 +157,29 @@ def _overlap(lo_a: np.ndarray, hi_a: np.ndarray, area_a: np.ndarray, lo_b: np.nd
     with np.errstate(invalid="ignore", divide="ignore"):
         out = inter / np.where(ok, union, 1.0)
     return np.where(ok & np.isfinite(out), np.clip(out, 0.0, 1.0), 0.0)
+
+
+def bounding_box(boxes: list[np.ndarray]) -> np.ndarray:
+    """Bounding box ``(..., 4)`` (cx, cy, w, h) of several boxes of the same shape."""
+    if len(boxes) == 1:
+        return boxes[0]
+    b = np.stack(boxes)
+    x0 = (b[..., 0] - b[..., 2] / 2).min(0)
+    x1 = (b[..., 0] + b[..., 2] / 2).max(0)
+    y0 = (b[..., 1] - b[..., 3] / 2).min(0)
+    y1 = (b[..., 1] + b[..., 3] / 2).max(0)
+    return np.stack([(x0 + x1) / 2, (y0 + y1) / 2, x1 - x0, y1 - y0], axis=-1)
+
+
+def place_parts(box: np.ndarray, reference: np.ndarray, parts: dict[str, np.ndarray]
+                ) -> dict[str, dict[str, float]]:
+    """Each part's box ``{"cx", "cy", "w", "h"}`` for a target whose box is ``box``, placed
+    as the ``parts`` (name → (cx, cy, w, h)) are placed in ``reference``: offsets and
+    sizes scale with the target's width and height."""
+    sw, sh = box[2] / reference[2], box[3] / reference[3]
+    return {v: {"cx": box[0] + (p[0] - reference[0]) * sw,
+                "cy": box[1] + (p[1] - reference[1]) * sh,
+                "w": p[2] * sw, "h": p[3] * sh} for v, p in parts.items()}
 
 
 def iou_xywh(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -39,6 +39,24 @@ __all__ = ["FactorGraph"]
 FORMAT_VERSION = 1
 
 
+#: how a graph draws itself: ``{"draw": ..., "to_dot": ...}``, registered by the layer that
+#: can draw (``pgm/__init__.py``: :mod:`pgm.plotting.graph_drawing`); the core imports no
+#: plotting
+_DRAWING: dict[str, Any] = {}
+
+
+def register_drawing(draw: Any, to_dot: Any) -> None:
+    """Give graphs their drawing functions (``draw(graph, path, ax, **kw)``,
+    ``to_dot(graph)``)."""
+    _DRAWING.update(draw=draw, to_dot=to_dot)
+
+
+def _drawing(name: str) -> Any:
+    if name not in _DRAWING:  # pragma: no cover - pgm registers it on import
+        raise RuntimeError("no graph drawing registered: import pgm")
+    return _DRAWING[name]
+
+
 class FactorGraph:
     """Variables and factors of a tracker, validated.
 
@@ -257,13 +275,10 @@ class FactorGraph:
 
     # -- drawing -----------------------------------------------------------------------
     def to_dot(self) -> str:
-        """Graphviz DOT text in factor-graph notation."""
-        from pgm.plotting.graph_drawing import to_dot
-
-        return to_dot(self)
+        """Graphviz DOT text in factor-graph notation (the registered drawing's)."""
+        return _drawing("to_dot")(self)
 
     def draw(self, path: str | Path | None = None, ax=None, **kwargs: Any):
-        """Draw the graph with matplotlib; write PNG/SVG/PDF (or DOT) when ``path`` is given."""
-        from pgm.plotting.graph_drawing import draw
-
-        return draw(self, path=path, ax=ax, **kwargs)
+        """Draw the graph with matplotlib; write PNG/SVG/PDF (or DOT) when ``path`` is given
+        (:mod:`pgm.plotting.graph_drawing`, registered by ``pgm``)."""
+        return _drawing("draw")(self, path=path, ax=ax, **kwargs)
