@@ -29,6 +29,7 @@ The Kalman and VB adaptive Kalman updates are :mod:`pgm.inference.kalman`'s (one
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,13 +41,21 @@ from pgm.core.frame import FrameContext
 from pgm.core.motion import linear_state_warp
 from pgm.factors import GaussianPrior, LinearGaussianTransition
 from pgm.factors.association import (
+    APPEARANCE,
+    IOU_AFFINITY,
     LEARNED_SCORE_MAPS,
+    MOMENTUM,
     AssignedDetectionLikelihood,
     DetectionAssociation,
+    RoundPlan,
 )
 from pgm.factors.multitarget import VBNoise
 
-from .association_terms import _extensions
+from .association_terms import (
+    AssociationInputs,
+    PieceValues,
+    direction_consistency,
+)
 from .batched import per_replica
 from .context import RuleContext
 from .kalman import kalman_update_batch, vb_akf_batch
@@ -131,82 +140,57 @@ def detection_boxes(frame: FrameContext) -> np.ndarray:
     return b
 
 
-def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
-           rounds: list[dict[str, Any]], last: np.ndarray | None = None,
-           direction: np.ndarray | None = None, direction_weight: float = 0.0,
-           appearance: np.ndarray | None = None, appearance_weight: float = 0.0,
+def assign(inputs: AssociationInputs, plans: list[RoundPlan],
            confirmed: np.ndarray | None = None, tracked: np.ndarray | None = None,
-           extra: np.ndarray | None = None, allowed: np.ndarray | None = None,
-           per_round: list | None = None) -> Assignment:
-    """Assign detections ``boxes`` (centre, ``(M, 4)``) with mapped ``scores`` to predicted
-    boxes ``pred`` ``(K, 4)`` in ``rounds`` (:class:`~pgm.factors.association.
-    DetectionAssociation`): in each, the Hungarian assignment between the replicas of the
-    round's pool no earlier round matched and the detections still free maximising the
-    IoU (with the replicas' ``last`` observed boxes ``(K, 4)`` for a round ``"against":
-    "last"``; of both boxes enlarged by the round's ``"buffer"``; times the detection's
-    score with ``"fuse_score"``; plus ``direction_weight`` × ``direction`` ``(K, M)`` for a
-    round with ``"direction"``, and ``appearance_weight`` × ``appearance`` ``(K, M)`` for
-    one with ``"appearance"``); pairs below the round's gate (on the IoU, or the fused
-    IoU × score) are no match. ``confirmed`` ``(K,)``: which replicas have an identity,
-    ``tracked`` ``(K,)``: which were matched in the previous frame (a round's
-    ``"tracks"`` pool: :data:`~pgm.factors.association.TRACK_POOLS`). ``extra`` ``(K, M)``
-    is added to what every round maximises and only pairs ``allowed`` ``(K, M)`` may match
-    (the factor's terms and gates); ``per_round`` gives them per round instead, one
-    ``(extra, allowed)`` each (either None)."""
+           owner: str = "association") -> Assignment:
+    """Assign the detections of ``inputs`` (:class:`AssociationInputs`) to its predicted
+    boxes in ``plans``' rounds (:attr:`~pgm.factors.association.DetectionAssociation.
+    plans`): in each, the Hungarian assignment between the replicas of the round's pool
+    no earlier round matched and the detections still free (mapped score in the round's
+    range) maximising the round's affinity plus its weighted terms over the pairs its
+    gates allow; a matched pair whose affinity is below the round's threshold is no
+    match. ``confirmed`` ``(K,)``: which replicas have an identity, ``tracked`` ``(K,)``:
+    which were matched in the previous frame (a round's pool:
+    :data:`~pgm.factors.association.TRACK_POOLS`)."""
     from scipy.optimize import linear_sum_assignment
 
+    pred, boxes, scores = inputs.pred, inputs.boxes, inputs.scores
     K, M = len(pred), len(boxes)  # noqa: N806
     iou = iou_matrix(pred, boxes) if K and M else np.zeros((K, M))
-    r0 = rounds[0]
-    if len(rounds) == 1 and r0["against"] == "prediction" and K and M and \
-            extra is None and allowed is None and per_round is None and \
-            appearance is None and not r0["direction"] and r0.get("tracks", "all") == "all" \
-            and not r0.get("fuse_score") and not r0.get("buffer") and \
-            r0["min_score"] == -np.inf and r0["max_score"] == np.inf:
+    values = PieceValues(inputs, owner)
+    values.seed({"fn": IOU_AFFINITY, "args": {}}, iou)
+    if len(plans) == 1 and plans[0].plain and K and M:
         # SORT's one round over every detection: the assignment, gated (the loop below
         # gives the same, with more bookkeeping)
         a, b = linear_sum_assignment(iou, maximize=True)
-        ok = iou[a, b] >= r0["iou"]
+        ok = iou[a, b] >= plans[0].threshold
         return Assignment(a[ok], b[ok], boxes, scores, iou, np.zeros(int(ok.sum()), dtype=int))
     free = np.ones(K, dtype=bool)
     unused = np.ones(M, dtype=bool)
     rows: list[np.ndarray] = []
     cols: list[np.ndarray] = []
     made: list[np.ndarray] = []
-    for i, r in enumerate(rounds):
-        if per_round is not None:
-            extra, allowed = per_round[i]
-        ks = np.flatnonzero(free & _pool(r.get("tracks", "all"), K, confirmed, tracked))
-        js = np.flatnonzero(unused & (scores >= r["min_score"]) & (scores < r["max_score"]))
+    for i, plan in enumerate(plans):
+        ks = np.flatnonzero(free & _pool(plan.tracks, K, confirmed, tracked))
+        js = np.flatnonzero(unused & (scores >= plan.min_score) & (scores < plan.max_score))
         if not len(ks) or not len(js):
             continue
-        buffer = r.get("buffer", 0.0)
-        if r["against"] == "last" or buffer:
-            if r["against"] == "last" and last is None:
-                raise ValueError("a round against the last observations needs them")
-            mine = last[ks] if r["against"] == "last" else pred[ks]
-            if buffer:  # C-BIoU: both boxes enlarged about their centres
-                grow = np.array([1.0, 1.0, 1.0 + 2.0 * buffer, 1.0 + 2.0 * buffer])
-                gate = iou_matrix(mine * grow, boxes[js] * grow)
-            else:
-                gate = iou_matrix(mine, boxes[js])
-        else:
-            gate = iou if len(ks) == K and len(js) == M else iou[np.ix_(ks, js)]
-        if r.get("fuse_score"):  # BoT-SORT: IoU times the detection's score, gated so
-            gate = gate * scores[js][None, :]
+        sub = None if len(ks) == K and len(js) == M else np.ix_(ks, js)
+        part = functools.partial(_part, sub)
+        gate = part(values(plan.affinity, "affinity"))
         cost = gate
-        if r["direction"] and direction is not None and direction_weight:
-            cost = gate + direction_weight * direction[np.ix_(ks, js)]
-        if r.get("appearance") and appearance is not None and appearance_weight:
-            cost = cost + appearance_weight * appearance[np.ix_(ks, js)]
-        if extra is not None:
-            cost = cost + extra[np.ix_(ks, js)]
-        if allowed is not None:  # a pair a gate forbids is never taken
-            mask = allowed[np.ix_(ks, js)]
+        for t in plan.terms:
+            if t["weight"]:
+                cost = cost + t["weight"] * part(values(t, "term"))
+        mask = None
+        for g in plan.gates:
+            ok = part(values(g, "gate")).astype(bool)
+            mask = ok if mask is None else mask & ok
+        if mask is not None:  # a pair a gate forbids is never taken
             cost = np.where(mask, cost, -1e9)
         a, b = linear_sum_assignment(cost, maximize=True)
-        ok = gate[a, b] >= r["iou"]
-        if allowed is not None:
+        ok = gate[a, b] >= plan.threshold
+        if mask is not None:
             ok &= mask[a, b]
         rows.append(ks[a[ok]])
         cols.append(js[b[ok]])
@@ -215,6 +199,10 @@ def assign(pred: np.ndarray, boxes: np.ndarray, scores: np.ndarray,
         unused[js[b[ok]]] = False
     cat = lambda xs: np.concatenate(xs) if xs else np.zeros(0, dtype=int)  # noqa: E731
     return Assignment(cat(rows), cat(cols), boxes, scores, iou, cat(made))
+
+
+def _part(sub: tuple | None, value: np.ndarray) -> np.ndarray:
+    return value if sub is None else value[sub]
 
 
 def _pool(tracks: str, K: int, confirmed: np.ndarray | None,  # noqa: N803
@@ -232,27 +220,6 @@ def _pool(tracks: str, K: int, confirmed: np.ndarray | None,  # noqa: N803
         return ~confirmed
     tracked = np.asarray(tracked, dtype=bool).reshape(K)
     return confirmed & tracked if tracks == "tracked" else confirmed & ~tracked
-
-
-def _centres(b: np.ndarray) -> np.ndarray:
-    return b[..., :2]
-
-
-def direction_consistency(velocity: np.ndarray, known: np.ndarray, reference: np.ndarray,
-                          boxes: np.ndarray, scores: np.ndarray) -> np.ndarray:
-    """OC-SORT's momentum term ``(K, M)``: for replica ``k`` moving in the unit direction
-    ``velocity[k]`` (``(dy, dx)``; ``known[k]`` false: no direction yet, term 0) and
-    detection ``j``, ``(π/2 − |angle|)/π`` between that direction and the one from the
-    replica's ``reference`` box (its observation ``delta_t`` frames back) to the
-    detection, times the detection's score (in float32, as the ``trackers`` package)."""
-    d = _centres(boxes)[None, :, :] - _centres(reference)[:, None, :]
-    norm = np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2) + 1e-6
-    dx, dy = d[..., 0] / norm, d[..., 1] / norm
-    cos = np.clip(velocity[:, 1:2] * dx + velocity[:, 0:1] * dy, -1.0, 1.0)
-    cost = (np.pi / 2.0 - np.abs(np.arccos(cos))) / np.pi
-    cost = (known[:, None] * cost).astype(np.float32)
-    cost *= scores[None, :]
-    return cost
 
 
 @RULES.register(GaussianPrior, BatchedGaussian)
@@ -320,35 +287,38 @@ def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> dict[str
         if model is None:
             model = state.score_model = factor.score_model()
     scores = factor.scores(frame, model, boxes)
-    looks = _appearance(ctx, factor, frame, boxes)
-    extra: dict[str, Any] = {} if looks is None else {
-        "appearance": looks, "appearance_weight": factor.appearance_weight}
-    if factor.extended:  # the association's extension points
-        extra.update(_extensions(ctx, factor, frame, pred, boxes, scores))
-    if factor.uses_pools:  # which replicas have an identity, which were matched last frame
-        tracks = ctx.replicas.tracks
-        extra.update(confirmed=np.array([t.track_id is not None for t in tracks], dtype=bool),
-                     tracked=np.array([t.misses == 0 for t in tracks], dtype=bool))
-    if not factor.keeps_observations:
-        a = assign(pred, boxes, scores, factor.rounds, **extra)
-    else:
-        reps = ctx.replicas
+    uses = {t["fn"] for p in factor.plans for t in p.terms}
+    fields: dict[str, Any] = {}
+    if APPEARANCE in uses:
+        fields["appearance"] = _appearance(ctx, factor, frame, boxes)
+    if factor.extended:  # pieces of one's own read the state beliefs and the graph
+        b = ctx.beliefs[var]
+        fields.update(mean=b.mean(), cov=b.cov(), labels=tuple(ctx.graph.variables[var].labels),
+                      variable=var, graph=ctx.graph, frame=frame)
+    histories = None
+    if factor.keeps_observations or factor.extended:
+        fields["last"] = np.array([t.state for t in ctx.replicas.tracks],
+                                  dtype=float).reshape(-1, 4)
+    if factor.keeps_observations:
         histories = [slots.get(var, TrackState).observations_or(factor.delta_t)
-                     for slots in reps.state]
+                     for slots in ctx.replicas.state]
         for h in histories:
             h.age += 1
-        last = np.array([t.state for t in reps.tracks], dtype=float).reshape(-1, 4)
-        direction = None
-        if any(r["direction"] for r in factor.rounds) and len(pred) and len(boxes):
-            vel = np.array([h.velocity if h.velocity is not None else (0.0, 0.0)
-                            for h in histories], dtype=float)
-            known = np.array([h.velocity is not None for h in histories], dtype=float)
+        if MOMENTUM in uses and len(pred) and len(boxes):
+            fields["velocity"] = np.array([h.velocity if h.velocity is not None else (0.0, 0.0)
+                                           for h in histories], dtype=float)
+            fields["known"] = np.array([h.velocity is not None for h in histories], dtype=float)
             prev = [h.previous(h.age) for h in histories]
-            ref = np.array([last[k] if b is None else b for k, b in enumerate(prev)],
-                           dtype=float)
-            direction = direction_consistency(vel, known, ref, boxes, scores)
-        a = assign(pred, boxes, scores, factor.rounds, last=last, direction=direction,
-                   direction_weight=factor.direction_weight, **extra)
+            fields["reference"] = np.array([fields["last"][k] if p is None else p
+                                            for k, p in enumerate(prev)], dtype=float)
+    pools: dict[str, Any] = {}
+    if factor.uses_pools:  # which replicas have an identity, which were matched last frame
+        tracks = ctx.replicas.tracks
+        pools.update(confirmed=np.array([t.track_id is not None for t in tracks], dtype=bool),
+                     tracked=np.array([t.misses == 0 for t in tracks], dtype=bool))
+    a = assign(AssociationInputs(pred, boxes, scores, **fields), factor.plans, **pools,
+               owner=f"factor {factor.name!r}")
+    if histories is not None:
         for k, j in zip(a.rows, a.cols, strict=True):
             histories[k].observe(boxes[j])
     if factor.appearance is not None and frame.image is not None:  # learn from the match

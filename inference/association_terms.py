@@ -1,11 +1,15 @@
-"""The association's extension points: terms and gates of one's own
-(:class:`~pgm.factors.association.DetectionAssociation`'s ``terms`` and ``gates``), what
-they read (:class:`AssociationInputs`), and the Mahalanobis gate of a Kalman tracker on
-its predicted covariance.
+"""The association's pieces: what a round of
+:class:`~pgm.factors.association.DetectionAssociation` maximises and which pairs it allows,
+each a named function of :class:`AssociationInputs` (a round's
+:class:`~pgm.factors.association.RoundPlan`).
 
-A *term* ``f(inputs, **args) -> (K, M)`` adds ``weight × f`` to what every round of the
-association maximises; a *gate* ``g(inputs, **args) -> (K, M)`` allows only the pairs
-where it is true. Both are functions at module level, saved by name.
+A round's *affinity* ``a(inputs, **args) -> (K, M)`` is what a match must reach (the
+round's threshold); a *term* ``f(inputs, **args) -> (K, M)`` adds ``weight × f`` to what
+the round maximises; a *gate* ``g(inputs, **args) -> (K, M)`` allows only the pairs where
+it is true. The built-in pieces are :func:`iou_affinity` (SORT's, ByteTrack's, OC-SORT's
+recovery against the last detection, BoT-SORT's times the score, C-BIoU's buffered),
+:func:`momentum` (OC-SORT's), :func:`appearance_similarity` and :func:`mahalanobis_gate`;
+one's own are functions at module level, saved by name like these.
 """
 
 from __future__ import annotations
@@ -15,76 +19,133 @@ from typing import Any
 
 import numpy as np
 
-from pgm.core.boxes import box_coding, encode_boxes
+from pgm.core.boxes import box_coding, encode_boxes, iou_matrix
 from pgm.core.frame import FrameContext
 from pgm.factors.association import AssignedDetectionLikelihood
 
-from .context import RuleContext
 from .rules import find_rule
 
-__all__ = ["AssociationInputs", "mahalanobis_distances", "mahalanobis_gate"]
+__all__ = ["AssociationInputs", "PieceValues", "iou_affinity", "momentum",
+           "appearance_similarity", "direction_consistency", "mahalanobis_distances",
+           "mahalanobis_gate"]
 
 
 @dataclass(frozen=True)
 class AssociationInputs:
-    """What an association term or gate reads: ``fn(inputs, **args) -> (K, M)``.
+    """What an association piece reads: ``fn(inputs, **args) -> (K, M)``.
 
-    ``pred`` ``(K, 4)``: the replicas' predicted boxes (cx, cy, w, h); ``mean`` ``(K, d)``
-    and ``cov`` ``(K, d, d)``: their state beliefs' moments (the belief protocol: a Kalman
-    replica's, or the particles' weighted ones); ``boxes`` ``(M, 4)`` (cx, cy, w, h) and
-    ``scores`` ``(M,)`` (mapped): the detections; ``labels``: the state's component names;
-    ``graph``: the factors (e.g. the detection likelihood's ``H`` and ``noise_cov``)."""
+    ``pred`` ``(K, 4)``: the replicas' predicted boxes (cx, cy, w, h); ``boxes`` ``(M, 4)``
+    (cx, cy, w, h) and ``scores`` ``(M,)`` (mapped): the detections. What the factor's
+    pieces need besides (None otherwise): ``last`` ``(K, 4)``: each replica's last
+    detection (a round against it, or pieces of one's own); ``velocity`` ``(K, 2)``,
+    ``known`` ``(K,)`` and ``reference`` ``(K, 4)``: its unit direction of motion
+    ``(dy, dx)``, whether it has one, and its observation ``delta_t`` frames back
+    (:func:`momentum`); ``appearance`` ``(K, M)``: the similarity of its appearance
+    model with each detection (:func:`appearance_similarity`; None in a frame without an
+    image). With pieces of one's own: ``mean`` ``(K, d)`` and ``cov`` ``(K, d, d)``: the
+    replicas' state beliefs' moments (the belief protocol: a Kalman replica's, or the
+    particles' weighted ones); ``labels``: the state's component names; ``variable``;
+    ``graph``: the factors (e.g. the detection likelihood's ``H`` and ``noise_cov``);
+    ``frame``."""
 
     pred: np.ndarray
-    mean: np.ndarray
-    cov: np.ndarray
     boxes: np.ndarray
     scores: np.ndarray
-    labels: tuple[str, ...]
-    variable: str
-    graph: Any
-    frame: FrameContext
+    last: np.ndarray | None = None
+    velocity: np.ndarray | None = None
+    known: np.ndarray | None = None
+    reference: np.ndarray | None = None
+    appearance: np.ndarray | None = None
+    mean: np.ndarray | None = None
+    cov: np.ndarray | None = None
+    labels: tuple[str, ...] = ()
+    variable: str = ""
+    graph: Any = None
+    frame: FrameContext | None = None
 
 
-def _extensions(ctx: RuleContext, factor, frame: FrameContext, pred: np.ndarray,
-                boxes: np.ndarray, scores: np.ndarray) -> dict[str, Any]:
-    """The factor's terms summed (``extra``) and gates joined (``allowed``), and each
-    round's own on top (``per_round``: one ``(extra, allowed)`` per round, None where a
-    round adds nothing)."""
-    var = factor.variables[0]
-    b = ctx.beliefs[var]
-    inputs = AssociationInputs(pred, b.mean(), b.cov(), boxes, np.asarray(scores, float),
-                               tuple(ctx.graph.variables[var].labels), var, ctx.graph, frame)
-    shape = (len(pred), len(boxes))
+class PieceValues:
+    """The pieces' values ``(K, M)`` on one frame's :class:`AssociationInputs`, each
+    computed once (a round's affinity, terms and gates, found by name as rules are)."""
 
-    def call(item: dict[str, Any], what: str) -> np.ndarray:
-        fn, _ = find_rule(item["fn"], f"factor {factor.name!r}: association {what}")
-        got = np.asarray(fn(inputs, **item["args"]))
-        if got.shape != shape:
-            raise ValueError(f"factor {factor.name!r}: association {what} {item['fn']!r} "
-                             f"returned shape {got.shape}, expected {shape}")
+    def __init__(self, inputs: AssociationInputs, owner: str = "association"):
+        self.inputs = inputs
+        self.owner = owner
+        self.shape = (len(inputs.pred), len(inputs.boxes))
+        self._cache: dict[tuple, np.ndarray] = {}
+
+    def __call__(self, item: dict[str, Any], what: str) -> np.ndarray:
+        key = (item["fn"], repr(sorted(item["args"].items())))
+        got = self._cache.get(key)
+        if got is None:
+            fn, _ = find_rule(item["fn"], f"{self.owner}: association {what}")
+            got = np.asarray(fn(self.inputs, **item["args"]))
+            if got.shape != self.shape:
+                raise ValueError(f"{self.owner}: association {what} {item['fn']!r} returned "
+                                 f"shape {got.shape}, expected {self.shape}")
+            self._cache[key] = got
         return got
 
-    def combine(terms, gates, extra=None, allowed=None):
-        for t in terms:
-            add = t["weight"] * call(t, "term").astype(float)
-            extra = add if extra is None else extra + add
-        for g in gates:
-            ok = call(g, "gate").astype(bool)
-            allowed = ok if allowed is None else allowed & ok
-        return extra, allowed
+    def seed(self, item: dict[str, Any], value: np.ndarray) -> None:
+        """Give a piece's value already computed (the plain IoU)."""
+        self._cache[(item["fn"], repr(sorted(item["args"].items())))] = value
 
-    extra, allowed = combine(factor.terms, factor.gates)
-    out: dict[str, Any] = {}
-    if any(r["terms"] or r["gates"] for r in factor.rounds):
-        out["per_round"] = [combine(r["terms"], r["gates"], extra, allowed)
-                            for r in factor.rounds]
+
+def iou_affinity(inputs: AssociationInputs, against: str = "prediction", buffer: float = 0.0,
+                 fuse_score: bool = False) -> np.ndarray:
+    """``(K, M)`` IoU of each replica's box — its prediction, or its ``last`` detection
+    (``against="last"``: OC-SORT's recovery) — with each detection's; of both boxes
+    enlarged about their centres to ``(1 + 2 buffer)`` times their size (C-BIoU); times
+    the detection's score with ``fuse_score`` (BoT-SORT)."""
+    if against not in ("prediction", "last"):
+        raise ValueError(f"iou_affinity: against is 'prediction' or 'last', got {against!r}")
+    if against == "last" and inputs.last is None:
+        raise ValueError("a round against the last observations needs them")
+    mine = inputs.last if against == "last" else inputs.pred
+    if buffer:
+        grow = np.array([1.0, 1.0, 1.0 + 2.0 * buffer, 1.0 + 2.0 * buffer])
+        out = iou_matrix(mine * grow, inputs.boxes * grow)
     else:
-        if extra is not None:
-            out["extra"] = extra
-        if allowed is not None:
-            out["allowed"] = allowed
+        out = iou_matrix(mine, inputs.boxes)
+    if fuse_score:
+        out = out * inputs.scores[None, :]
     return out
+
+
+def direction_consistency(velocity: np.ndarray, known: np.ndarray, reference: np.ndarray,
+                          boxes: np.ndarray, scores: np.ndarray) -> np.ndarray:
+    """OC-SORT's momentum term ``(K, M)``: for replica ``k`` moving in the unit direction
+    ``velocity[k]`` (``(dy, dx)``; ``known[k]`` false: no direction yet, term 0) and
+    detection ``j``, ``(π/2 − |angle|)/π`` between that direction and the one from the
+    replica's ``reference`` box (its observation ``delta_t`` frames back) to the
+    detection, times the detection's score (in float32, as the ``trackers`` package)."""
+    d = boxes[None, :, :2] - reference[:, None, :2]
+    norm = np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2) + 1e-6
+    dx, dy = d[..., 0] / norm, d[..., 1] / norm
+    cos = np.clip(velocity[:, 1:2] * dx + velocity[:, 0:1] * dy, -1.0, 1.0)
+    cost = (np.pi / 2.0 - np.abs(np.arccos(cos))) / np.pi
+    cost = (known[:, None] * cost).astype(np.float32)
+    cost *= scores[None, :]
+    return cost
+
+
+def momentum(inputs: AssociationInputs) -> np.ndarray:
+    """OC-SORT's momentum term (:func:`direction_consistency` of the replicas' directions
+    of motion, ``inputs.velocity``, from their ``reference`` observations)."""
+    if inputs.velocity is None:
+        raise ValueError("the momentum term needs the replicas' directions of motion "
+                         "(an association that keeps observations)")
+    return direction_consistency(inputs.velocity, inputs.known, inputs.reference,
+                                 inputs.boxes, inputs.scores)
+
+
+def appearance_similarity(inputs: AssociationInputs) -> np.ndarray:
+    """``(K, M)`` similarity of each replica's appearance model with each detection
+    (``exp(log-likelihood / λ)`` multiplied over the association's appearance factors; 0
+    for a replica without a model yet, and everywhere in a frame without an image)."""
+    if inputs.appearance is None:
+        return np.zeros((len(inputs.pred), len(inputs.boxes)))
+    return inputs.appearance
 
 
 def mahalanobis_distances(inputs: AssociationInputs) -> np.ndarray:

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import copy
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -55,7 +56,8 @@ from pgm.factors.scores import PersistenceScoreModel, ScoreQuantiles
 
 __all__ = ["BoxPrior", "BoxTransition", "DetectionAssociation", "AssignedDetectionLikelihood",
            "SCORE_MAPS", "LEARNED_SCORE_MAPS", "TRACK_POOLS", "map_scores", "constant_velocity",
-           "axis_sizes", "X_LABELS", "CAMERA_WARPS", "CAMERA_ORDERS"]
+           "axis_sizes", "X_LABELS", "CAMERA_WARPS", "CAMERA_ORDERS", "RoundPlan",
+           "IOU_AFFINITY", "MOMENTUM", "APPEARANCE"]
 
 #: how detection scores are brought to [0, 1] before the rounds' thresholds: ``"none"``
 #: (as given), ``"logistic"`` (``1 / (1 + e^{-s})``: one monotone map for a detector whose
@@ -78,6 +80,56 @@ LEARNED_SCORE_MAPS = ("learned", "quantile")
 #: confirmed and matched (or born) in the previous frame (``"tracked"``); those confirmed
 #: and missed then (``"lost"``); those without an identity yet (``"tentative"``)
 TRACK_POOLS = ("all", "confirmed", "tracked", "lost", "tentative")
+
+#: the association's built-in pieces, by the name a round or a saved model gives them
+#: (:mod:`pgm.inference.association_terms`): the IoU affinity (against the prediction or
+#: the last detection, buffered, times the score), OC-SORT's momentum term and the
+#: appearance similarity
+IOU_AFFINITY = "pgm.inference.association_terms:iou_affinity"
+MOMENTUM = "pgm.inference.association_terms:momentum"
+APPEARANCE = "pgm.inference.association_terms:appearance_similarity"
+
+
+@dataclass(frozen=True)
+class RoundPlan:
+    """One round of a :class:`DetectionAssociation` as its rule runs it, every piece a
+    named function of :class:`pgm.inference.association_terms.AssociationInputs`.
+
+    The round takes the replicas of pool ``tracks`` no earlier round matched and the
+    detections still free with a mapped score in ``[min_score, max_score)``; it maximises
+    ``affinity + Σ weight × term`` over the pairs every gate allows (Hungarian), and keeps
+    a matched pair only if its affinity is at least ``threshold``.
+
+    Attributes
+    ----------
+    affinity : dict
+        ``{"fn", "args"}``: the pair's affinity ``(K, M)`` (default the IoU,
+        :data:`IOU_AFFINITY`, whose ``against``, ``buffer`` and ``fuse_score`` args the
+        round's keys of those names set).
+    threshold : float
+        The least affinity of a match (the round's ``"iou"``).
+    terms, gates : tuple of dict
+        ``{"fn", "weight", "args"}`` and ``{"fn", "args"}``: the momentum term
+        (:data:`MOMENTUM`, weight ``direction_weight``) of a ``"direction"`` round, the
+        appearance term (:data:`APPEARANCE`, weight ``appearance_weight``) of an
+        ``"appearance"`` round, then the factor's terms and the round's own.
+    """
+
+    affinity: dict
+    threshold: float
+    min_score: float
+    max_score: float
+    tracks: str
+    terms: tuple = ()
+    gates: tuple = ()
+
+    @property
+    def plain(self) -> bool:
+        """The IoU against the predictions, on every replica and detection, nothing added
+        (SORT's one round)."""
+        return (self.affinity["fn"] == IOU_AFFINITY and not self.affinity["args"]
+                and not self.terms and not self.gates and self.tracks == "all"
+                and self.min_score == -math.inf and self.max_score == math.inf)
 
 
 def map_scores(scores: np.ndarray, score_map: str) -> np.ndarray:
@@ -226,6 +278,16 @@ class DetectionAssociation(Factor):
     b`` computes the IoU of both boxes enlarged about their centres to ``(1 + 2b) w ×
     (1 + 2b) h`` (the buffered IoU of C-BIoU: boxes that do not touch may still match).
 
+    Every piece of a round is a named function of
+    :class:`pgm.inference.association_terms.AssociationInputs` (:class:`RoundPlan`; the
+    factor's :attr:`plans`): the keys above are shorthands — the IoU affinity
+    (:data:`IOU_AFFINITY`, its args ``against``, ``buffer``, ``fuse_score``), the momentum
+    term (:data:`MOMENTUM`, weight ``direction_weight``), the appearance term
+    (:data:`APPEARANCE`, weight ``appearance_weight``) — and a round may name its own
+    ``"affinity": {"fn": f, "args": {...}}`` (its ``"iou"`` then the least affinity of a
+    match) and ``"terms"``/``"gates"`` (below), the built-in ones included: ``{"fn":
+    MOMENTUM, "weight": 0.2}`` in a round's terms is ``"direction": true``.
+
     Parameters
     ----------
     variable : str
@@ -278,7 +340,7 @@ class DetectionAssociation(Factor):
 
     kind = "association"
     _KEYS = frozenset({"iou", "min_score", "max_score", "against", "direction", "appearance",
-                       "tracks", "fuse_score", "buffer", "terms", "gates"})
+                       "tracks", "fuse_score", "buffer", "terms", "gates", "affinity"})
 
     def __init__(self, variable: str, *, rounds: list[dict[str, Any]] | None = None,
                  score_map: str = "none", direction_weight: float = 0.2, delta_t: int = 3,
@@ -324,9 +386,18 @@ class DetectionAssociation(Factor):
                        else -math.inf)
             hi = float(r.get("max_score", math.inf) if r.get("max_score") is not None
                        else math.inf)
-            if not 0.0 <= iou <= 1.0 or math.isnan(lo) or math.isnan(hi) or lo >= hi:
+            affinity = None
+            if r.get("affinity") is not None:
+                if set(r) & {"against", "buffer", "fuse_score"}:
+                    raise ValueError(f"factor {self.name!r}: a round with an affinity of its "
+                                     f"own takes no against, buffer or fuse_score (they "
+                                     f"are the IoU affinity's); got {r!r}")
+                affinity = self._extension(r["affinity"], "affinity")
+            if not (math.isfinite(iou) if affinity else 0.0 <= iou <= 1.0) or \
+                    math.isnan(lo) or math.isnan(hi) or lo >= hi:
                 raise ValueError(f"factor {self.name!r}: round {r!r} needs an iou gate in "
-                                 f"[0, 1] and min_score < max_score")
+                                 f"[0, 1] (any finite least affinity with an affinity of its "
+                                 f"own) and min_score < max_score")
             against = r.get("against", "prediction")
             if against not in ("prediction", "last"):
                 raise ValueError(f"factor {self.name!r}: a round's 'against' is 'prediction' "
@@ -348,10 +419,34 @@ class DetectionAssociation(Factor):
                                 "terms": [self._extension(t, "term")
                                           for t in (r.get("terms") or [])],
                                 "gates": [self._extension(g, "gate")
-                                          for g in (r.get("gates") or [])]})
+                                          for g in (r.get("gates") or [])],
+                                "affinity": affinity})
+        self.plans: list[RoundPlan] = [self._plan(r) for r in self.rounds]
+
+    def _plan(self, r: dict[str, Any]) -> RoundPlan:
+        """A round as named pieces (:class:`RoundPlan`)."""
+        affinity = r["affinity"]
+        if affinity is None:
+            args: dict[str, Any] = {}
+            if r["against"] != "prediction":
+                args["against"] = r["against"]
+            if r["buffer"]:
+                args["buffer"] = r["buffer"]
+            if r["fuse_score"]:
+                args["fuse_score"] = True
+            affinity = {"fn": IOU_AFFINITY, "args": args}
+        terms = []
+        if r["direction"]:
+            terms.append({"fn": MOMENTUM, "args": {}, "weight": self.direction_weight})
+        if r["appearance"]:
+            terms.append({"fn": APPEARANCE, "args": {}, "weight": self.appearance_weight})
+        return RoundPlan(affinity, r["iou"], r["min_score"], r["max_score"], r["tracks"],
+                         tuple(terms + self.terms + r["terms"]),
+                         tuple(self.gates + r["gates"]))
 
     def _extension(self, item: Any, what: str) -> dict[str, Any]:
-        """A term or gate as ``{"fn": "module:function", "weight", "args"}``."""
+        """A term, gate or affinity as ``{"fn": "module:function", "args"}`` (and a term's
+        ``"weight"``)."""
         if callable(item):
             item = {"fn": item}
         if not isinstance(item, dict) or "fn" not in item or set(item) - {"fn", "weight",
@@ -368,6 +463,9 @@ class DetectionAssociation(Factor):
         args = item.get("args") or {}
         if not isinstance(args, dict):
             raise ValueError(f"factor {self.name!r}: an association {what}'s args is a dict")
+        if what != "term" and "weight" in item:
+            raise ValueError(f"factor {self.name!r}: an association {what} has no weight "
+                             f"(only a term has), got {item!r}")
         out: dict[str, Any] = {"fn": fn, "args": dict(args)}
         if what == "term":
             out["weight"] = float(check_finite_param(f"{self.name}.{what}.weight",
@@ -376,9 +474,10 @@ class DetectionAssociation(Factor):
 
     @property
     def extended(self) -> bool:
-        """Whether terms or gates of one's own take part (the factor's or a round's)."""
-        return bool(self.terms or self.gates
-                    or any(r["terms"] or r["gates"] for r in self.rounds))
+        """Whether pieces of one's own take part (terms, gates or an affinity, the
+        factor's or a round's)."""
+        return bool(self.terms or self.gates or any(r["terms"] or r["gates"] or r["affinity"]
+                                                   for r in self.rounds))
 
     @property
     def uses_pools(self) -> bool:
@@ -388,7 +487,8 @@ class DetectionAssociation(Factor):
     @property
     def keeps_observations(self) -> bool:
         """Whether a round needs each replica's past detections (momentum, recovery)."""
-        return any(r["direction"] or r["against"] == "last" for r in self.rounds)
+        return any(any(t["fn"] == MOMENTUM for t in p.terms)
+                   or p.affinity["args"].get("against") == "last" for p in self.plans)
 
     def params(self) -> dict[str, Any]:
         def finite(v):
@@ -413,9 +513,11 @@ class DetectionAssociation(Factor):
                 d["terms"] = [dict(t) for t in r["terms"]]
             if r["gates"]:
                 d["gates"] = [dict(g) for g in r["gates"]]
+            if r["affinity"]:
+                d["affinity"] = dict(r["affinity"])
             rounds.append(d)
         p: dict[str, Any] = {"rounds": rounds, "score_map": self.score_map}
-        if any(r["direction"] for r in self.rounds):
+        if self.keeps_observations:
             p.update(direction_weight=self.direction_weight, delta_t=self.delta_t)
         if self.appearance is not None:
             p.update(appearance=[a.to_dict() for a in self.appearance],

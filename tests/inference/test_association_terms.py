@@ -137,3 +137,90 @@ def test_a_rounds_own_gate_acts_in_that_round_only():
     back = FactorGraph.from_dict(_with(base, rounds=gated_rounds).to_dict())
     saved = back.factors_by_kind("association")[0].params()["rounds"]
     assert "gates" not in saved[0] and saved[1]["gates"][0]["fn"].endswith(":mahalanobis_gate")
+
+
+def centre_affinity(inputs, scale=1.0):
+    """A user's affinity: ``exp(-d / (scale × mean width))`` of the centres' distance ``d``
+    (matches boxes that do not overlap, as IoU cannot)."""
+    d = np.linalg.norm(inputs.pred[:, None, :2] - inputs.boxes[None, :, :2], axis=2)
+    w = 0.5 * (inputs.pred[:, None, 2] + inputs.boxes[None, :, 2])
+    return np.exp(-d / (scale * w))
+
+
+def _crossing_stream(n=40, seed=3):
+    """Four walkers (two crossing; the first stops at frame 15 and is unseen for the next
+    seven, so that only its last detection finds it again), scores in [0.3, 1), a
+    detection missed now and then."""
+    rng = np.random.default_rng(seed)
+    starts = np.array([[50.0, 100.0, 6.0, 0.0], [400.0, 110.0, -4.0, 0.0],
+                       [100.0, 300.0, 1.0, 1.0], [300.0, 300.0, 0.0, -2.0]])
+    for t in range(1, n + 1):
+        steps = np.array([min(t, 15), t, t, t])[:, None]
+        xy = starts[:, :2] + steps * starts[:, 2:] + rng.normal(0.0, 1.5, (4, 2))
+        b = np.column_stack([xy, np.full(4, 40.0), np.full(4, 100.0)])
+        keep = rng.random(4) > 0.15
+        keep[0] = not 15 < t < 23
+        scores = np.where(np.arange(4) == 0, 0.9, rng.uniform(0.3, 1.0, 4))
+        yield FrameContext(t, detections=Detections(b[keep], scores[keep]))
+
+
+def _tracks(graph):
+    eng = Engine(graph, 0)
+    out = []
+    for frame in _crossing_stream():
+        rec = eng.step(frame)
+        out.append((eng.assignment.rows.tolist(), eng.assignment.cols.tolist(),
+                    eng.assignment.rounds.tolist(),
+                    np.asarray(rec.estimates["box"], float)))
+    return out
+
+
+def test_ocsort_and_bytetrack_rounds_are_their_named_pieces():
+    """The rounds' shorthands are the built-in pieces: OC-SORT's rounds written with the
+    momentum term and the IoU affinity against the last detection by name, and
+    ByteTrack's with the IoU affinity by name, run exactly as the shorthands do."""
+    from pgm.factors.association import IOU_AFFINITY, MOMENTUM
+    from pgm.models import bytetrack, ocsort
+
+    named = ({"iou": 0.3, "min_score": 0.6, "terms": [{"fn": MOMENTUM, "weight": 0.2}]},
+             {"iou": 0.3, "min_score": 0.6,
+              "affinity": {"fn": IOU_AFFINITY, "args": {"against": "last"}}})
+    short = ocsort.build_graph(ocsort.Params(rounds=ocsort.rounds(0.6, 0.3)))
+    explicit = ocsort.build_graph(ocsort.Params(rounds=named))
+    f = explicit.factors_by_kind("association")[0]
+    assert f.keeps_observations and f.plans[0].terms[0]["fn"] == MOMENTUM
+    assert short.factors_by_kind("association")[0].plans[0].terms == f.plans[0].terms
+    a, b = _tracks(short), _tracks(explicit)
+    assert sum(len(r[0]) for r in a) > 50  # the stream is associated, in both rounds
+    assert {k for r in a for k in r[2]} == {0, 1}
+    for x, y in zip(a, b, strict=True):
+        assert x[:3] == y[:3]
+        np.testing.assert_array_equal(x[3], y[3])
+    high = bytetrack.rounds(0.6, 0.1)
+    by_name = [{**r, "affinity": {"fn": IOU_AFFINITY}} for r in high]
+    a = _tracks(bytetrack.build_graph(bytetrack.Params()))
+    b = _tracks(bytetrack.build_graph(bytetrack.Params(rounds=tuple(by_name))))
+    assert [x[:3] for x in a] == [y[:3] for y in b]
+
+
+def test_an_affinity_of_ones_own_matches_what_iou_cannot():
+    """A round's own affinity replaces the IoU (its ``iou`` the least affinity of a match):
+    a target that jumps past its box width loses its track under IoU and keeps it under a
+    centre-distance affinity; the affinity is saved by name."""
+    jump = [260.0, 50.0, 100.0, 200.0]  # 140 px past the prediction: IoU 0
+    counts = {}
+    own = {"iou": 0.1, "affinity": {"fn": centre_affinity, "args": {"scale": 1.0}}}
+    for name, rounds in (("iou", [{"iou": 0.1}]), ("centre", [own])):
+        eng = Engine(_with(sort.build_graph(sort.Params()), rounds=rounds), 0)
+        _walk(eng)
+        eng.step(_frame(9, jump))
+        counts[name] = (len(eng.assignment.rows), eng.num_targets)
+    assert counts["iou"] == (0, 2) and counts["centre"] == (1, 1)
+    g = _with(sort.build_graph(sort.Params()), rounds=[own])
+    saved = FactorGraph.from_dict(g.to_dict()).factors_by_kind("association")[0]
+    assert saved.plans[0].affinity == {"fn": f"{__name__}:centre_affinity",
+                                       "args": {"scale": 1.0}}
+    with pytest.raises(ValueError, match="against, buffer or fuse_score"):
+        DetectionAssociation("box", rounds=[{**own, "against": "last"}])
+    with pytest.raises(ValueError, match="no weight"):
+        DetectionAssociation("box", gates=[{"fn": mahalanobis_gate, "weight": 2.0}])

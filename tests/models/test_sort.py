@@ -331,18 +331,19 @@ def test_appearance_enters_the_association():
     detection that looks like them; a replica's model is learned from the detections it is
     given, in frames with an image."""
     from pgm.inference.association import assign
+    from pgm.inference.association_terms import AssociationInputs
 
     pred = np.array([[100.0, 100.0, 40.0, 100.0], [110.0, 100.0, 40.0, 100.0]])
     boxes = pred[::-1].copy()  # each detection sits on the other replica's prediction
-    rounds = [{"iou": 0.3, "min_score": -np.inf, "max_score": np.inf, "against": "prediction",
-               "direction": False, "appearance": True}]
+    plans = DetectionAssociation("box", rounds=[{"iou": 0.3, "appearance": True}],
+                                 appearance_weight=1.0).plans
     looks = np.array([[1.0, 0.37], [0.37, 1.0]])  # replica k looks like detection k
-    plain = assign(pred, boxes, np.ones(2), rounds)
-    seen = assign(pred, boxes, np.ones(2), rounds, appearance=looks, appearance_weight=1.0)
+    plain = assign(AssociationInputs(pred, boxes, np.ones(2)), plans)  # no image, no term
+    seen = assign(AssociationInputs(pred, boxes, np.ones(2), appearance=looks), plans)
     assert plain.cols[np.argsort(plain.rows)].tolist() == [1, 0]  # IoU 1 against 0.6
     assert seen.cols[np.argsort(seen.rows)].tolist() == [0, 1]  # 0.6 + 1 against 1 + 0.37
-    far = assign(pred, boxes + [300.0, 0, 0, 0], np.ones(2), rounds, appearance=looks,
-                 appearance_weight=1.0)
+    far = assign(AssociationInputs(pred, boxes + [300.0, 0, 0, 0], np.ones(2),
+                                   appearance=looks), plans)
     assert len(far.rows) == 0  # appearance alone never passes the IoU gate
 
     from pgm.models import ocsort_colour
@@ -440,15 +441,22 @@ def test_the_score_map_follows_what_is_known_of_the_detector():
 # centre-only camera motion after the predict
 # ------------------------------------------------------------------------------------
 def _round(**kw):
-    """A round as :class:`DetectionAssociation` stores it."""
-    return DetectionAssociation("box", rounds=[kw]).rounds[0]
+    """A round as :class:`DetectionAssociation` runs it (its plan)."""
+    return DetectionAssociation("box", rounds=[kw]).plans[0]
+
+
+def _assign(pred, dets, scores, plans, **kw):
+    from pgm.inference.association import assign
+    from pgm.inference.association_terms import AssociationInputs
+
+    return assign(AssociationInputs(pred, dets, np.asarray(scores, float)), plans, **kw)
 
 
 def test_round_pools_fused_scores_and_buffers():
     """A round's ``"tracks"`` pool limits the replicas it may match; ``"fuse_score"``
     maximises and gates IoU × score; ``"buffer"`` matches boxes enlarged about their
     centres (boxes apart by a few pixels overlap)."""
-    from pgm.inference.association import assign, iou_matrix
+    from pgm.inference.association import iou_matrix
 
     pred = np.array([[100.0, 100.0, 40.0, 100.0], [300.0, 100.0, 40.0, 100.0],
                      [500.0, 100.0, 40.0, 100.0]])
@@ -456,12 +464,12 @@ def test_round_pools_fused_scores_and_buffers():
     tracked = np.array([True, False, True])
     for pool, expected in (("all", [0, 1, 2]), ("confirmed", [0, 1]), ("tracked", [0]),
                            ("lost", [1]), ("tentative", [2])):
-        a = assign(pred, pred.copy(), np.ones(3), [_round(iou=0.3, tracks=pool)],
+        a = _assign(pred, pred.copy(), np.ones(3), [_round(iou=0.3, tracks=pool)],
                    confirmed=confirmed, tracked=tracked)
         assert sorted(a.rows.tolist()) == expected, pool
         assert np.array_equal(a.rows, a.cols)
     with pytest.raises(ValueError, match="status"):
-        assign(pred, pred.copy(), np.ones(3), [_round(tracks="confirmed")])
+        _assign(pred, pred.copy(), np.ones(3), [_round(tracks="confirmed")])
     # one replica, two detections: the closer scores 0.3 (IoU ~0.82, fused ~0.25), the
     # other 0.9 (IoU ~0.6, fused ~0.54): IoU takes the first, IoU x score the second
     one = pred[:1]
@@ -469,16 +477,16 @@ def test_round_pools_fused_scores_and_buffers():
     scores = np.array([0.3, 0.9])
     iou = iou_matrix(one, dets)[0]
     assert iou[0] > iou[1] and iou[0] * 0.3 < iou[1] * 0.9
-    assert assign(one, dets, scores, [_round(iou=0.2)]).cols.tolist() == [0]
-    assert assign(one, dets, scores, [_round(iou=0.2, fuse_score=True)]).cols.tolist() == [1]
+    assert _assign(one, dets, scores, [_round(iou=0.2)]).cols.tolist() == [0]
+    assert _assign(one, dets, scores, [_round(iou=0.2, fuse_score=True)]).cols.tolist() == [1]
     # the gate reads the product: IoU ~0.82 passes 0.5, IoU x 0.3 does not
-    assert len(assign(one, dets[:1], scores[:1], [_round(iou=0.5)]).rows) == 1
-    assert len(assign(one, dets[:1], scores[:1], [_round(iou=0.5, fuse_score=True)]).rows) == 0
+    assert len(_assign(one, dets[:1], scores[:1], [_round(iou=0.5)]).rows) == 1
+    assert len(_assign(one, dets[:1], scores[:1], [_round(iou=0.5, fuse_score=True)]).rows) == 0
     # buffered IoU: 5 px apart, no overlap; enlarged 1.6 times, IoU 7 / 57
     a, b = np.array([[100.0, 100.0, 20.0, 20.0]]), np.array([[125.0, 100.0, 20.0, 20.0]])
     assert iou_matrix(a, b)[0, 0] == 0.0
-    assert len(assign(a, b, np.ones(1), [_round(iou=0.1)]).rows) == 0
-    got = assign(a, b, np.ones(1), [_round(iou=0.1, buffer=0.3)])
+    assert len(_assign(a, b, np.ones(1), [_round(iou=0.1)]).rows) == 0
+    got = _assign(a, b, np.ones(1), [_round(iou=0.1, buffer=0.3)])
     assert got.cols.tolist() == [0]
     np.testing.assert_allclose(iou_matrix(a * [1, 1, 1.6, 1.6], b * [1, 1, 1.6, 1.6]),
                                [[7.0 / 57.0]])
