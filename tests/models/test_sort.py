@@ -415,10 +415,8 @@ def test_the_score_map_follows_what_is_known_of_the_detector():
     without a score scale (background subtraction's fill fractions) has every detection
     taken as confident. The default reads quantiles of the video's scores unless told to
     read the detector's numbers."""
-    from pgm.models import ocsort_colour
+    from pgm.models import ocsort, ocsort_colour
     from pgm.models.config import VideoInfo
-
-    from pgm.models import ocsort
 
     for score_range, expected in (((0.1, 0.95), "none"), ((-2.0, 1.5), "logistic"),
                                   ((3.0, 140.0), "logistic"), (None, "constant")):
