@@ -30,7 +30,8 @@ __version__ = "0.1.0"
 #: graph names one that is not registered yet (some pull torch or a model file, so they are
 #: not imported with ``pgm``)
 TOOLKIT_MODULES = ("pgm.factors", "pgm.factors.plates", "pgm.factors.multitarget",
-                   "pgm.factors.association", "pgm.factors.scores",
+                   "pgm.factors.association", "pgm.factors.detection_association",
+                   "pgm.factors.scores",
                    "pgm.observation.appearance.likelihoods",
                    "pgm.observation.appearance.correlation", "pgm.dynamics.factors",
                    "pgm.observation.appearance.dbn", "pgm.inference.plates")

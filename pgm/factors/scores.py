@@ -51,7 +51,8 @@ from pgm.core.boxes import cxcywh_to_xywh, iou_xywh, xywh_to_cxcywh
 from pgm.core.numerics import check_finite_param
 
 __all__ = ["ScoreSettings", "ScoreMixture", "ScoreCalibration", "SCORE_MODELS", "PERSISTING",
-           "shadowed", "PersistenceScoreModel", "ScoreQuantiles", "mid_ranks"]
+           "shadowed", "PersistenceScoreModel", "ScoreQuantiles", "mid_ranks",
+           "SCORE_MAPS", "LEARNED_SCORE_MAPS", "map_scores"]
 
 SCORE_MODELS = ("off", "mixture", "learned")
 PERSISTING = ("target", "all")
@@ -554,3 +555,36 @@ class ScoreQuantiles:
                              f"{s.size} scores")
         self.history = _with_sorted(self.history, s)
         return np.where(np.isfinite(s), mid_ranks(self.history, np.nan_to_num(s)), 0.0)
+
+
+#: how detection scores are brought to [0, 1] before the rounds' thresholds: ``"none"``
+#: (as given), ``"logistic"`` (``1 / (1 + e^{-s})``: one monotone map for a detector whose
+#: scores are margins or unbounded, as MOT15's and MOT16's public ones are), ``"constant"``
+#: (every detection 1: a detector whose scores say nothing of confidence, such as
+#: background subtraction's fill fractions — as the ``trackers`` package treats
+#: detections without scores), ``"learned"`` (the probability that the detection is of a
+#: target, learned on the video from which detections are found again and read from the
+#: score's rank: :class:`PersistenceScoreModel`; the same for any
+#: strictly increasing map of the detector's scores, so thresholds are statements about
+#: the detections, not about a number on the detector's scale), ``"quantile"`` (the
+#: score's quantile among the video's scores so far: a threshold is a share of the
+#: detections, :class:`ScoreQuantiles`; also the same for any
+#: strictly increasing map)
+SCORE_MAPS = ("none", "logistic", "constant", "learned", "quantile")
+#: the score maps learned on the video (kept per run by the association rule)
+LEARNED_SCORE_MAPS = ("learned", "quantile")
+
+
+def map_scores(scores: np.ndarray, score_map: str) -> np.ndarray:
+    """``scores`` through the map ``score_map`` (:data:`SCORE_MAPS`)."""
+    s = np.asarray(scores, dtype=float)
+    if score_map == "none":
+        return s
+    if score_map == "logistic":
+        return 0.5 * (1.0 + np.tanh(0.5 * s))  # the logistic, without overflow
+    if score_map == "constant":
+        return np.ones_like(s)
+    if score_map in LEARNED_SCORE_MAPS:
+        raise ValueError(f"the {score_map!r} score map is learned on the video: "
+                         "pgm.factors.association.DetectionAssociation.score_model() keeps it per run")
+    raise ValueError(f"unknown score map {score_map!r} (choose from {SCORE_MAPS})")
