@@ -77,18 +77,19 @@ class PeakMemory:
         tracemalloc.stop()
 
 
-def time_engine(engine, frames, trace_memory: bool = False):
+def time_engine(engine, frames, trace_memory: bool = False, scores: list | None = None):
     """Step ``engine`` through decoded ``frames``; time ``engine.step`` only.
 
     Returns top-left boxes ``(T, 4)``, seconds in ``engine.step`` and the peak traced
     memory in MiB (NaN unless ``trace_memory``: tracemalloc slows Python down several
-    times, so timing runs leave it off).
+    times, so timing runs leave it off). ``scores``: a list to which each frame's score
+    (the model's calibrated confidence, 1 where it declares none) is appended.
     """
     import time
 
     import numpy as np
 
-    from pgm.app.runner import output_box
+    from pgm.app.runner import output_target
     from pgm.core.frame import FrameContext
 
     boxes, secs = [], 0.0
@@ -100,7 +101,10 @@ def time_engine(engine, frames, trace_memory: bool = False):
         t0 = time.perf_counter()
         rec = engine.step(ctx)
         secs += time.perf_counter() - t0
-        boxes.append(output_box(engine.graph, rec))  # top-left x, y, w, h
+        box, score = output_target(engine.graph, rec)  # top-left x, y, w, h
+        boxes.append(box)
+        if scores is not None:
+            scores.append(score)
     if mem is not None:
         mem.__exit__(None, None, None)
     return np.array(boxes), secs, (mem.peak_mib if mem is not None else float("nan"))

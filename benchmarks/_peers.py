@@ -218,7 +218,8 @@ def run_sot_peers(frames_paths: Iterable[str | Path], init_xywh: Sequence[float]
     -------
     dict
         ``{name: {"boxes": ndarray (T, 4) top-left xywh, first row = init_xywh,
-        "fps": float, "failed_frames": int}}`` (a failed ``update`` keeps the previous box),
+        "ok": ndarray (T,) of bool (OpenCV's ``update`` succeeded), "fps": float,
+        "failed_frames": int}}`` (a failed ``update`` keeps the previous box),
         or ``{name: {"error": str}}``. ``fps`` is frames 2..T over the ``update`` time.
     """
     names = [str(n).lower() for n in trackers]
@@ -236,6 +237,7 @@ def run_sot_peers(frames_paths: Iterable[str | Path], init_xywh: Sequence[float]
         data = json.loads(res.read_text()) if res.is_file() else {}
     results = _collect(names, data, "sot_peers.py", code, log, lambda name, entry: {
         "boxes": np.asarray(entry["boxes"], dtype=float).reshape(-1, 4),
+        "ok": np.asarray(entry.get("ok", [True] * len(entry["boxes"])), dtype=bool),
         "failed_frames": int(entry["failed_frames"])})
     return results
 

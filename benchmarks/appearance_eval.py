@@ -3,7 +3,11 @@ leave-one-sequence-out choice of the default.
 
 Every row is a model config of the one engine (a one-node graph unless it says
 "3 nodes"), run over whole sequences with ``--seeds`` seeds; success AUC (OTB, 21
-thresholds) and precision at 20 px over the annotated frames, and inference frames per
+thresholds) and precision at 20 px over the frames annotated with a box, the long-term
+F-score (tracking precision and recall over the confidence thresholds, Lukežič et al.
+2021: frames annotated absent count; the model's calibrated confidence, a peer's
+``update`` flag) and, where frames are annotated absent, the precision / recall with
+which ``confidence < 0.5`` (a peer: a failed update) flags them, and inference frames per
 second (decoding excluded). The peers run on the same frames from the same first box:
 OpenCV CSRT, KCF and MIL in the peer virtualenv (``bash benchmarks/peers/setup_env.sh``:
 they need ``opencv-contrib``, which the toolkit does not depend on); without it, MIL
@@ -12,16 +16,19 @@ alone runs in this process.
 Sequences (``../shared/data``):
 
 * ``FaceOcc1`` (occlusion), ``Crossing`` (small, low resolution), ``David``
-  (illumination, scale, pose) and ``Tiger1`` (fast motion, blur, rotation);
+  (illumination, scale, pose), ``Tiger1`` (fast motion, blur, rotation), ``Girl``
+  (rotation), ``Biker`` (fast, small, 640×360), ``MotorRolling`` (fast in-plane rotation)
+  and ``UAV10-group3`` (a person among look-alikes from a drone, 1280×720 at 10 frames/s,
+  35 frames absent);
 * ``PETS persons``, a check no default was chosen on: the ``--persons`` longest
   ground-truth tracks of ``PETS09-S2L1`` (people occluding each other and a lamp post),
   each run as a single-object task from its first to its last annotated frame; the AUC
   is the mean over the tracks.
 
-``--loso`` runs the candidate configurations of ``GRID`` on the four single-object
-sequences and, for each one held out, picks the candidate with the best mean AUC on the
-other three and reports its AUC on the held-out one: how the default
-(``pgm.models.single_object``) was chosen.
+``--loso`` runs the candidate configurations of ``GRID`` on the single-object sequences
+and, for each one held out, picks the candidate with the best mean AUC on the others and
+reports its AUC on the held-out one: how the default (``pgm.models.single_object``) was
+chosen.
 
     python benchmarks/appearance_eval.py [--seeds 5] [--persons 6] [--quick] [--skip-start 0.25]
                                          [--sequences FaceOcc1,David]
@@ -33,6 +40,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -103,7 +111,10 @@ GRID = ([(f"cf(lam={lam},padding={pad}), jumps {jp}",
            ("DEFAULT + context learned from motion (context_rate 0.05)",
             DEFAULT | dict(appearance="cf(context_rate=0.05)")),
            ("DEFAULT + scale filter (cf+scale)", DEFAULT | dict(appearance="cf+scale"))])
-SINGLE = ("FaceOcc1", "Crossing", "David", "Tiger1")
+SINGLE = ("FaceOcc1", "Crossing", "David", "Tiger1", "Girl", "Biker", "MotorRolling",
+          "UAV10-group3")
+#: the four MILTrack/OTB clips the earlier defaults (and the confidence) were chosen on
+FIRST_FOUR = SINGLE[:4]
 
 
 def person_tasks(seq: str, n_persons: int) -> list:
@@ -149,14 +160,16 @@ def sequences(n_persons: int, names=SINGLE, persons_from=("PETS09-S2L1",)):
     return out
 
 
-def score(gt, numbers, boxes, skip_start: float = 0.0) -> dict:
+def score(gt, numbers, boxes, skip_start: float = 0.0, confidence=None) -> dict:
     """OTB metrics of ``boxes`` at frames ``numbers``, counting only the frames after
-    the first ``skip_start`` share (and the ground truth there)."""
+    the first ``skip_start`` share (and the ground truth there); with ``confidence`` per
+    frame, the long-term measures too."""
     numbers = np.asarray(numbers)
     first = int(np.floor(skip_start * len(numbers)))
     if first:
         gt = gt.since(numbers[first])
-    return single_object_metrics(gt, numbers[first:], np.asarray(boxes, float)[first:])
+    conf = None if confidence is None else np.asarray(confidence, float)[first:]
+    return single_object_metrics(gt, numbers[first:], np.asarray(boxes, float)[first:], conf)
 
 
 def _skipped(skip_start: float) -> str:
@@ -164,69 +177,115 @@ def _skipped(skip_start: float) -> str:
     return f", first {skip_start:.0%} of each task's frames not scored" if skip_start else ""
 
 
-def run_config(tasks, overrides, seeds, skip_start: float = 0.0):
-    """Mean AUC / precision over seeds (and tasks), median frames per second; with
-    ``skip_start`` the scores count only the frames after that share of each task's."""
-    aucs, precs, fps = [], [], []
+def _long_term(m: dict) -> tuple[float, float, float]:
+    """(long-term F, absence precision, absence recall) of one task's metrics (NaN where
+    undefined: no confidence, or no absence annotated)."""
+    lt, ab = m.get("long_term"), m.get("absence")
+    nan = float("nan")
+    val = lambda d, k: nan if d is None or d.get(k) is None else float(d[k])  # noqa: E731
+    return val(lt, "f_score"), val(ab, "precision"), val(ab, "recall")
+
+
+class Scores:
+    """Per-task scores gathered over seeds: AUC per seed (mean over tasks), and the means
+    of precision@20, long-term F and the absence signal's precision and recall."""
+
+    def __init__(self):
+        self.aucs, self.rest, self.fps = [], [], []
+
+    @property
+    def median_fps(self) -> float:
+        return float(np.median(self.fps))
+
+    def add_seed(self, metrics: list[dict], n_frames: int, seconds: float) -> None:
+        self.aucs.append(np.mean([m["success_auc"] for m in metrics]))
+        lt = np.array([_long_term(m) for m in metrics])
+        with np.errstate(invalid="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a column of NaN: undefined
+            self.rest.append([np.mean([m["precision_at_20"] for m in metrics])]
+                             + list(np.nanmean(lt, axis=0)))
+        self.fps.append(n_frames / seconds if seconds > 0 else np.nan)
+
+    def row(self, label: str) -> list:
+        auc = np.array(self.aucs)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # a column of NaN: undefined
+            prec, ltf, ap, ar = np.nanmean(np.array(self.rest, float), axis=0)
+        f3 = lambda v: "" if not np.isfinite(v) else f"{v:.3f}"  # noqa: E731
+        na = lambda v: f3(v) or "n/a"  # noqa: E731
+        absent = "" if not np.isfinite(ap) and not np.isfinite(ar) else f"{na(ap)} / {na(ar)}"
+        return [label, f"{auc.mean():.3f}", f"{auc.min():.3f}", f"{auc.max():.3f}",
+                f"{prec:.3f}", f3(ltf), absent, self.median_fps]
+
+
+def run_config(tasks, overrides, seeds, skip_start: float = 0.0) -> Scores:
+    """The config on every task, ``seeds`` seeds (:class:`Scores`); with ``skip_start``
+    the scores count only the frames after that share of each task's."""
+    out = Scores()
     for seed in range(seeds):
-        task_auc, task_prec, n_frames, secs = [], [], 0, 0.0
+        metrics, n_frames, secs = [], 0, 0.0
         for frames, gt, init, _ in tasks:
             h, w = frames[0][1].shape[:2]
             kw = {"n_parts": 1, "num_particles": 100, "frame_size": (w, h)} | overrides
-            graph = part_graph.build_graph(part_graph.Params(init_box=tuple(init), **kw))
-            boxes, s, _ = time_engine(Engine(graph, np.random.default_rng(seed)), frames)
-            m = score(gt, [n for n, _ in frames], boxes, skip_start)
-            task_auc.append(m["success_auc"])
-            task_prec.append(m["precision_at_20"])
+            graph = single_object.with_confidence(
+                part_graph.build_graph(part_graph.Params(init_box=tuple(init), **kw)))
+            conf: list[float] = []
+            boxes, s, _ = time_engine(Engine(graph, np.random.default_rng(seed)), frames,
+                                      scores=conf)
+            metrics.append(score(gt, [n for n, _ in frames], boxes, skip_start, conf))
             n_frames += len(frames)
             secs += s
-        aucs.append(np.mean(task_auc))
-        precs.append(np.mean(task_prec))
-        fps.append(n_frames / secs)
-    return np.array(aucs), float(np.mean(precs)), float(np.median(fps))
+        out.add_seed(metrics, n_frames, secs)
+    return out
 
 
-def run_mil_here(tasks, skip_start: float = 0.0):
-    """OpenCV MIL in this process (the main OpenCV build has it): AUC, prec@20, fps."""
-    aucs, precs, n_frames, secs = [], [], 0, 0.0
+def run_mil_here(tasks, skip_start: float = 0.0) -> dict[str, Scores]:
+    """OpenCV MIL in this process (the main OpenCV build has it)."""
+    metrics, n_frames, secs = [], 0, 0.0
     for frames, gt, init, _ in tasks:
         tracker = cv2.TrackerMIL_create()
         box = tuple(int(round(v)) for v in cxcywh_to_xywh(np.asarray(init, float)))
         tracker.init(frames[0][1], box)
-        out = [list(box)]
+        out, oks = [list(box)], [1.0]
         t0 = time.perf_counter()
         for _, img in frames[1:]:
             ok, b = tracker.update(img)
             out.append(list(b) if ok else out[-1])
+            oks.append(float(ok))
         secs += time.perf_counter() - t0
         n_frames += len(frames) - 1
-        m = score(gt, [n for n, _ in frames], out, skip_start)
-        aucs.append(m["success_auc"])
-        precs.append(m["precision_at_20"])
-    return {"MIL": (float(np.mean(aucs)), float(np.mean(precs)), n_frames / secs)}
+        metrics.append(score(gt, [n for n, _ in frames], out, skip_start, oks))
+    s = Scores()
+    s.add_seed(metrics, n_frames, secs)
+    return {"MIL": s}
 
 
-def run_peers(tasks, skip_start: float = 0.0):
-    """CSRT, KCF and MIL in the peer virtualenv: ``name -> (AUC, prec@20, fps)``."""
-    per: dict[str, list] = {}
+def run_peers(tasks, skip_start: float = 0.0) -> dict[str, Scores]:
+    """CSRT, KCF and MIL in the peer virtualenv; their confidence is ``update``'s flag
+    (a failed update: reported absent)."""
+    per: dict[str, tuple[list, int, float]] = {}
     for frames, gt, init, paths in tasks:
         res = run_sot_peers(paths, cxcywh_to_xywh(np.asarray(init, float)))
         for name, r in res.items():
             if "error" in r:
                 print(f"  {name}: {r['error']}")
                 continue
-            m = score(gt, [n for n, _ in frames], r["boxes"], skip_start)
-            per.setdefault(name.upper(), []).append((m["success_auc"], m["precision_at_20"],
-                                                     r["fps"]))
-    return {n: tuple(float(v) for v in np.mean(np.array(rows), axis=0))
-            for n, rows in per.items()}
+            m = score(gt, [n for n, _ in frames], r["boxes"], skip_start,
+                      r["ok"].astype(float))
+            got = per.setdefault(name.upper(), ([], 0, 0.0))
+            n = len(frames) - 1
+            per[name.upper()] = (got[0] + [m], got[1] + n, got[2] + n / r["fps"])
+    out = {}
+    for name, (metrics, n, secs) in per.items():
+        out[name] = Scores()
+        out[name].add_seed(metrics, n, secs)
+    return out
 
 
 def peer_rows(tasks, skip_start: float = 0.0) -> list[list]:
     peers = (run_peers(tasks, skip_start) if peer_python() is not None
              else run_mil_here(tasks, skip_start))
-    return [[f"OpenCV {n}", f"{auc:.3f}", "", "", f"{prec:.3f}", fps]
-            for n, (auc, prec, fps) in peers.items()]
+    return [s.row(f"OpenCV {n}") for n, s in peers.items()]
 
 
 def loso(seqs, seeds: int, skip_start: float = 0.0) -> None:
@@ -236,8 +295,8 @@ def loso(seqs, seeds: int, skip_start: float = 0.0) -> None:
     table = {}
     rows = []
     for label, overrides in GRID:
-        table[label] = {n: run_config(seqs[n], overrides, seeds, skip_start)[0].mean()
-                        for n in names}
+        table[label] = {n: float(np.mean(run_config(seqs[n], overrides, seeds,
+                                                    skip_start).aucs)) for n in names}
         rows.append([label] + [f"{table[label][n]:.3f}" for n in names]
                     + [f"{np.mean(list(table[label].values())):.3f}"])
         print(f"  {label}: " + " ".join(rows[-1][1:]), file=sys.stderr, flush=True)
@@ -250,7 +309,7 @@ def loso(seqs, seeds: int, skip_start: float = 0.0) -> None:
         best = max(table, key=lambda k: np.mean([table[k][n] for n in others]))
         picks.append([held, best, f"{np.mean([table[best][n] for n in others]):.3f}",
                       f"{table[best][held]:.3f}"])
-    print_table(["held out", "picked on the other three", "AUC there", "AUC held out"], picks,
+    print_table(["held out", "picked on the others", "AUC there", "AUC held out"], picks,
                 title="Leave-one-sequence-out choice")
     print(f"held-out mean AUC: {np.mean([float(p[3]) for p in picks]):.3f}")
 
@@ -288,12 +347,10 @@ def main() -> None:
         for label, overrides in CONFIGS:
             if args.quick and label not in QUICK:
                 continue
-            auc, prec, fps = run_config(tasks, overrides, args.seeds, args.skip_start)
-            rows.append([label, f"{auc.mean():.3f}", f"{auc.min():.3f}", f"{auc.max():.3f}",
-                         f"{prec:.3f}", fps])
+            rows.append(run_config(tasks, overrides, args.seeds, args.skip_start).row(label))
         n = sum(len(t[0]) for t in tasks)
         print_table(["config (100 particles unless stated)", "AUC", "min", "max", "prec@20",
-                     "frames/s"], rows,
+                     "LT F", "absent P / R", "frames/s"], rows,
                     title=f"{name}: {len(tasks)} task(s), {n} frames, {args.seeds} seeds"
                           f"{_skipped(args.skip_start)}")
         sys.stdout.flush()

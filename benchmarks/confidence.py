@@ -54,7 +54,7 @@ from _common import SHARED_DATA, print_table, single_thread  # noqa: E402
 
 single_thread()
 
-from appearance_eval import sequences  # noqa: E402
+from appearance_eval import FIRST_FOUR, sequences  # noqa: E402
 from sklearn.linear_model import LogisticRegression  # noqa: E402
 from sklearn.metrics import roc_auc_score  # noqa: E402
 
@@ -127,8 +127,9 @@ def main() -> None:
     ap.add_argument("--lost", default="0.1,0.2,0.3,0.5",
                     help="thresholds of the lost signal's table (comma-separated)")
     args = ap.parse_args()
-    groups = sequences(args.persons, persons_from=[s for s in args.person_sequences.split(",")
-                                                    if s])
+    # the sequences the shipped confidence was fitted on (appearance_eval.FIRST_FOUR)
+    groups = sequences(args.persons, names=FIRST_FOUR,
+                       persons_from=[s for s in args.person_sequences.split(",") if s])
     data = {n: collect(tasks, args.seeds) for n, tasks in groups.items()}
     if len(data) < 2:
         sys.exit(f"need at least two of {SEQUENCES} under {SHARED_DATA}")

@@ -73,15 +73,16 @@ def main() -> None:
         per: dict[str, list] = {}  # row label -> [(AUC, fps) per video]
         for label, overrides in configs:
             for task in tasks:
-                auc, _, fps = ae.run_config([task], overrides, args.seeds)
-                per.setdefault(label, []).append((float(auc.mean()), fps))
+                got = ae.run_config([task], overrides, args.seeds)
+                per.setdefault(label, []).append((float(np.mean(got.aucs)), got.median_fps))
         if not args.no_peers:
             if peer_python() is None:
                 print(ae.SETUP_HINT + "; MIL alone runs here")
             peers = ae.run_peers if peer_python() is not None else ae.run_mil_here
             for task in tasks:
-                for name, (auc, _, fps) in peers([task]).items():
-                    per.setdefault(f"OpenCV {name}", []).append((auc, fps))
+                for name, got in peers([task]).items():
+                    per.setdefault(f"OpenCV {name}", []).append((float(np.mean(got.aucs)),
+                                                                 got.median_fps))
         rows = [[label] + [f"{a:.3f}" for a, _ in vals]
                 + [f"{np.mean([a for a, _ in vals]):.3f}",
                    float(np.median([f for _, f in vals]))] for label, vals in per.items()]

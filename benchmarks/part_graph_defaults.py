@@ -34,7 +34,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import machine_note, print_table  # noqa: E402
-from appearance_eval import DEFAULT, SINGLE, run_config, sequences  # noqa: E402
+from appearance_eval import DEFAULT, FIRST_FOUR, run_config, sequences  # noqa: E402
 
 from pgm.models.part_graph import PAPER_PARTICLES  # noqa: E402
 
@@ -79,8 +79,9 @@ def evaluate(seqs, configs, seeds):
         t0 = time.perf_counter()
         auc[label], secs, frames = {}, 0.0, 0
         for name, tasks in seqs.items():
-            a, _, f = run_config(tasks, fields, seeds)
-            auc[label][name] = float(a.mean())
+            got = run_config(tasks, fields, seeds)
+            auc[label][name] = float(np.mean(got.aucs))
+            f = got.median_fps
             n = sum(len(t[0]) for t in tasks)
             frames += n
             secs += n / f
@@ -107,15 +108,15 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", type=int, default=2)
     ap.add_argument("--sequences", default=None,
-                    help="comma-separated subset of " + ",".join(SINGLE) + " (default: all)")
+                    help="comma-separated subset of " + ",".join(FIRST_FOUR) + " (default: all)")
     args = ap.parse_args()
-    names = list(SINGLE)
+    names = list(FIRST_FOUR)
     if args.sequences:
         names = [s.strip() for s in args.sequences.split(",")]
     seqs = sequences(0, names=names, persons_from=())
     names = [n for n in names if n in seqs]
     if len(names) < 2:
-        sys.exit("need at least two of " + ", ".join(SINGLE) + " under ../shared/data")
+        sys.exit("need at least two of " + ", ".join(FIRST_FOUR) + " under ../shared/data")
     t0 = time.perf_counter()
     auc, fps = evaluate(seqs, GRID + REFERENCES, args.seeds)
     header = ["config (Params fields)"] + names + ["mean", "frames/s"]

@@ -97,8 +97,15 @@ def build_graph(params: Params, name: str = "object") -> FactorGraph:
     calibrated confidence declared when a correlation filter is among its cues."""
     if name != "object":
         raise ValueError("the single-object model's variable is called 'object'")
-    graph = colour_pf.one_node_graph(params, "single-object")
-    cf = [f for f in graph.factors_of("object", "likelihood")
+    return with_confidence(colour_pf.one_node_graph(params, "single-object"))
+
+
+def with_confidence(graph: FactorGraph) -> FactorGraph:
+    """``graph`` with the calibrated confidence (:data:`CONFIDENCE`) declared on its first
+    correlation filter, where it has one and declares no confidence yet (in place)."""
+    if "confidence" in graph.meta:
+        return graph
+    cf = [f for v in graph.variables for f in graph.factors_of(v, "likelihood")
           if isinstance(f, CorrelationFilterLikelihood)]
     if cf:
         graph.meta["confidence"] = check_confidence_spec(

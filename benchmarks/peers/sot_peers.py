@@ -10,11 +10,12 @@ Runs INSIDE the peer venv (``bash benchmarks/peers/setup_env.sh``: CSRT and KCF 
 frame's box, top-left ``x, y`` and size in pixel coordinates with the origin at the
 image's top-left pixel (the toolkit's 0-based coordinates, which are OpenCV's).
 
-``RESULT.json``: ``{tracker: {"boxes": [[x, y, w, h], ...], "fps": f, "failed_frames": k,
-"frames": T, "seconds": s}}``, one box per frame; the first is ``init`` as given. Each
-tracker is initialised on the first frame with the box rounded to integers (what
-OpenCV's ``Tracker.init`` takes); when ``update`` reports failure (``ok`` False) the
-previous box is kept and the frame counted in ``failed_frames``. ``fps`` is frames 2..T
+``RESULT.json``: ``{tracker: {"boxes": [[x, y, w, h], ...], "ok": [bool, ...], "fps": f,
+"failed_frames": k, "frames": T, "seconds": s}}``, one box and ``update``'s flag per
+frame; the first is ``init`` as given. Each tracker is initialised on the first frame
+with the box rounded to integers (what OpenCV's ``Tracker.init`` takes); when ``update``
+reports failure (``ok`` False) the previous box is kept and the frame counted in
+``failed_frames``. ``fps`` is frames 2..T
 over the time in ``update`` only (decoding and ``init`` excluded), as the toolkit's own
 MIL baseline in ``benchmarks/appearance_eval.py``. Images are decoded as 3-channel BGR
 (``cv2.IMREAD_COLOR``; greyscale files become three equal channels, as the toolkit's frame
@@ -61,20 +62,22 @@ def run_tracker(name: str, frames: list[str], init: list[float], seed: int = 0) 
     box0 = (int(round(x)), int(round(y)), max(1, int(round(w))), max(1, int(round(h))))
     tracker.init(read(frames[0]), box0)
     boxes = [[x, y, w, h]]
+    oks = [True]
     failed, secs = 0, 0.0
     for path in frames[1:]:
         image = read(path)
         t0 = time.perf_counter()
         ok, b = tracker.update(image)
         secs += time.perf_counter() - t0
+        oks.append(bool(ok))
         if ok:
             boxes.append([float(v) for v in b])
         else:
             failed += 1
             boxes.append(list(boxes[-1]))
     n = len(frames) - 1
-    return {"boxes": boxes, "fps": n / secs if secs > 0 else None, "failed_frames": failed,
-            "frames": len(frames), "seconds": secs}
+    return {"boxes": boxes, "ok": oks, "fps": n / secs if secs > 0 else None,
+            "failed_frames": failed, "frames": len(frames), "seconds": secs}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -311,6 +311,18 @@ def _print_metrics(metrics: dict, stream=None) -> None:
             ("mean centre error (px)", _fmt(metrics["mean_centre_error"], ".2f"))]
     if metrics.get("n_missing"):
         rows.append(("frames without a box", f"{metrics['n_missing']}"))
+    if metrics.get("n_absent"):
+        rows.append(("frames annotated absent", f"{metrics['n_absent']}"))
+    lt = metrics.get("long_term")
+    if lt is not None and (metrics.get("n_absent") or lt.get("threshold") is not None):
+        rows.append(("long-term F-score", _fmt(lt["f_score"], ".3f")))
+        rows.append(("  precision / recall", f"{_fmt(lt['precision'], '.3f')} / "
+                                             f"{_fmt(lt['recall'], '.3f')}"))
+    ab = metrics.get("absence")
+    if ab is not None:
+        rows.append((f"absence flagged (conf < {ab['threshold']:g})",
+                     f"precision {_fmt(ab['precision'], '.3f')}, "
+                     f"recall {_fmt(ab['recall'], '.3f')}"))
     if "fps" in metrics:
         rows.append(("frames per second", _fmt(metrics["fps"], ".1f")))
     width = max(len(r[0]) for r in rows)

@@ -93,7 +93,11 @@ def cmd_eval(args) -> int:
     if ids.size > 1:
         raise InputError(f"{args.pred} has {ids.size} identities; single-object evaluation "
                          f"needs one")
-    metrics = single_object_metrics(gt, pred.frames, pred.boxes)
+    # the result file's confidences (column 7) give the long-term measures, and the
+    # frames it leaves out (a run's --lost-below) count as reported absent
+    conf = pred.conf if np.all(np.isfinite(pred.conf)) and np.unique(pred.conf).size > 1 \
+        else None
+    metrics = single_object_metrics(gt, pred.frames, pred.boxes, conf)
     if args.json:
         print(json.dumps(metrics, indent=1))
     else:

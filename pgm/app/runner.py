@@ -212,7 +212,12 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
         with ground truth, ``metrics.json`` gets ``"lost"``: the frames flagged, and the
         signal's precision and recall against the frames where the box overlaps the
         truth by less than half (:func:`pgm.evaluation.calibration.lost_signal`). The
-        other metrics score every frame's box, flagged or not. Default: off.
+        other metrics score every frame's box, flagged or not. Default: off. With a
+        model that declares a confidence, ``metrics.json`` also has the long-term
+        measures (``"long_term"``: tracking precision, recall and F-score over the
+        confidence thresholds) and, where the ground truth marks frames as absent,
+        ``"absence"``: how well ``confidence < lost_below`` (0.5 when off) flags them
+        (:func:`pgm.evaluation.single_object.absence_signal`).
 
     Notes
     -----
@@ -296,7 +301,9 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     boxes_arr = np.asarray(boxes_done)
     # score the annotated frames up to the last frame processed (max_frames may stop early)
     scores_arr = np.asarray(scores_done)
-    metrics = (single_object_metrics(gt.until(frames_arr.max()), frames_arr, boxes_arr)
+    conf = scores_arr if "confidence" in engine.graph.meta else None
+    metrics = (single_object_metrics(gt.until(frames_arr.max()), frames_arr, boxes_arr, conf,
+                                     0.5 if lost_below is None else lost_below)
                if gt is not None else None)
     if metrics is not None and "confidence" in engine.graph.meta:
         metrics["confidence"] = confidence_metrics(metrics, frames_arr, scores_arr)

@@ -116,7 +116,8 @@ def _parse_table(path: Path, lines: list[str], *, min_cols: int, max_cols: int |
 
 @dataclass(frozen=True, eq=False)
 class SingleTrack:
-    """One object's boxes on the frames where it is annotated.
+    """One object's boxes on the frames where it is annotated, and the frames where it is
+    annotated as absent.
 
     Attributes
     ----------
@@ -124,18 +125,28 @@ class SingleTrack:
         1-based frame numbers that carry a box, increasing.
     boxes : ndarray of float, shape (K, 4)
         Top-left ``(x, y, w, h)``, 0-based internal pixel coordinates, ``w, h > 0``.
+    absent : ndarray of int, shape (A,)
+        1-based frame numbers where the annotation says the object is not visible (fully
+        occluded or out of view: UAV123's ``NaN`` rows), increasing; none by default.
+        A frame in neither ``frames`` nor ``absent`` is unannotated (not scored).
     """
 
     frames: np.ndarray
     boxes: np.ndarray
+    absent: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def __post_init__(self) -> None:
         frames = np.asarray(self.frames, dtype=np.int64).reshape(-1)
         boxes = np.asarray(self.boxes, dtype=float).reshape(-1, 4)
+        absent = np.asarray(self.absent, dtype=np.int64).reshape(-1)
         if frames.shape[0] != boxes.shape[0]:
             raise ValueError(f"{frames.shape[0]} frames but {boxes.shape[0]} boxes")
+        both = np.intersect1d(frames, absent)
+        if both.size:
+            raise ValueError(f"frame {int(both[0])} is annotated both with a box and as absent")
         object.__setattr__(self, "frames", frames)
         object.__setattr__(self, "boxes", boxes)
+        object.__setattr__(self, "absent", absent)
 
     def __len__(self) -> int:
         return int(self.frames.shape[0])
@@ -143,12 +154,14 @@ class SingleTrack:
     def until(self, last_frame: int) -> SingleTrack:
         """The annotations of frames ``<= last_frame`` (to score a run that stopped early)."""
         keep = self.frames <= int(last_frame)
-        return SingleTrack(self.frames[keep], self.boxes[keep])
+        return SingleTrack(self.frames[keep], self.boxes[keep],
+                           self.absent[self.absent <= int(last_frame)])
 
     def since(self, first_frame: int) -> SingleTrack:
         """The annotations of frames ``>= first_frame`` (to score a run's later part)."""
         keep = self.frames >= int(first_frame)
-        return SingleTrack(self.frames[keep], self.boxes[keep])
+        return SingleTrack(self.frames[keep], self.boxes[keep],
+                           self.absent[self.absent >= int(first_frame)])
 
 
 def detect_gt_format(path: str | Path) -> str:
@@ -183,8 +196,9 @@ def load_single_gt(path: str | Path, fmt: str = "auto", *, obj_id: int | None = 
     fmt : {'auto', 'otb', 'miltrack', 'mot'}
         * ``'otb'`` — ``groundtruth_rect.txt``: line *i* (1-based) is frame *i*, four
           numbers ``x, y, w, h`` separated by commas, tabs or spaces; 1-based ``x, y``.
-          A line with NaN or a non-positive width/height marks a frame without a box
-          (OTB's way of saying absent); it is skipped.
+          A line with NaN marks a frame where the object is **absent** (fully occluded
+          or out of view: UAV123's convention; ``absent``); a line with a non-positive
+          width or height marks a frame without annotation, skipped.
         * ``'miltrack'`` — ``*_gt.txt`` of the MILTrack release (FaceOcc1): line *k*
           (0-based) is frame *k + 1*; ``0,0,0,0`` means "not annotated" and is skipped;
           **0-based** ``x, y`` (C++/OpenCV origin), read unchanged.
@@ -197,7 +211,8 @@ def load_single_gt(path: str | Path, fmt: str = "auto", *, obj_id: int | None = 
     Returns
     -------
     SingleTrack
-        The annotated frames and their 0-based top-left boxes.
+        The annotated frames and their 0-based top-left boxes, and the frames annotated
+        as absent.
 
     Raises
     ------
@@ -228,7 +243,9 @@ def load_single_gt(path: str | Path, fmt: str = "auto", *, obj_id: int | None = 
         boxes[:, :2] -= 1.0
     if not np.any(valid):
         raise InputError(f"no annotated box in {p}")
-    return SingleTrack(frames=frames[valid], boxes=boxes[valid])
+    absent = (frames[np.any(np.isnan(table[:, :4]), axis=1)] if fmt == "otb"
+              else np.zeros(0, dtype=np.int64))
+    return SingleTrack(frames=frames[valid], boxes=boxes[valid], absent=absent)
 
 
 def _single_from_mot(p: Path, obj_id: int | None) -> SingleTrack:
