@@ -8,14 +8,16 @@ a ratio of the map to itself) and the log of the posterior's spread (particles' 
 standard deviation over the box size)
 mapped through a logistic (:func:`pgm.core.readout.confidence`). This script
 
-1. runs the model over the four single-object sequences of ``../shared/data``
-   (FaceOcc1, Crossing, David, Tiger1) and the ``--persons`` longest person tracks of
+1. runs the model over the eight single-object sequences of ``../shared/data``
+   (``--sequences``; frames annotated absent, UAV10-group3's, count as misses) and the
+   ``--persons`` longest person tracks of
    PETS09-S2L1 (``--person-sequences``: also of TUD-Campus, TUD-Stadtmitte and MOT16-11)
    run as single-object tasks, one group per sequence (people crossing each other,
    occluders, a moving camera: where the tracker does fail — a calibration needs
    failures to learn from)
-   with ``--seeds`` seeds and collects, at every annotated frame, the two features and
-   the outcome (IoU ≥ 0.5);
+   with ``--seeds`` seeds and collects, at every annotated frame, the features
+   (``--features``: the two the model ships, or the response over its running peak too)
+   and the outcome (IoU ≥ 0.5);
 2. for each group, fits the logistic on the others and scores the held-out one:
    how well it ranks hits above misses (AUROC, where the group has both), its
    reliability diagram, expected calibration error (ECE, 10 bins) and Brier score,
@@ -39,6 +41,7 @@ with every frame weighted equally.
 
     python benchmarks/confidence.py [--seeds 2] [--persons 6] [--person-sequences A,B]
                                     [--weighting videos|frames] [--lost 0.1,0.2,0.3,0.5]
+                                    [--sequences all|first-four|A,B] [--features psr,spread]
 """
 
 from __future__ import annotations
@@ -54,7 +57,7 @@ from _common import SHARED_DATA, print_table, single_thread  # noqa: E402
 
 single_thread()
 
-from appearance_eval import FIRST_FOUR, sequences  # noqa: E402
+from appearance_eval import FIRST_FOUR, SINGLE, sequences  # noqa: E402
 from sklearn.linear_model import LogisticRegression  # noqa: E402
 from sklearn.metrics import roc_auc_score  # noqa: E402
 
@@ -66,15 +69,22 @@ from pgm.evaluation.single_object import single_object_metrics  # noqa: E402
 from pgm.inference import Engine  # noqa: E402
 from pgm.models import single_object  # noqa: E402
 
-SEQUENCES = ("FaceOcc1", "Crossing", "David", "Tiger1")
 #: MOT sequences whose longest ground-truth people are tracked as single objects, one
 #: group per sequence: crowds, crossings and occluders, where the tracker does fail
 PERSON_SEQUENCES = ("PETS09-S2L1", "TUD-Campus", "TUD-Stadtmitte", "MOT16-11")
 
 
+#: the features a fit may use (``--features``): the log peak-to-sidelobe ratio, the log
+#: posterior spread, the log response over the running peak
+FEATURES = ("psr", "spread", "response")
+#: the declaration's key of each feature's coefficient (the PSR's is ``slope``)
+KEYS = {"psr": "slope", "spread": "spread_slope", "response": "response_slope"}
+
+
 def collect(tasks, seeds: int):
-    """``(features (K, 2), outcome, shipped confidence)`` at the annotated frames of every
-    task, all seeds."""
+    """``(features (K, 3), outcome, shipped confidence)`` at the annotated frames of every
+    task, all seeds: the frames with a box (outcome: IoU >= 0.5) and those annotated
+    absent (outcome: a miss, whatever the box: nothing is there to overlap)."""
     feats, hits, shipped = [], [], []
     for seed in range(seeds):
         for frames, gt, init, _ in tasks:
@@ -88,25 +98,26 @@ def collect(tasks, seeds: int):
                 numbers.append(number)
                 boxes.append(box)
                 f_seq.append([factor.confidence_feature,
-                              np.log(max(posterior_spread(record, "object"), 1e-6))])
+                              np.log(max(posterior_spread(record, "object"), 1e-6)),
+                              factor.confidence_response])
                 c_seq.append(score)
             m = single_object_metrics(gt, np.array(numbers), np.array(boxes))
             at = {n: k for k, n in enumerate(numbers)}
-            idx = [at[f] for f in m["frames"]]
+            absent = [int(f) for f in gt.absent if int(f) in at]
+            idx = [at[f] for f in m["frames"]] + [at[f] for f in absent]
             feats.append(np.array(f_seq)[idx])
             shipped.append(np.array(c_seq)[idx])
-            hits.append(np.array(m["ious"]) >= 0.5)
+            hits.append(np.concatenate([np.array(m["ious"]) >= 0.5,
+                                        np.zeros(len(absent), dtype=bool)]))
     return np.concatenate(feats), np.concatenate(hits), np.concatenate(shipped)
 
 
-def fit(x: np.ndarray, y: np.ndarray, weights: np.ndarray | None = None
-        ) -> tuple[float, float, float]:
-    """Logistic ``P(hit | r, log s) = σ(a + b r + c log s)`` (``r``: the factor's
-    confidence feature, the log peak-to-sidelobe ratio) (scikit-learn's default mild
-    L2 penalty, C = 1: a sequence where every frame is a hit has no finite optimum),
-    frames weighted by ``weights`` (all 1 when None)."""
+def fit(x: np.ndarray, y: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+    """Logistic ``P(hit | x) = σ(a + x · b)`` on the chosen features ``x`` (scikit-learn's
+    default mild L2 penalty, C = 1: a sequence where every frame is a hit has no finite
+    optimum), frames weighted by ``weights`` (all 1 when None): ``[a, *b]``."""
     lr = LogisticRegression(C=1.0).fit(x, y.astype(int), sample_weight=weights)
-    return float(lr.intercept_[0]), float(lr.coef_[0, 0]), float(lr.coef_[0, 1])
+    return np.concatenate([lr.intercept_, lr.coef_[0]]).astype(float)
 
 
 def sigmoid(z):
@@ -126,13 +137,25 @@ def main() -> None:
                     help="fit with every group weighted equally (default) or every frame")
     ap.add_argument("--lost", default="0.1,0.2,0.3,0.5",
                     help="thresholds of the lost signal's table (comma-separated)")
+    ap.add_argument("--features", default="psr,spread",
+                    help="comma-separated features of the fit, of " + ",".join(FEATURES)
+                         + " (default psr,spread: the shipped fit's)")
+    ap.add_argument("--sequences", default="all",
+                    help="'all' (the eight single-object sequences: the shipped fit, the "
+                         "default), 'first-four' (FaceOcc1, Crossing, David, Tiger1: the fit "
+                         "shipped before the eight) or a comma-separated list")
     args = ap.parse_args()
-    # the sequences the shipped confidence was fitted on (appearance_eval.FIRST_FOUR)
-    groups = sequences(args.persons, names=FIRST_FOUR,
+    use = [FEATURES.index(f.strip()) for f in args.features.split(",")]
+    if not use or use[0] != 0 or len(set(use)) != len(use):
+        sys.exit(f"--features: psr first, then any of {FEATURES[1:]}, each once")
+    names = {"first-four": FIRST_FOUR, "all": SINGLE}.get(
+        args.sequences, tuple(s.strip() for s in args.sequences.split(",")))
+    groups = sequences(args.persons, names=names,
                        persons_from=[s for s in args.person_sequences.split(",") if s])
-    data = {n: collect(tasks, args.seeds) for n, tasks in groups.items()}
+    data = {n: (lambda d: (d[0][:, use], d[1], d[2]))(collect(tasks, args.seeds))
+            for n, tasks in groups.items()}
     if len(data) < 2:
-        sys.exit(f"need at least two of {SEQUENCES} under {SHARED_DATA}")
+        sys.exit(f"need at least two of {names} under {SHARED_DATA}")
 
     def training(names):
         xs = np.concatenate([data[n][0] for n in names])
@@ -144,8 +167,8 @@ def main() -> None:
     pooled_shipped = []
     for held, (x, y, shipped) in data.items():
         xs, ys, ws = training([n for n in data if n != held])
-        a, b, k = fit(xs, ys, ws)
-        c = sigmoid(a + x @ np.array([b, k]))
+        coef = fit(xs, ys, ws)
+        c = sigmoid(coef[0] + x @ coef[1:])
         r = reliability(c, y)
         r_ship = reliability(shipped, y)
         r_const = reliability(np.full(len(y), np.average(ys, weights=ws)), y)
@@ -159,9 +182,10 @@ def main() -> None:
         auroc = f"{roc_auc_score(y, c):.2f}" if 0 < y.mean() < 1 else "-"
         rows.append([held, len(y), f"{y.mean():.3f}", f"{c.mean():.3f}", auroc, f"{r['ece']:.3f}",
                      f"{r['brier']:.3f}", f"{r_const['ece']:.3f}", f"{r_const['brier']:.3f}",
-                     f"{r_ship['ece']:.3f}", f"{a:.2f} / {b:.2f} / {k:.2f}"])
+                     f"{r_ship['ece']:.3f}", " / ".join(f"{v:.2f}" for v in coef)])
     print_table(["held-out group", "frames", "hit rate", "mean conf", "AUROC", "ECE", "Brier",
-                 "ECE const", "Brier const", "ECE shipped", "fit on others a / b / c"], rows,
+                 "ECE const", "Brier const", "ECE shipped",
+                 "fit on others: intercept / " + " / ".join(args.features.split(","))], rows,
                 title=f"Leave-one-sequence-out calibration ({args.seeds} seeds; outcome: "
                       f"IoU >= 0.5 at annotated frames; fit weighting: {args.weighting})")
     print(f"\nmean held-out ECE per video: {np.mean(eces):.3f} over {len(eces)} groups")
@@ -202,11 +226,14 @@ def main() -> None:
                       "where the box overlaps the truth by less than half; held-out and "
                       "shipped confidences, every video weighted equally")
     xs, ys, ws = training(list(data))
-    a, b, k = fit(xs, ys, ws)
-    r = reliability(sigmoid(a + xs @ np.array([b, k])), ys, weights=video_weights(video_of))
-    print(f"\nfitted on all {len(data)} groups: intercept {a:.3f}, slope {b:.3f}, "
-          f"spread_slope {k:.3f} (shipped: {single_object.CONFIDENCE}); its ECE on them, "
-          f"every video weighted equally: {r['ece']:.3f}")
+    coef = fit(xs, ys, ws)
+    r = reliability(sigmoid(coef[0] + xs @ coef[1:]), ys, weights=video_weights(video_of))
+    got = ", ".join([f"intercept {coef[0]:.3f}"] + [f"{KEYS[FEATURES[i]]} {v:.3f}"
+                                                   for i, v in zip(use, coef[1:], strict=True)])
+    print(f"\nfitted on all {len(data)} groups: {got} (shipped: {single_object.CONFIDENCE}); "
+          f"its ECE on them, every video weighted equally: {r['ece']:.3f}")
+    print(f"held-out AUROC, mean over the groups with hits and misses: "
+          f"{np.mean([float(r[4]) for r in rows if r[4] != '-']):.3f}")
 
 
 if __name__ == "__main__":

@@ -121,7 +121,7 @@ def cxcywh_target(box: Any, score: float = 1.0) -> Targets:
                    np.array([float(score)]))
 
 
-_SPEC_KEYS = {"factor", "intercept", "slope", "spread_slope"}
+_SPEC_KEYS = {"factor", "intercept", "slope", "spread_slope", "response_slope"}
 
 
 def check_confidence_spec(spec: Any, factors: dict) -> dict:
@@ -129,11 +129,11 @@ def check_confidence_spec(spec: Any, factors: dict) -> dict:
     if (not isinstance(spec, dict) or not {"factor", "intercept", "slope"} <= set(spec)
             or not set(spec) <= _SPEC_KEYS):
         raise ValueError(f"meta['confidence'] must have keys factor, intercept, slope (and "
-                         f"optionally spread_slope), got {spec!r}")
+                         f"optionally spread_slope, response_slope), got {spec!r}")
     if spec["factor"] not in factors:
         raise ValueError(f"meta['confidence'] names factor {spec['factor']!r}, which the graph "
                          f"does not have")
-    for k in ("intercept", "slope", "spread_slope"):
+    for k in ("intercept", "slope", "spread_slope", "response_slope"):
         v = spec.get(k, 0.0)
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
             raise ValueError(f"meta['confidence'][{k!r}] must be a finite number, got {v!r}")
@@ -153,8 +153,11 @@ def posterior_spread(record, variable: str) -> float:
 
 def confidence(graph, record=None) -> float | None:
     """The graph's calibrated confidence for its last step, or None where it declares
-    none (or its factor has not scored a frame yet). ``record`` (the step's record) is
-    needed where the declaration has a ``spread_slope``."""
+    none (or its factor has not scored a frame yet): the logistic of ``intercept +
+    slope × feature + spread_slope × log spread + response_slope × response``, with the
+    factor's ``confidence_feature`` (and ``confidence_response``) and the posterior's
+    spread (:func:`posterior_spread`). ``record`` (the step's record) is needed where
+    the declaration has a ``spread_slope``."""
     spec = graph.meta.get("confidence")
     if spec is None:
         return None
@@ -168,6 +171,12 @@ def confidence(graph, record=None) -> float | None:
         if record is None:
             raise ValueError("this confidence needs the step record (posterior spread)")
         z += c * np.log(max(posterior_spread(record, graph.output[0]), 1e-6))
+    d = float(spec.get("response_slope", 0.0))
+    if d != 0.0:
+        response = getattr(graph.factors[spec["factor"]], "confidence_response", None)
+        if response is None or not np.isfinite(response):
+            return None
+        z += d * float(response)
     return float(0.5 * (1.0 + np.tanh(0.5 * z)))  # the logistic, overflow-free
 
 

@@ -245,6 +245,17 @@ class CorrelationFilterLikelihood(LearnedContext, RedetectionScan, ResponseReadi
             return None
         return float(np.log(max(self.last_psr, 1e-3)))
 
+    @property
+    def confidence_response(self) -> float | None:
+        """``log`` of the filter's response at the last estimate over its running mean
+        peak (floored at 0.01; None before the first update): the second feature
+        :func:`pgm.core.readout.confidence` may calibrate (``response_slope``). A filter
+        held by a corner of the background can keep a sharp map (a high PSR) while its
+        response there stays a fraction of the target's."""
+        if self.last_response is None:
+            return None
+        return float(np.log(max(self.last_response, 1e-2)))
+
     def params(self) -> dict[str, Any]:
         return {"lam": self.lam, "padding": self.padding, "target_px": self.target_px,
                 "n_orient": self.n_orient, "sigma": self.sigma, "reg": self.reg,

@@ -86,3 +86,29 @@ def test_the_lost_signal_leaves_hidden_frames_empty_and_scores_itself(tmp_path, 
     plain = colour_pf.build_graph(colour_pf.Params(init_box=(110.0, 100, 40, 56)))
     with pytest.raises(InputError, match="no calibrated confidence"):
         track(frames, plain, rng=0, progress=False, lost_below=0.5)
+
+
+def test_the_response_feature_enters_the_logistic():
+    """A declaration with ``response_slope`` adds it times the factor's log relative
+    response (``confidence_response``: the response at the estimate over the running
+    peak) to the logistic's argument, exactly; a non-finite slope is refused."""
+    from pgm.core.frame import FrameContext
+    from pgm.core.readout import posterior_spread
+    from pgm.inference import Engine
+
+    frames, _ = hidden_object_frames(8, 4)
+    graph = single_object.build_graph(single_object.Params(init_box=(110.0, 100, 40, 56)))
+    spec = dict(graph.meta["confidence"])
+    graph.meta["confidence"] = {**spec, "response_slope": 1.5}
+    eng = Engine(graph, np.random.default_rng(0))
+    for frame in frames:
+        rec = eng.step(FrameContext(*frame))
+    cf = eng.graph.factors[spec["factor"]]
+    z = (spec["intercept"] + spec["slope"] * cf.confidence_feature
+         + spec["spread_slope"] * np.log(posterior_spread(rec, "object"))
+         + 1.5 * cf.confidence_response)
+    assert confidence(eng.graph, rec) == pytest.approx(1 / (1 + np.exp(-z)), rel=1e-12)
+    assert cf.confidence_response == pytest.approx(np.log(max(cf.last_response, 1e-2)))
+    assert cf.confidence_response < -0.5  # hidden: well below the running peak
+    with pytest.raises(ValueError, match="response_slope"):
+        check_confidence_spec({**spec, "response_slope": float("inf")}, eng.graph.factors)
