@@ -28,11 +28,13 @@ Sequences (``../shared/data``):
 ``--loso`` runs the candidate configurations of ``GRID`` on the single-object sequences
 and, for each one held out, picks the candidate with the best mean AUC on the others and
 reports its AUC on the held-out one: how the default (``pgm.models.single_object``) was
-chosen.
+chosen. ``--frame-rate`` chooses, the same way over the sequences at their own frame rate,
+half and a third of it (frames dropped), how the noise follows the rate.
 
     python benchmarks/appearance_eval.py [--seeds 5] [--persons 6] [--quick] [--skip-start 0.25]
                                          [--sequences FaceOcc1,David]
     python benchmarks/appearance_eval.py --loso [--seeds 2] [--skip-start 0.25]
+    python benchmarks/appearance_eval.py --frame-rate [--seeds 2]
 """
 
 from __future__ import annotations
@@ -115,6 +117,10 @@ SINGLE = ("FaceOcc1", "Crossing", "David", "Tiger1", "Girl", "Biker", "MotorRoll
           "UAV10-group3")
 #: the four MILTrack/OTB clips the earlier defaults (and the confidence) were chosen on
 FIRST_FOUR = SINGLE[:4]
+#: frame rates the sequences' folders do not declare, from their SOURCE.md (UAV123@10fps);
+#: with a MOT sequence's declared rate (seqinfo.ini), what the model converts its per-frame
+#: noise from (single_object.REFERENCE_FPS; filled in by :func:`sequences`)
+DECLARED_FPS: dict[str, float] = {"UAV10-group3": 10.0}
 
 
 def person_tasks(seq: str, n_persons: int) -> list:
@@ -149,6 +155,8 @@ def sequences(n_persons: int, names=SINGLE, persons_from=("PETS09-S2L1",)):
     for name in names:
         if (SHARED_DATA / name).is_dir():
             src = open_source(SHARED_DATA / name)
+            if src.fps_declared:
+                DECLARED_FPS.setdefault(name, src.fps)
             gt = load_single_gt(src.gt_path)
             frames = list(src.frames())
             out[name] = [(frames, gt, init_box_from_gt(gt, frames[0][0]),
@@ -156,7 +164,11 @@ def sequences(n_persons: int, names=SINGLE, persons_from=("PETS09-S2L1",)):
     for seq in persons_from:
         group = person_tasks(seq, n_persons)
         if group:
-            out["PETS persons" if seq == "PETS09-S2L1" else f"{seq} persons"] = group
+            label = "PETS persons" if seq == "PETS09-S2L1" else f"{seq} persons"
+            out[label] = group
+            src = open_source(SHARED_DATA / seq)
+            if src.fps_declared:
+                DECLARED_FPS.setdefault(label, src.fps)
     return out
 
 
@@ -218,15 +230,24 @@ class Scores:
                 f"{prec:.3f}", f3(ltf), absent, self.median_fps]
 
 
-def run_config(tasks, overrides, seeds, skip_start: float = 0.0) -> Scores:
+def frame_step(fps: float | None) -> float:
+    """What the single-object model makes of a declared frame rate (None: 1)."""
+    return 1.0 if fps is None else single_object.REFERENCE_FPS / fps
+
+
+def run_config(tasks, overrides, seeds, skip_start: float = 0.0,
+               fps: float | None = None) -> Scores:
     """The config on every task, ``seeds`` seeds (:class:`Scores`); with ``skip_start``
-    the scores count only the frames after that share of each task's."""
+    the scores count only the frames after that share of each task's; ``fps``: the
+    video's declared frame rate (the per-frame noise converted from
+    ``single_object.REFERENCE_FPS``, as the model does)."""
     out = Scores()
     for seed in range(seeds):
         metrics, n_frames, secs = [], 0, 0.0
         for frames, gt, init, _ in tasks:
             h, w = frames[0][1].shape[:2]
-            kw = {"n_parts": 1, "num_particles": 100, "frame_size": (w, h)} | overrides
+            kw = {"n_parts": 1, "num_particles": 100, "frame_size": (w, h),
+                  "frame_step": frame_step(fps)} | overrides
             graph = single_object.with_confidence(
                 part_graph.build_graph(part_graph.Params(init_box=tuple(init), **kw)))
             conf: list[float] = []
@@ -295,8 +316,9 @@ def loso(seqs, seeds: int, skip_start: float = 0.0) -> None:
     table = {}
     rows = []
     for label, overrides in GRID:
-        table[label] = {n: float(np.mean(run_config(seqs[n], overrides, seeds,
-                                                    skip_start).aucs)) for n in names}
+        table[label] = {n: float(np.mean(run_config(seqs[n], overrides, seeds, skip_start,
+                                                    DECLARED_FPS.get(n)).aucs))
+                        for n in names}
         rows.append([label] + [f"{table[label][n]:.3f}" for n in names]
                     + [f"{np.mean(list(table[label].values())):.3f}"])
         print(f"  {label}: " + " ".join(rows[-1][1:]), file=sys.stderr, flush=True)
@@ -312,6 +334,45 @@ def loso(seqs, seeds: int, skip_start: float = 0.0) -> None:
     print_table(["held out", "picked on the others", "AUC there", "AUC held out"], picks,
                 title="Leave-one-sequence-out choice")
     print(f"held-out mean AUC: {np.mean([float(p[3]) for p in picks]):.3f}")
+
+
+def frame_rate_loso(seqs, seeds: int, steps=(1, 2, 3), exponents=(0.0, 0.5, 1.0)) -> None:
+    """How the default's per-frame noise should follow the frame rate, leave one sequence
+    out over the sequences × frame rate ÷ ``steps`` (frames dropped): the noise read at
+    ``single_object.REFERENCE_FPS`` times ``τ^e`` (``τ``: reference frames per video
+    frame), ``e`` among ``exponents`` (0: none; ½: a random walk, what the model does)."""
+    names = [n for n in SINGLE if n in seqs]
+    table: dict[float, dict[tuple[str, int], float]] = {e: {} for e in exponents}
+    for name in names:
+        frames, gt, init, paths = seqs[name][0]
+        for step in steps:
+            sub = frames[::step]
+            kept = [n for n, _ in sub]
+            task = (sub, SingleTrack(gt.frames[np.isin(gt.frames, kept)],
+                                     gt.boxes[np.isin(gt.frames, kept)],
+                                     gt.absent[np.isin(gt.absent, kept)]), init, paths)
+            tau = frame_step(DECLARED_FPS.get(name)) * step
+            for e in exponents:
+                walk = tau ** e
+                over = DEFAULT | {"pos_noise": 0.03 * np.sqrt(init[2] * init[3]) * walk,
+                                  "scale_noise": DEFAULT["scale_noise"] * walk}
+                table[e][(name, step)] = float(np.mean(run_config([task], over, seeds).aucs))
+            print(f"  {name} /{step}: " + " ".join(f"{table[e][(name, step)]:.3f}"
+                                                   for e in exponents), file=sys.stderr)
+    print_table(["noise x tau^e"] + [f"/{s} mean AUC" for s in steps],
+                [[f"e = {e:g}"] + [f"{np.mean([table[e][(n, s)] for n in names]):.3f}"
+                                   for s in steps] for e in exponents],
+                title=f"Frame rate divided by {steps}, {seeds} seeds")
+    rows, held, none = [], [], []
+    for out in names:
+        score = {e: np.mean([v for k, v in table[e].items() if k[0] != out]) for e in exponents}
+        best = max(exponents, key=lambda e: score[e])
+        held.append(np.mean([table[best][(out, s)] for s in steps]))
+        none.append(np.mean([table[exponents[0]][(out, s)] for s in steps]))
+        rows.append([out, f"e = {best:g}", f"{held[-1]:.3f}", f"{none[-1]:.3f}"])
+    print_table(["held out", "picked on the others", "AUC held out (mean over rates)",
+                 f"e = {exponents[0]:g}"], rows, title="Leave-one-sequence-out choice")
+    print(f"held-out mean AUC: {np.mean(held):.3f} (e = {exponents[0]:g}: {np.mean(none):.3f})")
 
 
 def main() -> None:
@@ -330,8 +391,11 @@ def main() -> None:
                          "choice too)")
     ap.add_argument("--sequences", default=None,
                     help="comma-separated subset (default: all, 'PETS persons' included)")
+    ap.add_argument("--frame-rate", action="store_true",
+                    help="leave-one-sequence-out choice of how the noise follows the frame "
+                         "rate, over the sequences at their rate, half and a third")
     args = ap.parse_args()
-    seqs = sequences(0 if args.loso else args.persons)
+    seqs = sequences(0 if args.loso or args.frame_rate else args.persons)
     if args.sequences:
         keep = {s.strip() for s in args.sequences.split(",")}
         seqs = {n: t for n, t in seqs.items() if n in keep}
@@ -340,6 +404,9 @@ def main() -> None:
     if args.loso:
         loso(seqs, args.seeds, args.skip_start)
         return
+    if args.frame_rate:
+        frame_rate_loso(seqs, args.seeds)
+        return
     if peer_python() is None:
         print(SETUP_HINT + "; MIL alone runs here")
     for name, tasks in seqs.items():
@@ -347,7 +414,8 @@ def main() -> None:
         for label, overrides in CONFIGS:
             if args.quick and label not in QUICK:
                 continue
-            rows.append(run_config(tasks, overrides, args.seeds, args.skip_start).row(label))
+            rows.append(run_config(tasks, overrides, args.seeds, args.skip_start,
+                                   DECLARED_FPS.get(name)).row(label))
         n = sum(len(t[0]) for t in tasks)
         print_table(["config (100 particles unless stated)", "AUC", "min", "max", "prec@20",
                      "LT F", "absent P / R", "frames/s"], rows,

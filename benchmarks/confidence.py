@@ -57,7 +57,7 @@ from _common import SHARED_DATA, print_table, single_thread  # noqa: E402
 
 single_thread()
 
-from appearance_eval import FIRST_FOUR, SINGLE, sequences  # noqa: E402
+from appearance_eval import DECLARED_FPS, FIRST_FOUR, SINGLE, sequences  # noqa: E402
 from sklearn.linear_model import LogisticRegression  # noqa: E402
 from sklearn.metrics import roc_auc_score  # noqa: E402
 
@@ -81,14 +81,16 @@ FEATURES = ("psr", "spread", "response")
 KEYS = {"psr": "slope", "spread": "spread_slope", "response": "response_slope"}
 
 
-def collect(tasks, seeds: int):
+def collect(tasks, seeds: int, fps: float | None = None):
     """``(features (K, 3), outcome, shipped confidence)`` at the annotated frames of every
     task, all seeds: the frames with a box (outcome: IoU >= 0.5) and those annotated
-    absent (outcome: a miss, whatever the box: nothing is there to overlap)."""
+    absent (outcome: a miss, whatever the box: nothing is there to overlap); ``fps``: the
+    video's declared frame rate (``single_object.Params.fps``)."""
     feats, hits, shipped = [], [], []
     for seed in range(seeds):
         for frames, gt, init, _ in tasks:
-            graph = single_object.build_graph(single_object.Params(init_box=tuple(init)))
+            graph = single_object.build_graph(single_object.Params(init_box=tuple(init),
+                                                                   fps=fps))
             engine = Engine(graph, np.random.default_rng(seed))
             factor = engine.graph.factors[engine.graph.meta["confidence"]["factor"]]
             numbers, boxes, f_seq, c_seq = [], [], [], []
@@ -152,8 +154,8 @@ def main() -> None:
         args.sequences, tuple(s.strip() for s in args.sequences.split(",")))
     groups = sequences(args.persons, names=names,
                        persons_from=[s for s in args.person_sequences.split(",") if s])
-    data = {n: (lambda d: (d[0][:, use], d[1], d[2]))(collect(tasks, args.seeds))
-            for n, tasks in groups.items()}
+    data = {n: (lambda d: (d[0][:, use], d[1], d[2]))(
+        collect(tasks, args.seeds, DECLARED_FPS.get(n))) for n, tasks in groups.items()}
     if len(data) < 2:
         sys.exit(f"need at least two of {names} under {SHARED_DATA}")
 

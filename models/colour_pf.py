@@ -95,10 +95,14 @@ def build_graph(params: Params, name: str = "object") -> FactorGraph:
 
 
 def one_node_graph(params: Params, graph_name: str) -> FactorGraph:
-    """The one-node part graph of ``params`` (any ``Params`` with these fields)."""
+    """The one-node part graph of ``params`` (any ``Params`` with these fields; those a
+    part graph has not, such as :class:`pgm.models.single_object.Params`'s ``fps``, are
+    left to the caller)."""
     from . import part_graph
 
-    fields = {f.name: getattr(params, f.name) for f in dataclasses.fields(params)}
+    known = {f.name for f in dataclasses.fields(part_graph.Params)}
+    fields = {f.name: getattr(params, f.name) for f in dataclasses.fields(params)
+              if f.name in known}
     return part_graph.build_graph(part_graph.Params(n_parts=1, **fields), name=graph_name)
 
 

@@ -115,6 +115,10 @@ class VideoInfo:
         Frame size (px).
     fps : float
         Frame rate.
+    fps_declared : bool
+        Whether the video says its frame rate (or the user gave it): a model whose
+        ``Params.fps`` defaults to None (constants in seconds, converted only from a
+        known rate) is given ``fps`` only then.
     init_box : tuple, optional
         The object's box in the first frame ``(cx, cy, w, h)`` (single-object models).
     typical_height : float, optional
@@ -128,6 +132,7 @@ class VideoInfo:
     width: int = 640
     height: int = 480
     fps: float = 25.0
+    fps_declared: bool = True
     init_box: tuple[float, float, float, float] | None = None
     typical_height: float | None = None
     particles: int | None = None
@@ -155,12 +160,13 @@ def default_build(config: ModelConfig, values: dict[str, Any], video: VideoInfo)
     ``Params`` has them, the video's initial box, frame rate, frame size and particle
     count."""
     params_cls = config.module.Params
-    fields = {f.name for f in dataclasses.fields(params_cls)}
+    declared = {f.name: f for f in dataclasses.fields(params_cls)}
+    fields = set(declared)
     kwargs = {o.field: values[o.dest] for o in config.options
               if o.field is not None and values.get(o.dest) not in (None, False)}
     if "init_box" in fields and video.init_box is not None:
         kwargs["init_box"] = tuple(float(v) for v in video.init_box)
-    if "fps" in fields:
+    if "fps" in fields and (video.fps_declared or declared["fps"].default is not None):
         kwargs["fps"] = float(video.fps)
     if "frame_size" in fields:
         kwargs["frame_size"] = (int(video.width), int(video.height))

@@ -118,6 +118,13 @@ class RedetectionAndAngle:
         filter sees (``angle_index``; 0: no angle, the default).
     frame_size : (width, height), optional
         The video's frame size in pixels (the application passes it).
+    frame_step : float
+        How many frames of the rate the per-frame noise constants are read at pass
+        between two of the video's (``τ``; :mod:`pgm.models.single_object` sets it to
+        30 frames/s over the video's declared rate; 1, the default: no conversion).
+        The position, scale and angle noise per frame are multiplied by ``√τ``: the
+        step of a random walk over ``τ`` reference frames, so that the motion allowed
+        per *second* is the same at any frame rate.
     """
 
     redetect: float = 0.0
@@ -127,6 +134,7 @@ class RedetectionAndAngle:
     reappear_prob: float = 0.01
     rotation_noise: float = 0.0
     frame_size: tuple[int, int] | None = None
+    frame_step: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -349,6 +357,9 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
     n = len(parts)
     pos = params.pos_noise if params.pos_noise is not None else 0.03 * np.sqrt(box[2] * box[3])
     check_finite_param("pos_noise", pos, nonneg=True)
+    step = float(check_finite_param("frame_step", params.frame_step, positive=True))
+    walk = np.sqrt(step)  # a random walk's step over `frame_step` reference frames
+    pos = pos * walk
     c_pos = (params.coupling_pos_std if params.coupling_pos_std is not None
              else 0.03 * np.sqrt(box[2] * box[3]))
     variables, factors = [], []
@@ -370,10 +381,10 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
                          if rotate else Variable(nm, 4, role="part", labels=BOX_LABELS))
         factors += [
             GaussianPrior(nm, mean=[*pb, 0.0] if rotate else pb, cov=0.0),
-            AR2Transition(nm, noise_std=[pos, pos, 0.0, 0.0] + ([params.rotation_noise]
+            AR2Transition(nm, noise_std=[pos, pos, 0.0, 0.0] + ([params.rotation_noise * walk]
                                                                 if rotate else []),
                           damping=params.damping,
-                          scale_noise=params.scale_noise,
+                          scale_noise=params.scale_noise * walk,
                           reference_size=pb[2:] if params.scale_noise > 0 else None,
                           jump_prob=params.jump_prob, jump_scale=params.jump_scale,
                           reappear_prob=params.reappear_prob if redetect else 0.0,

@@ -59,21 +59,28 @@ on the shared sequences, where the target never leaves the view, it costs accura
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from dataclasses import dataclass
 
 from pgm.core.graph import FactorGraph
+from pgm.core.numerics import check_finite_param
 from pgm.core.readout import check_confidence_spec
 from pgm.observation.appearance.correlation import CorrelationFilterLikelihood
 
 from . import colour_pf, part_graph
 from . import config as _config
 
-__all__ = ["CONFIG", "Params", "build_graph", "APPEARANCE", "SCALE_NOISE", "JUMP_PROB", "CONFIDENCE"]
+__all__ = ["CONFIG", "Params", "build_graph", "APPEARANCE", "SCALE_NOISE", "JUMP_PROB", "CONFIDENCE",
+           "REFERENCE_FPS", "with_confidence"]
 
 APPEARANCE = "cf"
 SCALE_NOISE = 0.005
 JUMP_PROB = 0.4
+#: the frame rate the per-frame noise constants are read at (those of the clips they were
+#: chosen on); a video that declares another rate gets them converted
+#: (``Params.fps``; :attr:`pgm.models.part_graph.Params.frame_step`)
+REFERENCE_FPS = 30.0
 #: logistic of the log peak-to-sidelobe ratio of the correlation filter's response map and the
 #: log posterior spread, fitted on the eight single-object sequences (FaceOcc1, Crossing,
 #: David, Tiger1, Girl, Biker, MotorRolling, UAV10-group3: its frames annotated absent count
@@ -90,18 +97,26 @@ class Params(colour_pf.Params, part_graph.RedetectionAndAngle):
     with the default configuration's ``appearance``, ``scale_noise`` and ``jump_prob``,
     and those of :class:`pgm.models.part_graph.RedetectionAndAngle` (keyword only):
     re-detection (off by default, ``--redetect SHARE``) and an in-plane angle (none by
-    default, ``--rotation-noise RAD``)."""
+    default, ``--rotation-noise RAD``); ``fps``: the video's frame rate where it declares
+    one (the application passes it; ``pgm track --fps F`` for an image folder), which
+    converts the per-frame noise from :data:`REFERENCE_FPS` (None: no conversion)."""
 
     appearance: str = APPEARANCE
     scale_noise: float = SCALE_NOISE
     jump_prob: float = JUMP_PROB
+    fps: float | None = None
 
 
 def build_graph(params: Params, name: str = "object") -> FactorGraph:
     """The one-node part graph (:func:`pgm.models.part_graph.build_graph`) with the
-    calibrated confidence declared when a correlation filter is among its cues."""
+    calibrated confidence declared when a correlation filter is among its cues; with
+    ``fps`` (the video's declared frame rate), the per-frame noise read at
+    :data:`REFERENCE_FPS` (``frame_step = REFERENCE_FPS / fps``)."""
     if name != "object":
         raise ValueError("the single-object model's variable is called 'object'")
+    if params.fps is not None:
+        fps = float(check_finite_param("fps", params.fps, positive=True))
+        params = dataclasses.replace(params, frame_step=REFERENCE_FPS / fps)
     return with_confidence(colour_pf.one_node_graph(params, "single-object"))
 
 

@@ -106,7 +106,7 @@ def test_confidence_benchmark_is_calibrated_on_data_drawn_from_its_own_model(mon
     shift = {"a": -1.0, "b": 0.0, "c": 1.0}  # per-video feature level: hit rates differ
     frames = {"a": 1500, "b": 3000, "c": 6000}
 
-    def fake_collect(name, seeds):
+    def fake_collect(name, seeds, fps=None):
         n = frames[name]
         x = np.column_stack([rng.normal(2.0 + shift[name], 0.6, n), rng.normal(-2.0, 0.5, n)])
         y = rng.uniform(size=n) < confidence.sigmoid(-7.0 + 3.5 * x[:, 0] - 0.2 * x[:, 1])

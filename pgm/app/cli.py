@@ -116,6 +116,11 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
                    help="draw particles in the annotated video")
     t.add_argument("--max-frames", type=_positive_int("--max-frames"), default=None,
                    metavar="K", help="track the first K frames only (default: every frame)")
+    t.add_argument("--fps", type=_finite_float("--fps"), default=None, metavar="F",
+                   help="the video's frame rate, where the source does not say it (an image "
+                        "folder without seqinfo.ini, e.g. UAV123@10fps: --fps 10); models "
+                        "whose constants are in seconds read it (default: the source's, "
+                        "else none)")
     t.add_argument("--camera-motion", choices=("auto", "on", "off"), default=None,
                    help="global-motion compensation of every target's prediction: auto (on "
                         "frames where the camera moves; the default for multi-target "

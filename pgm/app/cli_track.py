@@ -162,6 +162,7 @@ def cmd_track_multi(args, source, saved=None) -> int:
         typical = float(np.median(table.boxes[:, 3])) if table is not None and len(table) \
             else None
         video = VideoInfo(width=width, height=height, fps=float(source.fps),
+                          fps_declared=source.fps_declared,
                           typical_height=typical, particles=args.particles,
                           score_range=getattr(detector, "score_range", None))
         graph = graph_from_config(args.model_config, args, video)
@@ -192,6 +193,8 @@ def cmd_track(args) -> int:
     if Path(args.out).exists() and not Path(args.out).is_dir():
         raise InputError(f"--out {args.out} exists and is not a folder")
     source = open_source(args.source)
+    if args.fps is not None:
+        source.declare_fps(args.fps)
     saved = None
     if args.model is None:
         args.model = args.model_config.name
@@ -240,7 +243,7 @@ def cmd_track(args) -> int:
         width, height = source.size
         graph = graph_from_config(args.model_config, args, VideoInfo(
             width=width, height=height, fps=float(source.fps), particles=args.particles,
-            init_box=tuple(float(v) for v in init_c)))
+            init_box=tuple(float(v) for v in init_c), fps_declared=source.fps_declared))
     result = track(source, graph, rng=args.seed, out_dir=args.out, gt=gt,
                    num_particles=args.particles, write_video=not args.no_video,
                    show_particles=args.show_particles, progress=not args.quiet,

@@ -140,8 +140,12 @@ class FrameSource(ABC):
     layout : str
         ``'video'``, ``'mot'``, ``'otb'``, ``'miltrack'`` or ``'images'``.
     fps : float
-        Frame rate: seqinfo ``frameRate``, the video's ``CAP_PROP_FPS``, else
+        Frame rate: seqinfo ``frameRate``, the video's ``CAP_PROP_FPS``, one given, else
         :data:`DEFAULT_FPS` (25).
+    fps_declared : bool
+        Whether ``fps`` was read or given (False where it is :data:`DEFAULT_FPS` for want
+        of one: an OTB or MILTrack folder, images without ``seqinfo.ini``): a model whose
+        constants are in seconds reads only a declared rate (:meth:`declare_fps`).
     gt_path : Path or None
         Default ground-truth file of the layout (``gt/gt.txt``,
         ``groundtruth_rect.txt``, ``*_gt.txt``), or None.
@@ -164,16 +168,25 @@ class FrameSource(ABC):
     gt_format: str | None
     det_path: Path | None
 
-    def __init__(self, path: Path, *, name: str, layout: str, fps: float,
+    def __init__(self, path: Path, *, name: str, layout: str, fps: float | None,
                  gt_path: Path | None = None, gt_format: str | None = None,
                  det_path: Path | None = None) -> None:
         self.path = path
         self.name = name
         self.layout = layout
-        self.fps = float(fps)
+        self.fps_declared = fps is not None
+        self.fps = float(DEFAULT_FPS if fps is None else fps)
         self.gt_path = gt_path
         self.gt_format = gt_format if gt_path is not None else None
         self.det_path = det_path
+
+    def declare_fps(self, fps: float) -> None:
+        """Give the frame rate (e.g. from a dataset's documentation: UAV123@10fps's
+        folders say nothing of their 10 frames/s)."""
+        fps = float(fps)
+        if not MIN_FPS <= fps <= MAX_FPS:
+            raise InputError(f"frame rate {fps:g} is outside [{MIN_FPS:g}, {MAX_FPS:g}]")
+        self.fps, self.fps_declared = fps, True
 
     @property
     @abstractmethod
@@ -382,7 +395,7 @@ class VideoSource(FrameSource):
         finally:
             cap.release()
         if fps is None:
-            fps = container_fps if MIN_FPS <= container_fps <= MAX_FPS else DEFAULT_FPS
+            fps = container_fps if MIN_FPS <= container_fps <= MAX_FPS else None
         super().__init__(path, fps=fps, **kwargs)
         first = _as_bgr(first)
         self._size: tuple[int, int] = (int(first.shape[1]), int(first.shape[0]))
@@ -490,7 +503,7 @@ def _open_mot(folder: Path) -> FrameSource:
     im_ext = info.get("imext") or ".jpg"
     if not im_ext.startswith("."):
         im_ext = "." + im_ext
-    fps = _seqinfo_number(info, "frameRate", ini, integer=False) or DEFAULT_FPS
+    fps = _seqinfo_number(info, "frameRate", ini, integer=False) or None
     seq_length = _seqinfo_number(info, "seqLength", ini, integer=True)
     gt = folder / "gt" / "gt.txt"
     det = folder / "det" / "det.txt"
@@ -520,15 +533,15 @@ def _open_folder(folder: Path) -> FrameSource:
             alts = sorted(folder.glob("groundtruth_rect*.txt"), key=lambda p: natural_key(p.name))
             gt = alts[0] if alts else None
         return ImageSequenceSource(folder, _list_images(folder / "img"), name=folder.name,
-                                   layout="otb", fps=DEFAULT_FPS, gt_path=gt,
+                                   layout="otb", fps=None, gt_path=gt,
                                    gt_format="otb")
     if (folder / "imgs").is_dir():
         gts = sorted(p for p in folder.glob("*_gt.txt") if p.is_file())
         return ImageSequenceSource(folder, _list_images(folder / "imgs"), name=folder.name,
-                                   layout="miltrack", fps=DEFAULT_FPS,
+                                   layout="miltrack", fps=None,
                                    gt_path=gts[0] if gts else None, gt_format="miltrack")
     return ImageSequenceSource(folder, _list_images(folder), name=folder.name, layout="images",
-                               fps=DEFAULT_FPS)
+                               fps=None)
 
 
 class IterableSource(FrameSource):
@@ -540,7 +553,7 @@ class IterableSource(FrameSource):
     the source is created (for its size).
     """
 
-    def __init__(self, frames, *, fps: float = DEFAULT_FPS, name: str = "frames",
+    def __init__(self, frames, *, fps: float | None = None, name: str = "frames",
                  layout: str = "iterable", path: Path | None = None) -> None:
         it = iter(frames)
         try:
@@ -551,7 +564,7 @@ class IterableSource(FrameSource):
         if image.ndim not in (2, 3) or image.size == 0:
             raise InputError(f"frames must be images (H, W[, 3]), got shape {image.shape}")
         super().__init__(Path(name) if path is None else path, name=name, layout=layout,
-                         fps=float(fps))
+                         fps=None if fps is None else float(fps))
         self._frames = itertools.chain((first,), it)
         self._size = (int(image.shape[1]), int(image.shape[0]))
 
@@ -599,7 +612,7 @@ class LiveSource(IterableSource):
                              f"reached)")
         rate = float(cap.get(cv2.CAP_PROP_FPS) or 0.0)
         if fps is None:
-            fps = rate if MIN_FPS <= rate <= MAX_FPS else DEFAULT_FPS
+            fps = rate if MIN_FPS <= rate <= MAX_FPS else None
 
         def read():
             try:

@@ -8,8 +8,8 @@ from typing import NamedTuple
 import cv2
 import numpy as np
 
-__all__ = ["window_features", "patch_features", "peak_to_sidelobe", "response_peaks", "Scan",
-           "filter_of", "ridge", "MAX_DETECT_PX"]
+__all__ = ["window_features", "patch_features", "chroma_frame", "CHROMA_UNIT",
+           "peak_to_sidelobe", "response_peaks", "Scan", "filter_of", "ridge", "MAX_DETECT_PX"]
 
 
 def peak_to_sidelobe(response: np.ndarray, radius: int) -> float:
@@ -81,10 +81,11 @@ def _one_cloud(xy: np.ndarray, centre: np.ndarray, quarter: np.ndarray) -> bool:
 
 
 def window_features(grey: np.ndarray, centre, size, out_shape, n_orient: int,
-                    angle: float = 0.0) -> np.ndarray:
+                    angle: float = 0.0, chroma: np.ndarray | None = None) -> np.ndarray:
     """Features ``(1 + n_orient, th, tw)`` of the window of ``size = (w, h)`` px centred
     on ``centre = (cx, cy)`` and turned by ``angle`` (radians, image axes: x right, y
-    down), resampled to ``out_shape = (tw, th)`` (border replicated)."""
+    down), resampled to ``out_shape = (tw, th)`` (border replicated); with ``chroma``
+    (:func:`chroma_frame`), its two channels follow (``(3 + n_orient, th, tw)``)."""
     tw, th = out_shape
     sx, sy = size[0] / tw, size[1] / th
     c, s = np.cos(angle), np.sin(angle)
@@ -93,9 +94,28 @@ def window_features(grey: np.ndarray, centre, size, out_shape, n_orient: int,
     a0, b0 = 0.5 - tw / 2, 0.5 - th / 2
     m = np.array([[c * sx, -s * sy, centre[0] - 0.5 + c * sx * a0 - s * sy * b0],
                   [s * sx, c * sy, centre[1] - 0.5 + s * sx * a0 + c * sy * b0]])
-    patch = cv2.warpAffine(grey, m, (tw, th), flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-                           borderMode=cv2.BORDER_REPLICATE)
-    return patch_features(patch, n_orient)
+    flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
+    patch = cv2.warpAffine(grey, m, (tw, th), flags=flags, borderMode=cv2.BORDER_REPLICATE)
+    feats = patch_features(patch, n_orient)
+    if chroma is None:
+        return feats
+    ab = cv2.warpAffine(chroma, m, (tw, th), flags=flags, borderMode=cv2.BORDER_REPLICATE)
+    return np.concatenate([feats, np.moveaxis(ab, -1, 0)], axis=0)
+
+
+#: Lab chroma units per feature unit (:func:`chroma_frame`): a strongly coloured surface
+#: (|a*| or |b*| about 40) reads about as far from grey as the grey channel's spread
+CHROMA_UNIT = 80.0
+
+
+def chroma_frame(image: np.ndarray) -> np.ndarray:
+    """``(H, W, 2)`` ``float32`` chroma of a BGR ``image``: CIE Lab's ``a*`` and ``b*``
+    over :data:`CHROMA_UNIT` (0 for grey; zeros for a grey image) — colour in
+    perceptual units, the same on any video's exposure of the same surface."""
+    if image.ndim != 3:
+        return np.zeros(image.shape[:2] + (2,), np.float32)
+    lab = cv2.cvtColor(np.asarray(image, np.float32) / 255.0, cv2.COLOR_BGR2LAB)
+    return np.ascontiguousarray(lab[:, :, 1:] / CHROMA_UNIT, dtype=np.float32)
 
 
 def patch_features(patch: np.ndarray, n_orient: int) -> np.ndarray:

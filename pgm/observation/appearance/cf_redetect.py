@@ -9,7 +9,7 @@ import scipy.fft as sfft
 
 from pgm.core.frame import FrameContext
 
-from .cf_features import MAX_DETECT_PX, Scan, response_peaks, window_features
+from .cf_features import MAX_DETECT_PX, Scan, response_peaks
 from .likelihoods import grey_frame
 
 __all__ = ["RedetectionScan"]
@@ -48,7 +48,7 @@ class RedetectionScan:
             # the scanned region: the frame, or a window around the estimate within it
             lo = np.clip(c - size / 2, -0.5, np.array([W, H]) - 0.5 - size)
             rc = np.where(size >= np.array([W, H]), mid, lo + size / 2)
-            feats = window_features(grey, rc, size, (ow, oh), self.n_orient)
+            feats = self._window_features(ctx, rc, size, (ow, oh))
             th, tw = self.hann.shape
             full = (oh + th - 1, ow + tw - 1)
             fshape = (sfft.next_fast_len(full[0], real=True),

@@ -65,6 +65,7 @@ from pgm.observation.camera_motion import CameraMotionEstimator
 from .cf_context import LearnedContext
 from .cf_features import (
     Scan,
+    chroma_frame,
     filter_of,
     patch_features,
     peak_to_sidelobe,
@@ -105,6 +106,11 @@ class CorrelationFilterLikelihood(LearnedContext, RedetectionScan, ResponseReadi
         The object's size (``sqrt(w h)``) in the resampled window, in pixels.
     n_orient : int
         Gradient-orientation channels.
+    colour : bool
+        Two more channels, the window's chroma (CIE Lab ``a*``, ``b*``:
+        :func:`~pgm.observation.appearance.cf_features.chroma_frame`), as the colour
+        features of CSR-DCF and ECO add to gradients (False, the default: grey and
+        gradients only; a grey video's chroma is zero).
     sigma : float
         Width of the Gaussian target peak, as a fraction of ``target_px``.
     reg : float
@@ -173,6 +179,7 @@ class CorrelationFilterLikelihood(LearnedContext, RedetectionScan, ResponseReadi
                  reg: float = 1e-2, adapt_rate: float = 0.02, gate: float = 0.5,
                  scales: int = 3, scale_step: float = 1.05, floor: float = -0.2,
                  memory_rate: float = 0.002, context_rate: float = 0.0, windows: int = 1,
+                 colour: bool = False,
                  angle_index: int | None = None,
                  angle_step: float = 0.1, box_indices=(0, 1, 2, 3), name: str | None = None):
         super().__init__(variable, lam=lam, box_indices=box_indices, adapt_rate=adapt_rate,
@@ -196,6 +203,9 @@ class CorrelationFilterLikelihood(LearnedContext, RedetectionScan, ResponseReadi
             raise ValueError(f"factor {n!r}: context_rate must be in [0, 1], got "
                              f"{context_rate}")
         self.n_orient = bounded_int(n, "n_orient", n_orient)
+        if colour not in (True, False, 0, 1):
+            raise ValueError(f"factor {n!r}: colour is true or false, got {colour!r}")
+        self.colour = bool(colour)
         self.windows = bounded_int(n, "windows", windows)  # at most MAX_WINDOWS
         if angle_index is not None and (isinstance(angle_index, bool)
                                         or int(angle_index) != angle_index or angle_index < 0):
@@ -257,14 +267,17 @@ class CorrelationFilterLikelihood(LearnedContext, RedetectionScan, ResponseReadi
         return float(np.log(max(self.last_response, 1e-2)))
 
     def params(self) -> dict[str, Any]:
-        return {"lam": self.lam, "padding": self.padding, "target_px": self.target_px,
-                "n_orient": self.n_orient, "sigma": self.sigma, "reg": self.reg,
-                "adapt_rate": self.adapt_rate, "gate": self.gate, "scales": self.scales,
-                "scale_step": self.scale_step, "floor": self.floor,
-                "memory_rate": self.memory_rate, "context_rate": self.context_rate,
-                "windows": self.windows,
-                "angle_index": self.angle_index, "angle_step": self.angle_step,
-                "box_indices": list(self.box_indices)}
+        p = {"lam": self.lam, "padding": self.padding, "target_px": self.target_px,
+             "n_orient": self.n_orient, "sigma": self.sigma, "reg": self.reg,
+             "adapt_rate": self.adapt_rate, "gate": self.gate, "scales": self.scales,
+             "scale_step": self.scale_step, "floor": self.floor,
+             "memory_rate": self.memory_rate, "context_rate": self.context_rate,
+             "windows": self.windows,
+             "angle_index": self.angle_index, "angle_step": self.angle_step,
+             "box_indices": list(self.box_indices)}
+        if self.colour:
+            p["colour"] = True
+        return p
 
     # -- geometry ----------------------------------------------------------------------
     def _setup(self, box: np.ndarray) -> None:
@@ -292,8 +305,16 @@ class CorrelationFilterLikelihood(LearnedContext, RedetectionScan, ResponseReadi
 
     def _features(self, ctx: FrameContext, centre, scale: float,
                   angle: float = 0.0) -> np.ndarray:
-        return window_features(grey_frame(ctx), centre, self.ref_size * scale, self.shape,
-                               self.n_orient, angle)
+        return self._window_features(ctx, centre, self.ref_size * scale, self.shape, angle)
+
+    def _window_features(self, ctx: FrameContext, centre, size, shape,
+                         angle: float = 0.0) -> np.ndarray:
+        """The features of the window of ``size`` px at ``centre``, resampled to
+        ``shape``: grey and gradients, and the chroma with ``colour``."""
+        chroma = (ctx.cached(("chroma-lab",), lambda: chroma_frame(ctx.image))
+                  if self.colour and ctx.image is not None else None)
+        return window_features(grey_frame(ctx), centre, size, shape, self.n_orient, angle,
+                               chroma)
 
     def _spectrum(self, ctx: FrameContext, centre, scale: float,
                   angle: float = 0.0, feats: np.ndarray | None = None) -> np.ndarray:
