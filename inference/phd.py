@@ -43,7 +43,8 @@ References
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
@@ -58,7 +59,8 @@ from .context import RuleContext
 from .rules import RuleTable
 from .tracks import TrackManager
 
-__all__ = ["phd_correct", "extract", "phd_factor_of", "appearance_log_scores", "score_terms"]
+__all__ = ["phd_correct", "extract", "phd_factor_of", "appearance_log_scores", "score_terms",
+           "IntensityEstimate"]
 
 #: the rules of this family (:func:`pgm.inference.default_rules` gathers every family's)
 RULES = RuleTable()
@@ -339,8 +341,52 @@ def extract(res: dict[str, Any], merge_gate: float, sigma: np.ndarray,
     return states[chosen], keep[chosen]
 
 
+@dataclass(frozen=True, eq=False)
+class IntensityEstimate(Mapping):
+    """An intensity's estimate in one frame (the ``estimate`` stage of a PHD variable):
+    the tracks and what they were made from. Read as fields or, as a mapping, by name
+    (``est["ids"]``).
+
+    Attributes
+    ----------
+    ids : ndarray (K,) of int
+        The tracks' identities.
+    states : ndarray (K, d)
+        Their states.
+    existence : ndarray (K,)
+        Their existence probabilities.
+    sizes : ndarray (K, 2)
+        Their boxes' width and height (NaN before a detection gave one).
+    coasting : ndarray (K,) of bool
+        Tracks reported without a detection this frame.
+    extracted : ndarray (E, d)
+        The states extracted from the intensity before the track layer.
+    expected_count : float
+        The intensity's mass ``E[N]``.
+    """
+
+    ids: np.ndarray
+    states: np.ndarray
+    existence: np.ndarray
+    sizes: np.ndarray
+    coasting: np.ndarray
+    extracted: np.ndarray
+    expected_count: float
+
+    def __getitem__(self, key: str) -> Any:
+        if key not in self.__dataclass_fields__:
+            raise KeyError(key)
+        return getattr(self, key)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(f.name for f in fields(self))
+
+    def __len__(self) -> int:
+        return len(self.__dataclass_fields__)
+
+
 @RULES.register("estimate", Intensity)
-def _estimate_intensity(ctx: RuleContext, variable: str, frame) -> dict[str, Any]:
+def _estimate_intensity(ctx: RuleContext, variable: str, frame) -> IntensityEstimate:
     state = ctx.state.find(variable, PHDState) or PHDState()
     res = state.last
     b: Intensity = ctx.beliefs[variable]
@@ -362,10 +408,11 @@ def _estimate_intensity(ctx: RuleContext, variable: str, frame) -> dict[str, Any
     if dets is not None and len(zi):
         sizes = np.asarray(dets.boxes, dtype=float)[zi, 2:4]
     tracks = state.tracks.update(states, sizes, gate_sigma)
-    return {"ids": np.array([t.track_id for t in tracks], dtype=int),
-            "states": np.array([t.state for t in tracks]).reshape(-1, d),
-            "existence": np.array([t.existence for t in tracks]),
-            "sizes": np.array([t.size if t.size is not None else [np.nan, np.nan]
-                               for t in tracks]).reshape(-1, 2),
-            "coasting": np.array([t.misses > 0 for t in tracks], dtype=bool),
-            "extracted": states, "expected_count": b.expected_count}
+    return IntensityEstimate(
+        ids=np.array([t.track_id for t in tracks], dtype=int),
+        states=np.array([t.state for t in tracks]).reshape(-1, d),
+        existence=np.array([t.existence for t in tracks]),
+        sizes=np.array([t.size if t.size is not None else [np.nan, np.nan]
+                        for t in tracks]).reshape(-1, 2),
+        coasting=np.array([t.misses > 0 for t in tracks], dtype=bool),
+        extracted=states, expected_count=b.expected_count)

@@ -74,6 +74,7 @@ import json
 import logging
 import math
 import uuid
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -512,7 +513,7 @@ class Recorder:
         entry = self._cloud(x, w, cols, self.settings.particles)
         entry["mass"] = _scalar(getattr(b, "expected_count", b.mass if n else 0.0))
         est = record.estimates.get(name)
-        if isinstance(est, dict):
+        if isinstance(est, Mapping):  # a PHD variable's estimate (IntensityEstimate)
             ext = np.asarray(est.get("extracted", np.zeros((0, x.shape[1]))), dtype=float)
             entry["extracted"] = _num(ext.reshape(-1, x.shape[1])[:, cols], 1) if ext.size \
                 else []

@@ -195,3 +195,20 @@ def test_a_duplicate_box_below_the_detectors_nms_starts_no_track(module):
 
     assert len(tracks(0.3)) == 2
     assert len(tracks(0.0)) == 3
+
+
+def test_the_estimate_is_typed_and_reads_as_a_mapping():
+    """The PHD estimate stage returns an ``IntensityEstimate``: fields, and the same by
+    name; its mass is the intensity's."""
+    from pgm.inference.phd import IntensityEstimate
+
+    out, eng = _run(phd, "off", _walkers(15))
+    est = out[-1]
+    assert isinstance(est, IntensityEstimate)
+    assert list(est) == ["ids", "states", "existence", "sizes", "coasting", "extracted",
+                         "expected_count"]
+    assert est["ids"] is est.ids and est.get("nope") is None and len(est) == 7
+    assert len(est.ids) == len(est.states) == len(est.existence) >= 1
+    assert est.expected_count == pytest.approx(eng.beliefs["targets"].expected_count)
+    with pytest.raises(KeyError):
+        est["nope"]
