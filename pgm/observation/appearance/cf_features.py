@@ -104,7 +104,7 @@ def window_features(grey: np.ndarray, centre, size, out_shape, n_orient: int,
 
 
 #: Lab chroma units per feature unit (:func:`chroma_frame`): a strongly coloured surface
-#: (|a*| or |b*| about 40) reads about as far from grey as the grey channel's spread
+#: (``a*`` or ``b*`` about ±40) reads about as far from grey as the grey channel's spread
 CHROMA_UNIT = 80.0
 
 
