@@ -114,11 +114,11 @@ class VideoInfo:
     width, height : int
         Frame size (px).
     fps : float
-        Frame rate.
+        Frame rate (25 when not given).
     fps_declared : bool
-        Whether the video says its frame rate (or the user gave it): a model whose
-        ``Params.fps`` defaults to None (constants in seconds, converted only from a
-        known rate) is given ``fps`` only then.
+        Whether the video says its frame rate (or the user gave it; by default, whether
+        ``fps`` was given): a model whose ``Params.fps`` defaults to None (constants in
+        seconds, converted only from a known rate) is given ``fps`` only then.
     init_box : tuple, optional
         The object's box in the first frame ``(cx, cy, w, h)`` (single-object models).
     typical_height : float, optional
@@ -131,12 +131,18 @@ class VideoInfo:
 
     width: int = 640
     height: int = 480
-    fps: float = 25.0
-    fps_declared: bool = True
+    fps: float | None = None
+    fps_declared: bool | None = None
     init_box: tuple[float, float, float, float] | None = None
     typical_height: float | None = None
     particles: int | None = None
     score_range: tuple[float, float] | None = None
+
+    def __post_init__(self) -> None:
+        if self.fps_declared is None:
+            object.__setattr__(self, "fps_declared", self.fps is not None)
+        if self.fps is None:
+            object.__setattr__(self, "fps", 25.0)
 
 
 #: the shared options of the toolkit's models (each model lists the ones it takes)

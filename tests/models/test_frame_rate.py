@@ -76,6 +76,11 @@ def test_the_rate_reaches_the_model_only_where_the_video_declares_it(tmp_path: P
     undeclared = default_build(cfg, {}, VideoInfo(fps=25.0, fps_declared=False,
                                                   init_box=(35.0, 140.0, 30.0, 80.0)))
     declared = default_build(cfg, {}, VideoInfo(fps=10.0, init_box=(35.0, 140.0, 30.0, 80.0)))
+    assert VideoInfo().fps == 25.0 and not VideoInfo().fps_declared  # nothing given
+    assert VideoInfo(fps=10.0).fps_declared
+    drawn = cfg.graph_for(video=VideoInfo(init_box=(35.0, 140.0, 30.0, 80.0)))
+    np.testing.assert_array_equal(_transition(drawn).params()["noise_std"],
+                                  _transition(undeclared).params()["noise_std"])
     ratio = (np.asarray(_transition(declared).params()["noise_std"][:2])
              / np.asarray(_transition(undeclared).params()["noise_std"][:2]))
     np.testing.assert_allclose(ratio, np.sqrt(3.0))
