@@ -94,9 +94,10 @@ def cmd_eval(args) -> int:
         raise InputError(f"{args.pred} has {ids.size} identities; single-object evaluation "
                          f"needs one")
     # the result file's confidences (column 7) give the long-term measures, and the
-    # frames it leaves out (a run's --lost-below) count as reported absent
+    # frames it leaves out (no row, or a row of NaN: a run's --lost-below) count as
+    # reported absent; a file without varying confidences reports every box it has
     conf = pred.conf if np.all(np.isfinite(pred.conf)) and np.unique(pred.conf).size > 1 \
-        else None
+        else (np.ones(len(pred)) if gt.absent.size else None)
     metrics = single_object_metrics(gt, pred.frames, pred.boxes, conf)
     if args.json:
         print(json.dumps(metrics, indent=1))

@@ -214,7 +214,8 @@ def long_term_metrics(gt: SingleTrack, pred_frames: Any, pred_boxes_xywh: Any,
 def absence_signal(gt: SingleTrack, pred_frames: Any, confidence: Any,
                    threshold: float = 0.5) -> dict[str, Any]:
     """How well ``confidence < threshold`` flags the frames annotated as absent, over the
-    annotated frames that have a confidence: ``precision`` (the share of flagged frames
+    annotated frames (a frame the tracker gave no box or confidence for counts as
+    flagged: it reported the target absent): ``precision`` (the share of flagged frames
     where the object is absent), ``recall`` (the share of absent frames flagged), the
     counts ``flagged`` and ``absent`` (``None`` where undefined). 0.5 is even odds for a
     calibrated confidence (the single-object models' ``P(IoU >= 0.5)``).
@@ -231,8 +232,8 @@ def absence_signal(gt: SingleTrack, pred_frames: Any, confidence: Any,
     c = _confidences(p_frames, confidence)
     order = np.argsort(p_frames, kind="stable")
     found, conf = _at(p_frames[order], c[order], frames)
-    keep = found & np.isfinite(conf)
-    r = lost_signal(conf[keep], ~np.isin(frames[keep], gt.absent), threshold)
+    conf = np.where(found & np.isfinite(conf), conf, -np.inf)  # no box: reported absent
+    r = lost_signal(conf, ~np.isin(frames, gt.absent), threshold)
     return {"threshold": r["threshold"], "flagged": r["flagged"], "absent": r["lost"],
             "precision": r["precision"], "recall": r["recall"]}
 

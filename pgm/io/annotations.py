@@ -443,8 +443,8 @@ def load_caviar(path: str | Path) -> MotTable:
                     np.ones(len(r)))
 
 
-def load_mot(path: str | Path, *, kind: str = "gt", min_score: float | None = None
-             ) -> MotTable:
+def load_mot(path: str | Path, *, kind: str = "gt", min_score: float | None = None,
+             absent_rows: bool = False) -> MotTable:
     """Read a MOTChallenge ``gt.txt``, ``det.txt`` or result file (or, for ground truth,
     a CAVIAR ``.xml`` file: :func:`load_caviar`).
 
@@ -490,6 +490,11 @@ def load_mot(path: str | Path, *, kind: str = "gt", min_score: float | None = No
     if table.shape[1] < 7:
         table = np.concatenate([table, np.full((table.shape[0], 7 - table.shape[1]),
                                                np.nan)], axis=1)
+    if absent_rows:  # a tracker's row of NaN: the target reported absent in that frame
+        present = ~np.all(np.isnan(table[:, 2:6]), axis=1)
+        if not present.all():
+            table, lineno, lengths = table[present], lineno[present], lengths[present]
+            lines = [line for line, keep in zip(lines, present, strict=True) if keep]
     frames_f, ids_f, boxes, conf = table[:, 0], table[:, 1], table[:, 2:6], table[:, 6]
     checks = (
         (~np.isfinite(frames_f) | (frames_f != np.round(frames_f)) | (frames_f < 1)
@@ -547,7 +552,8 @@ def load_tracks(path: str | Path) -> MotTable:
     """Read a tracker's MOTChallenge result file (as written by :class:`MotWriter`).
 
     Same as ``load_mot(path, kind='det')``, and an identity may appear at most once per
-    frame.
+    frame. A row whose box is ``NaN,NaN,NaN,NaN`` says the target is absent in that frame
+    and is left out, as a missing row is (the long-term convention).
 
     Raises
     ------
@@ -555,7 +561,7 @@ def load_tracks(path: str | Path) -> MotTable:
         As :func:`load_mot`, or an identity with two boxes in one frame.
     """
     p = Path(path)
-    table = load_mot(p, kind="det")
+    table = load_mot(p, kind="det", absent_rows=True)
     if len(table):
         pairs = np.stack([table.frames, table.ids], axis=1)
         uniq, counts = np.unique(pairs, axis=0, return_counts=True)

@@ -124,3 +124,30 @@ def test_pgm_track_reports_the_long_term_measures(shared_data: Path, tmp_path: P
     assert lt["n_visible"] == 30 and lt["n_absent"] == 15 and 0.0 <= lt["f_score"] <= 1.0
     assert ab["threshold"] == 0.4 and ab["absent"] == 15
     assert "long-term F-score" in out and "absence flagged (conf < 0.4)" in out
+
+
+def test_a_result_file_reports_absence_by_a_nan_row_or_no_row(tmp_path: Path, capsys) -> None:
+    """``pgm eval``: a tracker's row of NaN (or no row) for a frame says the target is
+    absent there — left out of the boxes, flagged by the absence signal; other
+    non-finite boxes stay an error."""
+    import json
+
+    from cli_run import run_cli
+
+    from pgm.io.annotations import load_tracks
+
+    gt = tmp_path / "groundtruth_rect.txt"
+    gt.write_text("11,11,5,5\nNaN,NaN,NaN,NaN\nNaN,NaN,NaN,NaN\n12,11,5,5\n")
+    pred = tmp_path / "tracks.txt"
+    pred.write_text("1,1,11,11,5,5,1,-1,-1,-1\n2,1,NaN,NaN,NaN,NaN,1,-1,-1,-1\n"
+                    "4,1,12,11,5,5,1,-1,-1,-1\n")  # frame 3: no row
+    assert load_tracks(pred).frames.tolist() == [1, 4]
+    code, out, err = run_cli(capsys, "eval", "--gt", gt, "--pred", pred, "--json")
+    assert code == 0, err
+    m = json.loads(out)
+    assert m["absence"]["flagged"] == 2 and m["absence"]["precision"] == 1.0
+    assert m["absence"]["recall"] == 1.0 and m["long_term"]["f_score"] == pytest.approx(1.0)
+    half = tmp_path / "half.txt"
+    half.write_text("1,1,11,11,NaN,5,1,-1,-1,-1\n")
+    code, _, err = run_cli(capsys, "eval", "--gt", gt, "--pred", half)
+    assert code != 0 and "not finite" in err
