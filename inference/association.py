@@ -287,9 +287,8 @@ def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> dict[str
         if model is None:
             model = state.score_model = factor.score_model()
     scores = factor.scores(frame, model, boxes)
-    uses = {t["fn"] for p in factor.plans for t in p.terms}
     fields: dict[str, Any] = {}
-    if APPEARANCE in uses:
+    if APPEARANCE in factor.term_fns:
         fields["appearance"] = _appearance(ctx, factor, frame, boxes)
     if factor.extended:  # pieces of one's own read the state beliefs and the graph
         b = ctx.beliefs[var]
@@ -304,7 +303,7 @@ def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> dict[str
                      for slots in ctx.replicas.state]
         for h in histories:
             h.age += 1
-        if MOMENTUM in uses and len(pred) and len(boxes):
+        if MOMENTUM in factor.term_fns and len(pred) and len(boxes):
             fields["velocity"] = np.array([h.velocity if h.velocity is not None else (0.0, 0.0)
                                            for h in histories], dtype=float)
             fields["known"] = np.array([h.velocity is not None for h in histories], dtype=float)

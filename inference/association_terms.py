@@ -74,8 +74,12 @@ class PieceValues:
         self.shape = (len(inputs.pred), len(inputs.boxes))
         self._cache: dict[tuple, np.ndarray] = {}
 
+    @staticmethod
+    def _key(item: dict[str, Any]) -> tuple:
+        return item["fn"], repr(sorted(item["args"].items()))
+
     def __call__(self, item: dict[str, Any], what: str) -> np.ndarray:
-        key = (item["fn"], repr(sorted(item["args"].items())))
+        key = self._key(item)
         got = self._cache.get(key)
         if got is None:
             fn, _ = find_rule(item["fn"], f"{self.owner}: association {what}")
@@ -88,7 +92,7 @@ class PieceValues:
 
     def seed(self, item: dict[str, Any], value: np.ndarray) -> None:
         """Give a piece's value already computed (the plain IoU)."""
-        self._cache[(item["fn"], repr(sorted(item["args"].items())))] = value
+        self._cache[self._key(item)] = value
 
 
 def iou_affinity(inputs: AssociationInputs, against: str = "prediction", buffer: float = 0.0,

@@ -67,6 +67,7 @@ from pgm.observation.appearance.cues import appearance_cues, cue_factor
 from pgm.observation.appearance.redetection import RedetectionProposal
 
 from . import config as _config
+from .cf_confidence import CONFIDENCE
 
 __all__ = ["CONFIG", "Params", "RedetectionAndAngle", "build_graph", "split_box", "part_names",
            "BOX_LABELS", "PAPER_PARTICLES", "DEFAULTS", "ONE_NODE", "PRESETS", "object_box"]
@@ -430,8 +431,6 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
                                 message_particles=int(params.message_particles or n_particles))
     meta = {"output": names if n > 1 else names[0], "engine": engine.to_dict()}
     if redetect:  # the proposal is on while the calibrated confidence is low
-        from .single_object import CONFIDENCE
-
         meta["confidence"] = {"factor": cf_name, **CONFIDENCE}
     if n > 1:
         meta["readout"] = "part-offsets"

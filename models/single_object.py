@@ -65,11 +65,10 @@ from dataclasses import dataclass
 
 from pgm.core.graph import FactorGraph
 from pgm.core.numerics import check_finite_param
-from pgm.core.readout import check_confidence_spec
-from pgm.observation.appearance.correlation import CorrelationFilterLikelihood
 
 from . import colour_pf, part_graph
 from . import config as _config
+from .cf_confidence import CONFIDENCE, with_confidence
 
 __all__ = ["CONFIG", "Params", "build_graph", "APPEARANCE", "SCALE_NOISE", "JUMP_PROB", "CONFIDENCE",
            "REFERENCE_FPS", "with_confidence"]
@@ -81,14 +80,6 @@ JUMP_PROB = 0.4
 #: chosen on); a video that declares another rate gets them converted
 #: (``Params.fps``; :attr:`pgm.models.part_graph.Params.frame_step`)
 REFERENCE_FPS = 30.0
-#: logistic of the log peak-to-sidelobe ratio of the correlation filter's response map and the
-#: log posterior spread, fitted on the eight single-object sequences (FaceOcc1, Crossing,
-#: David, Tiger1, Girl, Biker, MotorRolling, UAV10-group3: its frames annotated absent count
-#: as misses) and six PETS09-S2L1 person tracks, seeds 0-1, each of the nine videos weighted
-#: equally (``python benchmarks/confidence.py --seeds 2``, which prints the
-#: leave-one-group-out figures: held-out ECE per video 0.110 on average, 0.083 on the four
-#: sequences added last against 0.143 for the earlier fit on the first four)
-CONFIDENCE = {"intercept": -13.653, "slope": 5.790, "spread_slope": -0.160}
 
 
 @dataclass(frozen=True)
@@ -118,19 +109,6 @@ def build_graph(params: Params, name: str = "object") -> FactorGraph:
         fps = float(check_finite_param("fps", params.fps, positive=True))
         params = dataclasses.replace(params, frame_step=REFERENCE_FPS / fps)
     return with_confidence(colour_pf.one_node_graph(params, "single-object"))
-
-
-def with_confidence(graph: FactorGraph) -> FactorGraph:
-    """``graph`` with the calibrated confidence (:data:`CONFIDENCE`) declared on its first
-    correlation filter, where it has one and declares no confidence yet (in place)."""
-    if "confidence" in graph.meta:
-        return graph
-    cf = [f for v in graph.variables for f in graph.factors_of(v, "likelihood")
-          if isinstance(f, CorrelationFilterLikelihood)]
-    if cf:
-        graph.meta["confidence"] = check_confidence_spec(
-            {"factor": cf[0].name, **CONFIDENCE}, graph.factors)
-    return graph
 
 
 #: what the application sees of this model (:mod:`pgm.models.config`)

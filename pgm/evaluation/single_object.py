@@ -126,8 +126,10 @@ def _finite_or_none(x: float) -> float | None:
     return float(x) if np.isfinite(x) else None
 
 
-def _predictions(pred_frames: Any, pred_boxes_xywh: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Predictions sorted by frame, checked (lengths, one per frame)."""
+def _predictions(pred_frames: Any, pred_boxes_xywh: Any
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Predictions sorted by frame, checked (lengths, one per frame), and the order that
+    sorted them (for values given alongside, such as confidences)."""
     p_frames = np.asarray(pred_frames, dtype=np.int64).reshape(-1)
     p_boxes = np.asarray(pred_boxes_xywh, dtype=float).reshape(-1, 4)
     if p_frames.shape[0] != p_boxes.shape[0]:
@@ -138,7 +140,7 @@ def _predictions(pred_frames: Any, pred_boxes_xywh: Any) -> tuple[np.ndarray, np
     dup = np.flatnonzero(np.diff(p_frames) == 0)
     if dup.size:
         raise InputError(f"frame {int(p_frames[dup[0]])} has two predictions")
-    return p_frames, p_boxes
+    return p_frames, p_boxes, order
 
 
 def _at(p_frames: np.ndarray, values: np.ndarray, frames: np.ndarray
@@ -177,7 +179,7 @@ def long_term_metrics(gt: SingleTrack, pred_frames: Any, pred_boxes_xywh: Any,
     frames = np.union1d(gt.frames, gt.absent)
     if frames.size == 0:
         raise InputError("ground truth has no annotated frame to score")
-    p_frames, p_boxes = _predictions(pred_frames, pred_boxes_xywh)
+    p_frames, p_boxes, order = _predictions(pred_frames, pred_boxes_xywh)
     found, boxes = _at(p_frames, p_boxes, frames)
     found &= np.all(np.isfinite(boxes), axis=1)
     visible = np.isin(frames, gt.frames)
@@ -188,9 +190,7 @@ def long_term_metrics(gt: SingleTrack, pred_frames: Any, pred_boxes_xywh: Any,
         conf = np.where(found, 1.0, -np.inf)
         levels = np.array([1.0])
     else:
-        c = _confidences(pred_frames, confidence)[np.argsort(np.asarray(pred_frames).reshape(-1),
-                                                             kind="stable")]
-        _, conf = _at(p_frames, c, frames)
+        _, conf = _at(p_frames, _confidences(pred_frames, confidence)[order], frames)
         conf = np.where(found & np.isfinite(conf), conf, -np.inf)
         levels = np.unique(conf[np.isfinite(conf)])
     n_vis = int(visible.sum())
@@ -294,7 +294,7 @@ def single_object_metrics(gt: SingleTrack, pred_frames: Any, pred_boxes_xywh: An
     g_boxes = np.asarray(gt.boxes, dtype=float).reshape(-1, 4)
     if g_frames.size == 0:
         raise InputError("ground truth has no annotated frame to score")
-    p_frames, p_boxes = _predictions(pred_frames, pred_boxes_xywh)
+    p_frames, p_boxes, _ = _predictions(pred_frames, pred_boxes_xywh)
     found, matched = _at(p_frames, p_boxes, g_frames)
     found &= np.all(np.isfinite(matched), axis=1)
 

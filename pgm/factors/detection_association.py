@@ -273,6 +273,8 @@ class DetectionAssociation(Factor):
                                           for g in (r.get("gates") or [])],
                                 "affinity": affinity})
         self.plans: list[RoundPlan] = [self._plan(r) for r in self.rounds]
+        #: the functions the rounds' terms name (what the rule must prepare inputs for)
+        self.term_fns = frozenset(t["fn"] for p in self.plans for t in p.terms)
 
     def _plan(self, r: dict[str, Any]) -> RoundPlan:
         """A round as named pieces (:class:`RoundPlan`)."""
@@ -338,8 +340,8 @@ class DetectionAssociation(Factor):
     @property
     def keeps_observations(self) -> bool:
         """Whether a round needs each replica's past detections (momentum, recovery)."""
-        return any(any(t["fn"] == MOMENTUM for t in p.terms)
-                   or p.affinity["args"].get("against") == "last" for p in self.plans)
+        return MOMENTUM in self.term_fns or any(p.affinity["args"].get("against") == "last"
+                                                for p in self.plans)
 
     def params(self) -> dict[str, Any]:
         def finite(v):
