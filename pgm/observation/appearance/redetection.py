@@ -57,6 +57,13 @@ class RedetectionProposal(ProposalFactor):
         drifting tracker is not a loss.
     peaks : int
         Peaks kept: at most this many, each at least half the best one's response.
+    min_response : float, optional
+        Keep only peaks whose response reaches this, in units of the long-term filter's
+        typical peak (the cue's :meth:`detect` values). None (the default): the cue's own
+        learning ``gate`` (0 for a cue without one), the response at which the filter
+        takes a window for the object and learns from it: a place the memory would not
+        learn from is not proposed either (Ma et al.'s re-detection threshold, in the
+        filter's units). 0: no such test.
     false_alarm : float
         Keep only peaks the scan's own noise would reach with this probability per
         frame: a peak's standard score within the map must reach the upper
@@ -72,7 +79,8 @@ class RedetectionProposal(ProposalFactor):
 
     def __init__(self, variable: str, *, cue: str, fraction: float = 0.5, below: float = 0.5,
                  patience: int = 1, peaks: int = 3, spread: float = 0.1,
-                 false_alarm: float = 1e-3, columns=(0, 1), name: str | None = None):
+                 false_alarm: float = 1e-3, min_response: float | None = None,
+                 columns=(0, 1), name: str | None = None):
         super().__init__(variable, fraction=fraction, columns=columns, name=name)
         if not isinstance(cue, str) or not cue:
             raise ValueError(f"factor {self.name!r}: cue must name a likelihood factor")
@@ -96,18 +104,21 @@ class RedetectionProposal(ProposalFactor):
         if len(self.columns) != 2:
             raise ValueError(f"factor {self.name!r}: columns must be the two position "
                              f"components, got {list(self.columns)}")
+        self.min_response = (None if min_response is None else float(
+            check_finite_param(f"{self.name}.min_response", min_response, nonneg=True)))
         self._centres: np.ndarray | None = None
         self._std = 1.0
 
     def params(self) -> dict[str, Any]:
         return {"cue": self.cue, "fraction": self.fraction, "below": self.below,
                 "patience": self.patience, "peaks": self.peaks, "spread": self.spread,
-                "false_alarm": self.false_alarm, "columns": list(self.columns)}
+                "false_alarm": self.false_alarm, "min_response": self.min_response,
+                "columns": list(self.columns)}
 
     def prepare(self, ctx: FrameContext, past, *, confidence, factors) -> float:
         """Off (0) while the confidence is at least ``below``; else the frame's peaks
-        around the particles' mean size, and ``fraction`` (0 where no peak is
-        positive)."""
+        around the particles' mean size, and ``fraction`` (0 where no peak passes the
+        tests: positive, at least half the best, ``min_response``, ``false_alarm``)."""
         if confidence is not None and confidence >= self.below:
             self._low = 0
             return 0.0
@@ -123,7 +134,8 @@ class RedetectionProposal(ProposalFactor):
         centre = b[:, :2].mean(axis=0)
         scan = cue.detect(ctx, centre, size / cue.ref_scale, self.peaks)
         vals = scan.values
-        keep = (vals > 0) & (vals >= 0.5 * (vals.max() if vals.size else 0))
+        floor = getattr(cue, "gate", 0.0) if self.min_response is None else self.min_response
+        keep = (vals > 0) & (vals >= 0.5 * (vals.max() if vals.size else 0)) & (vals >= floor)
         if self.false_alarm < 1:  # above what the noise of the map's maximum reaches
             tail = min(self.false_alarm / max(scan.independent, 1.0), 0.5)
             keep &= scan.z >= -NormalDist().inv_cdf(tail)  # the upper tail's quantile

@@ -13,6 +13,7 @@ from pgm.core.frame import FrameContext
 from pgm.factors import AR2Transition
 from pgm.inference import Engine
 from pgm.models import single_object
+from pgm.observation.appearance.cf_features import Scan
 from pgm.observation.appearance.correlation import CorrelationFilterLikelihood, response_peaks
 from pgm.observation.appearance.redetection import RedetectionProposal
 from pgm.synthetic.scenes import jump_scene
@@ -121,6 +122,47 @@ def test_the_proposal_is_off_while_confident_and_its_density_integrates_to_one()
     with pytest.raises(ValueError, match="cue 'nope'"):
         RedetectionProposal("object", cue="nope").prepare(ctx, past, confidence=None,
                                                           factors={})
+
+
+class _FixedScan:
+    """A cue whose whole-frame scan returns given peaks (the proposal's peak tests)."""
+
+    ref_scale = 40.0
+
+    def __init__(self, values, z, gate=None):
+        self.scan = Scan(np.array([[30.0, 40.0], [150.0, 60.0]])[:len(values)],
+                         np.asarray(values, float), np.asarray(z, float), 100.0)
+        if gate is not None:
+            self.gate = gate
+
+    def boxes(self, x):
+        return np.asarray(x, float)[:, :4]
+
+    def detect(self, ctx, centre, scale, max_peaks):
+        return self.scan
+
+
+def test_a_peak_the_filter_would_not_learn_from_is_not_proposed():
+    """By default a peak must reach the cue's learning gate (in units of its typical
+    peak); ``min_response`` sets another floor; a cue without a gate sets none."""
+    ctx = FrameContext(2, np.zeros((100, 200), np.uint8))
+    past = (np.tile([80.0, 50.0, 20.0, 20.0], (10, 1)),)
+    z = [12.0, 11.0]  # far above the map's noise: only the response decides
+    weak = _FixedScan([0.45, 0.40], z, gate=0.5)
+    assert RedetectionProposal("o", cue="cf").prepare(ctx, past, confidence=0.1,
+                                                      factors={"cf": weak}) == 0.0
+    low = RedetectionProposal("o", cue="cf", min_response=0.42)
+    assert low.prepare(ctx, past, confidence=0.1, factors={"cf": weak}) == 0.5
+    np.testing.assert_array_equal(low._centres, [[30.0, 40.0]])  # 0.40 < 0.42: left out
+    none = RedetectionProposal("o", cue="cf")
+    assert none.prepare(ctx, past, confidence=0.1,
+                        factors={"cf": _FixedScan([0.45, 0.40], z)}) == 0.5
+    assert len(none._centres) == 2
+    strong = _FixedScan([0.7, 0.3], z, gate=0.5)  # the second is under half the best
+    assert none.prepare(ctx, past, confidence=0.1, factors={"cf": strong}) == 0.5
+    assert len(none._centres) == 1
+    with pytest.raises(ValueError, match="min_response"):
+        RedetectionProposal("o", cue="cf", min_response=float("nan"))
 
 
 def _found_again(seed, **redetection):
