@@ -45,8 +45,9 @@ while the calibrated confidence is below one half, a
 :class:`~pgm.observation.appearance.redetection.RedetectionProposal` draws that share of
 the particles near the peaks of the filter's whole-frame response (its long-term
 memory) that stand out of the response's own noise (a false-alarm rate of 1e-3 per
-frame) and reach the filter's learning gate (half its typical peak), and the transition gives a re-appearance anywhere in the frame probability
-``reappear_prob`` per frame, so the weights stay those of the model. It finds a target
+frame) and reach the filter's learning gate (half its typical peak), and the transition
+gives a re-appearance anywhere in the frame probability ``reappear_prob`` per frame, so
+the weights stay those of the model. It finds a target
 that jumped across the frame while hidden (``tests/pgm/observation/test_redetection.py``);
 on the shared sequences, where the target never leaves the view, it costs accuracy
 (``docs/results.md``), so it is not the default.

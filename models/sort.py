@@ -550,6 +550,21 @@ OPTIONS = (
                    type=_config.finite_float("--score-threshold"), metavar="P",
                    help="every score threshold (the confident detections' and a new track's) "
                         "at P (with --scores learned a probability; default: the model's)"),
+    _config.Option("--lost-track-buffer", "lost_buffer",
+                   type=_config.int_in("--lost-track-buffer", 0, 100000), metavar="FRAMES",
+                   help="frames (at 30 frames/s: scaled to the video's rate, as the trackers "
+                        "package and ByteTrack do) a confirmed track is kept without a match, "
+                        "to be found again (default: the model's, 30)"),
+    _config.Option("--min-hits", "min_hits", type=_config.int_in("--min-hits", 1, 100000),
+                   metavar="N",
+                   help="matches before a new track is reported (ByteTrack and BoT-SORT: in a "
+                        "row, the trackers package's minimum consecutive frames; default: the "
+                        "model's)"),
+    _config.Option("--iou-threshold", None, type=_config.finite_float("--iou-threshold"),
+                   metavar="T",
+                   help="the IoU a detection needs with a track to be matched to it, in every "
+                        "association round (default: the model's, e.g. SORT 0.3, ByteTrack "
+                        "0.1)"),
 )
 
 
@@ -566,6 +581,11 @@ def video_build(config: _config.ModelConfig, values: dict[str, Any],
     # detections from a file have scores whose scale the file tells (score_map_for); a
     # detector without one (background subtraction: fill fractions) says nothing of
     # confidence, so its detections are all taken as confident
+    iou = values.get("iou_threshold")
+    if iou is not None:
+        if not 0.0 <= iou <= 1.0:
+            raise ValueError(f"--iou-threshold must be in [0, 1], got {iou}")
+        kw["rounds"] = tuple(dict(r, iou=float(iou)) for r in params.rounds)
     choice = kw.pop("score_map", None)  # --scores: detector | learned | quantile
     if choice == "detector" and "score_threshold" not in kw:
         kw["score_threshold"] = None  # the core's own thresholds, on the detector's numbers

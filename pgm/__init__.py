@@ -10,6 +10,7 @@ from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
 from pgm.core.plate import Lifecycle, Plate
 from pgm.core.variable import ROLES, Variable
+from pgm.core.version import __version__
 from pgm.factors import (
     AR2Transition,
     ConjugateFactor,
@@ -23,8 +24,6 @@ from pgm.factors import (
     TransitionFactor,
 )
 from pgm.factors.plates import DetectionLikelihood, InteractionFactor, MutualExclusion
-
-__version__ = "0.1.0"
 
 #: the modules that define the toolkit's factor types and readouts, imported when a saved
 #: graph names one that is not registered yet (some pull torch or a model file, so they are
@@ -75,6 +74,25 @@ from pgm.plotting.graph_drawing import draw as _draw  # noqa: E402
 from pgm.plotting.graph_drawing import to_dot as _to_dot  # noqa: E402
 
 _register_drawing(_draw, _to_dot)
+
+#: the toolkit's subpackages, imported on first use as attributes of ``pgm``
+#: (``import pgm; pgm.inference.Engine``) so that ``import pgm`` and ``pgm --help`` stay fast
+SUBPACKAGES = ("app", "core", "dynamics", "evaluation", "factors", "inference", "io", "models",
+               "observation", "plotting", "synthetic")
+
+
+def __getattr__(name: str):
+    """``pgm.inference``, ``pgm.models``, ...: the subpackage, imported on first use."""
+    if name in SUBPACKAGES:
+        import importlib
+
+        return importlib.import_module(f"pgm.{name}")
+    raise AttributeError(f"module 'pgm' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(SUBPACKAGES))
+
 
 __all__ = [
     "Variable", "ROLES", "Factor", "PriorFactor", "TransitionFactor", "LikelihoodFactor",

@@ -206,3 +206,20 @@ def test_robustness_benchmark_prints_a_table_per_kind_and_the_choice(shared_data
     assert "leave one sequence out, criterion mean" in out
     again = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=True).stdout
     assert "0 sequence x kind tasks to run" in again
+
+
+def test_detectors_benchmark_wraps_a_function_at_no_cost_to_the_tracks(shared_data):
+    """``benchmarks/detectors.py`` on TUD-Campus: a row per detector; MOG2 wrapped as a
+    user's function (``CallableDetector``) tracks exactly as MOG2 itself."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, str(root / "benchmarks" / "detectors.py"),
+                          "--sequences", "TUD-Campus"], capture_output=True, text=True,
+                         check=True).stdout
+    rows = {r[1]: r for r in (line.split() for line in out.splitlines())
+            if r and r[0] == "TUD-Campus"}
+    assert list(rows) == ["public", "mog2", "yours"]
+    assert rows["public"][5:7] == ["+0.000", "+0.000"]
+    assert rows["mog2"][2:5] == rows["yours"][2:5]  # the same tracks' scores
+    assert all(float(r[7]) > 0 and float(r[8]) > 0 for r in rows.values())

@@ -32,6 +32,7 @@ one way, ``models → inference → pgm``, and a test of the code base enforces 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import os
 import signal
@@ -69,6 +70,17 @@ __all__ = ["main", "build_parser", "parse_args", "parse_box", "model_config_for"
            "_int_in", "_finite_float", "_int_at_least", "GPDM_HELP_DEFAULTS"]
 
 
+def _video_scale(text: str) -> float:
+    """``--video-scale``: a number in (0, 1]."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number in (0, 1], got {text!r}") from None
+    if not 0.0 < value <= 1.0:  # also false for NaN
+        raise argparse.ArgumentTypeError(f"must be in (0, 1], got {text!r}")
+    return value
+
+
 def build_parser(model_config=None) -> argparse.ArgumentParser:
     """The argument parser of ``pgm``; ``model_config`` adds that model's options to
     ``pgm track`` and ``pgm graph`` (:func:`parse_args` finds it from the arguments)."""
@@ -92,8 +104,8 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
                    help=f"model name ({names}) or a saved model .json; default: "
                         f"{DEFAULT_SINGLE_OBJECT} for one object, or {DEFAULT_MULTI_TARGET} "
                         f"when --detections/--detector is given or the source has "
-                        f"det/det.txt; 'pgm track --model NAME --help' lists that model's "
-                        f"options")
+                        f"det/det.txt (a video: beside it, in a MOTChallenge folder); "
+                        f"'pgm track --model NAME --help' lists that model's options")
     init = t.add_mutually_exclusive_group()
     init.add_argument("--init", metavar="X,Y,W,H",
                       help="box in frame 1: top-left corner and size, 1-based like MOT/OTB; "
@@ -103,6 +115,10 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
     t.add_argument("--gt", type=_path("--gt"), metavar="FILE",
                    help="ground-truth file: initialises from frame 1 when --init is absent "
                         "and writes metrics.json (default: the sequence's own, if any)")
+    t.add_argument("--gt-id", type=_nonneg_int, default=None, metavar="ID",
+                   help="single object with a MOTChallenge ground truth of several people: "
+                        "the identity to follow and score (default: none; with several "
+                        "people and no --init the run is refused)")
     t.add_argument("--out", type=_path("--out"), required=True, help="output folder")
     _import_option(t)
     t.add_argument("--particles", type=_positive_int("--particles"), default=None,
@@ -136,14 +152,24 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
                         "(default: none)")
     t.add_argument("--detector", default=None,
                    help="multi-target models: 'public' (the sequence's det/det.txt, default), "
-                        "'public:MIN_SCORE' or 'mog2' (background subtraction)")
+                        "'public:MIN_SCORE', 'mog2' (background subtraction) or your own "
+                        "detector, 'MODULE:FUNCTION' or 'FILE.py:FUNCTION' (a function from "
+                        "a BGR frame to boxes x,y,w,h and scores; docs/tutorials/"
+                        "16_your_own_detector.py)")
     t.add_argument("--lost-below", type=_probability("--lost-below"), default=None,
                    metavar="P",
                    help="single object: frames whose calibrated confidence is below P are "
                         "written to tracks.txt as empty (the target reported lost), and "
                         "metrics.json says how well that flags the frames where the box "
                         "misses the target (default: every frame written)")
-    t.add_argument("--quiet", action="store_true", help="no progress bar")
+    t.add_argument("--trails", type=_nonneg_int, default=0, metavar="N",
+                   help="draw each track's last N centres in annotated.mp4 (default: 0, none)")
+    t.add_argument("--video-scale", type=_video_scale, default=None, metavar="S",
+                   help="write annotated.mp4 at this scale of the frames, in (0, 1] "
+                        "(default: so that its long side is at most 1280 px)")
+    t.add_argument("--quiet", action="store_true",
+                   help="print nothing but errors (no progress bar, summary or metrics table; "
+                        "the files are written as always)")
     t.add_argument("--memory-limit", default=None, metavar="SIZE",
                    help="refuse a run whose estimated memory exceeds SIZE (e.g. 8G); "
                         "default: PGM_MEMORY_LIMIT, else 80%% of the physical memory")
@@ -154,9 +180,9 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
         description="Score one result file against its ground truth (--gt FILE --pred FILE:\n"
                     "single object (OTB) or MOT metrics), or every sequence of a folder\n"
                     "(--gt-dir DIR --pred-dir DIR, MOTChallenge layout: GT/<SEQ>/gt/gt.txt\n"
-                    "or GT/<SEQ>.txt against PRED/<SEQ>.txt). With folders, a ground-truth\n"
-                    "sequence without a prediction file is scored as an empty prediction\n"
-                    "and listed; COMBINED scores all sequences as one (counts summed,\n"
+                    "or GT/<SEQ>.txt against PRED/<SEQ>.txt). With folders, the sequences\n"
+                    "with a prediction file are scored and the others listed (--all-sequences:\n"
+                    "scored as empty predictions); COMBINED scores them as one (counts summed,\n"
                     "MOTA/IDF1/HOTA of the pooled counts, OSPA over all frames) and MEAN is\n"
                     "the unweighted mean over sequences.",
         epilog="examples:\n  pgm eval --gt ../shared/data/TUD-Campus/gt/gt.txt --pred "
@@ -173,6 +199,10 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
     e.add_argument("--pred-dir", type=_path("--pred-dir"), default=None, metavar="DIR",
                    help="folder of results <SEQ>.txt (MOTChallenge rows); with --gt-dir "
                         "(default: none)")
+    e.add_argument("--all-sequences", action="store_true",
+                   help="with --gt-dir: score every ground-truth sequence, one without a "
+                        "prediction file as an empty prediction, as a benchmark server does "
+                        "(default: only the sequences predicted)")
     e.add_argument("--json", action="store_true", help="print JSON instead of a table")
 
     g = sub.add_parser("graph", help="draw a model's factor graph")
@@ -191,7 +221,7 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
                    help="length of the synthetic scene")
     d.add_argument("--particles", type=_positive_int("--particles"), default=100,
                    metavar="N", help="particles of the colour particle filter")
-    d.add_argument("--quiet", action="store_true", help="no progress bar")
+    d.add_argument("--quiet", action="store_true", help="print nothing but errors")
     for module in _extensions():
         module.add_parser(sub)
     return p
@@ -402,12 +432,14 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as exc:  # a model that cannot be found or loaded, or its options
         print(f"pgm: error: {one_line(exc)}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    args.argv = ["pgm", *(sys.argv[1:] if argv is None else [str(a) for a in argv])]
     debug = args.debug or os.environ.get("PGM_DEBUG") == "1"
     log = logging.getLogger("pgm")
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(_OneLine())
     log.addHandler(handler)
     old_propagate, log.propagate = log.propagate, False
+    old_level = log.level
     if log.level == logging.NOTSET:
         log.setLevel(logging.INFO)
     handlers = {}
@@ -423,7 +455,12 @@ def main(argv: list[str] | None = None) -> int:
             commands = dict(COMMANDS)
             for module in _extensions():
                 commands.update(module.COMMANDS)
-            return _command(commands[args.command])(args)
+            if not getattr(args, "quiet", False):
+                return _command(commands[args.command])(args)
+            # --quiet: nothing but errors (no progress, summary, table or notice)
+            log.setLevel(logging.ERROR)
+            with open(os.devnull, "w") as null, contextlib.redirect_stdout(null):
+                return _command(commands[args.command])(args)
     except KeyboardInterrupt as exc:
         name = exc.name if isinstance(exc, Interrupted) else "SIGINT"
         print(f"pgm: interrupted by {name}; results written so far are kept (run.json says "
@@ -444,6 +481,7 @@ def main(argv: list[str] | None = None) -> int:
             signal.signal(sig, old)
         log.removeHandler(handler)
         log.propagate = old_propagate
+        log.setLevel(old_level)
         sys.stdout.flush()
 
 

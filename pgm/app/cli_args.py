@@ -208,28 +208,29 @@ def _given(args: argparse.Namespace | None, opt: str) -> bool:
     return value is not None and value is not False
 
 
-def import_user_code(spec: str) -> None:
+def import_user_code(spec: str, option: str = "--import"):
     """``--import MODULE_OR_FILE``: import a user's module (a dotted name on the path) or
     file (``.py``, imported under its stem) that defines factors, their rules or models,
-    so that a saved model using them loads. The user asks for this code to run; a model
-    file itself never runs any. A failure is a one-line :class:`InputError`."""
+    so that a saved model using them loads; returns the module. The user asks for this
+    code to run; a model file itself never runs any. A failure is a one-line
+    :class:`InputError` naming ``option``."""
     import importlib
     import importlib.util
 
     if not isinstance(spec, str) or not spec:
-        raise InputError("--import needs a module name or a .py file")
+        raise InputError(f"{option} needs a module name or a .py file")
     path = Path(spec)
     if path.suffix == ".py" or path.exists():
         if not path.is_file() or path.suffix != ".py":
-            raise InputError(f"--import {spec}: not a .py file")
+            raise InputError(f"{option} {spec}: not a .py file")
         name = path.stem
         if not name.isidentifier():
-            raise InputError(f"--import {spec}: {name!r} is not a module name (rename the file)")
+            raise InputError(f"{option} {spec}: {name!r} is not a module name (rename the file)")
         held = sys.modules.get(name)
         if held is not None:
             if Path(getattr(held, "__file__", "") or "").resolve() == path.resolve():
-                return
-            raise InputError(f"--import {spec}: a module named {name!r} is already imported "
+                return held
+            raise InputError(f"{option} {spec}: a module named {name!r} is already imported "
                              f"from {getattr(held, '__file__', None) or 'elsewhere'}")
         found = importlib.util.spec_from_file_location(name, path)
         module = importlib.util.module_from_spec(found)
@@ -238,12 +239,35 @@ def import_user_code(spec: str) -> None:
             found.loader.exec_module(module)
         except Exception as exc:  # noqa: BLE001 - the user's code: any failure, one line
             sys.modules.pop(name, None)
-            raise InputError(f"--import {spec}: {type(exc).__name__}: {one_line(exc)}") from None
-        return
+            raise InputError(f"{option} {spec}: {type(exc).__name__}: {one_line(exc)}") from None
+        return module
     try:
-        importlib.import_module(spec)
+        return importlib.import_module(spec)
     except Exception as exc:  # noqa: BLE001 - the user's code: any failure, one line
-        raise InputError(f"--import {spec}: {type(exc).__name__}: {one_line(exc)}") from None
+        raise InputError(f"{option} {spec}: {type(exc).__name__}: {one_line(exc)}") from None
+
+
+def is_user_detector(spec: str | None) -> bool:
+    """Whether a ``--detector`` value names a user's function (``module:function`` or
+    ``file.py:function``) rather than a built-in detector (``public:MIN`` is one)."""
+    if not spec or ":" not in spec:
+        return False
+    module, _, fn = spec.rpartition(":")
+    return (bool(module.strip()) and fn.strip().isidentifier()
+            and module.strip().lower() not in ("public", "mog2"))
+
+
+def user_detector(spec: str):
+    """``--detector MODULE:FUNCTION`` (or ``FILE.py:FUNCTION``): the user's function
+    imported and wrapped as a :class:`~pgm.observation.detections.CallableDetector`."""
+    from pgm.observation.detections import CallableDetector
+
+    module_spec, _, name = spec.rpartition(":")
+    module = import_user_code(module_spec, option="--detector")
+    fn = getattr(module, name, None)
+    if fn is None or not callable(fn):
+        raise InputError(f"--detector {spec}: {module_spec} has no function {name!r}")
+    return CallableDetector(fn, name=spec)
 
 
 def scan_imports(argv: list[str]) -> list[str]:
@@ -324,7 +348,7 @@ def _print_metrics(metrics: dict, stream=None) -> None:
                      f"precision {_fmt(ab['precision'], '.3f')}, "
                      f"recall {_fmt(ab['recall'], '.3f')}"))
     if "fps" in metrics:
-        rows.append(("frames per second", _fmt(metrics["fps"], ".1f")))
+        rows.append(("frames per second (inference)", _fmt(metrics["fps"], ".1f")))
     width = max(len(r[0]) for r in rows)
     for k, v in rows:
         print(f"{k:<{width}}  {v}", file=stream)
@@ -336,7 +360,7 @@ def _print_mot_metrics(m: dict, stream=None) -> None:
             ("ID switches", "id_switches"), ("FP", "fp"), ("FN", "fn"),
             ("OSPA(50,1) px", "ospa_50_1"), ("OSPA(100,2) px", "ospa_100_2"),
             ("OSPA2(50,1) px", "ospa2"), ("|cardinality error|", "mean_abs_cardinality_error"),
-            ("frames per second", "fps")]
+            ("frames per second (inference)", "fps")]
     width = max(len(k) for k, _ in keys)
     for label, key in keys:
         if key in m:

@@ -50,7 +50,8 @@ def _eval_folders(args) -> int:
     from pgm.evaluation.folders import evaluate_mot_folders
     from pgm.evaluation.mot import format_mot_table
 
-    res = evaluate_mot_folders(args.gt_dir, args.pred_dir)
+    res = evaluate_mot_folders(args.gt_dir, args.pred_dir,
+                               all_sequences=getattr(args, "all_sequences", False))
     if args.json:
         print(json.dumps(res, indent=1))
         return 0
@@ -60,7 +61,9 @@ def _eval_folders(args) -> int:
     print(format_mot_table(rows, label="sequence"))
     print(f"{len(res['sequences'])} sequence(s); COMBINED: {res['combined_method']}")
     if res["missing"]:
-        print(f"no prediction file (scored as empty): {', '.join(res['missing'])}")
+        how = ("scored as empty" if res["all_sequences"] else
+               "not scored; --all-sequences scores them as empty")
+        print(f"no prediction file ({how}): {', '.join(res['missing'])}")
     if res["unmatched"]:
         print(f"prediction files without ground truth (not scored): "
               f"{', '.join(res['unmatched'])}")

@@ -26,9 +26,11 @@ from .cli_args import (
     _print_metrics,
     _print_mot_metrics,
     _record_option,
+    is_user_detector,
     load_model_file,
     parse_box,
     parse_drop_frames,
+    user_detector,
 )
 
 __all__ = ["cmd_track", "add_model_options", "model_values", "graph_from_config",
@@ -74,19 +76,41 @@ def graph_from_config(config, args: argparse.Namespace, video):
 
 def default_model(source: str | None, multi_target_hint: bool) -> str:
     """The model ``pgm track`` runs without ``--model``: the multi-target default when
-    detections are given or the source is a MOTChallenge folder with ``det/det.txt``,
-    else the single-object default."""
+    detections are given or the source has detections of its own (a MOTChallenge folder
+    with ``det/det.txt``, or a video in one), else the single-object default."""
+    return default_model_and_reason(source, multi_target_hint)[0]
+
+
+def default_model_and_reason(source: str | None, multi_target_hint: bool) -> tuple[str, str]:
+    """:func:`default_model` and why, in words (what ``pgm track`` prints)."""
     from pgm.models import DEFAULT_MULTI_TARGET, DEFAULT_SINGLE_OBJECT
 
     if multi_target_hint:
-        return DEFAULT_MULTI_TARGET
-    if source is not None:
-        try:
-            if (Path(source) / "det" / "det.txt").is_file():
-                return DEFAULT_MULTI_TARGET
-        except (OSError, ValueError):
-            pass
-    return DEFAULT_SINGLE_OBJECT
+        return DEFAULT_MULTI_TARGET, "detections are given"
+    det = source_detections(source)
+    if det is not None:
+        return DEFAULT_MULTI_TARGET, f"the source has detections: {det}"
+    return DEFAULT_SINGLE_OBJECT, ("the source has no detections (det/det.txt); give "
+                                   "--detections FILE or --detector NAME to track everyone")
+
+
+def source_detections(source: str | None) -> Path | None:
+    """The detections a source carries: ``det/det.txt`` of a folder, or beside a video in
+    a MOTChallenge folder (a ``seqinfo.ini`` beside it, as :func:`pgm.io.video.open_source`
+    reads it); None where it has none."""
+    if source is None:
+        return None
+    try:
+        p = Path(source)
+        if p.is_dir():
+            det = p / "det" / "det.txt"
+        elif p.is_file() and (p.parent / "seqinfo.ini").is_file():
+            det = p.parent / "det" / "det.txt"
+        else:
+            return None
+        return det if det.is_file() else None
+    except (OSError, ValueError):
+        return None
 
 
 def _with_init_box(graph, box_cxcywh: np.ndarray, path: str):
@@ -147,6 +171,8 @@ def cmd_track_multi(args, source, saved=None) -> int:
         raise InputError("give either --detections FILE or --detector SPEC, not both")
     if args.detections is not None:
         detector = PublicDetections(args.detections)
+    elif is_user_detector(args.detector):
+        detector = user_detector(args.detector)
     else:
         detector = make_detector(args.detector or "public", source)
     gt_path = args.gt or source.gt_path
@@ -173,20 +199,64 @@ def cmd_track_multi(args, source, saved=None) -> int:
                          engine_kwargs=engine_kwargs,
                          memory_limit_bytes=_memory_limit(args),
                          drop_frames=parse_drop_frames(args.drop_frames, len(source)),
+                         command=getattr(args, "argv", None), video_scale=args.video_scale,
+                         trails=args.trails,
                          record=_record_option(args))
-    print(f"tracked {result.n_frames} frames at {result.fps:.1f} frames/s (inference only; "
-          f"detector {result.n_frames / max(result.detector_seconds, 1e-9):.0f} frames/s) -> "
+    print(f"tracked {result.n_frames} frames: {result.end_to_end_fps:.1f} frames/s end to end "
+          f"(inference alone {result.fps:.1f}, detector alone "
+          f"{result.n_frames / max(result.detector_seconds, 1e-9):.0f}) -> "
           f"{Path(args.out) / 'tracks.txt'}")
     if result.metrics is not None:
         _print_mot_metrics(result.metrics)
     return 0
 
 
+def _single_gt(gt_path, args):
+    """The single object's ground truth: of a MOTChallenge file of several people, the
+    identity ``--gt-id`` names; without one, a refusal naming the choices (no ``--init``)
+    or no ground truth at all (``--init``: which person it follows is not known)."""
+    from pgm.io.annotations import detect_gt_format, load_mot, load_single_gt
+
+    if detect_gt_format(gt_path) != "mot":
+        if args.gt_id is not None:
+            raise InputError(f"--gt-id applies to a MOTChallenge ground truth of several "
+                             f"people; {gt_path} is a single object's")
+        return load_single_gt(gt_path)
+    table = load_mot(gt_path, kind="gt")
+    ids = np.unique(table.ids[~table.ignore]) if len(table) else np.zeros(0, np.int64)
+    if args.gt_id is not None:
+        if args.gt_id not in ids:
+            shown = ", ".join(map(str, ids[:12])) + (", ..." if ids.size > 12 else "")
+            raise InputError(f"--gt-id {args.gt_id}: no such identity in {gt_path} "
+                             f"(identities: {shown})")
+        track = load_single_gt(gt_path, "mot", obj_id=int(args.gt_id))
+        if args.init is None and int(track.frames[0]) > 1:
+            here = np.unique(table.ids[(table.frames == 1) & ~table.ignore])
+            shown = ", ".join(map(str, here[:8])) + (", ..." if here.size > 8 else "")
+            raise InputError(f"--gt-id {args.gt_id} is first annotated in frame "
+                             f"{int(track.frames[0])} of {gt_path}, and the run starts at "
+                             f"frame 1: give --init X,Y,W,H, or an identity annotated in "
+                             f"frame 1 ({shown or 'none'})")
+        return track
+    if ids.size <= 1:
+        return load_single_gt(gt_path, "mot")
+    if args.init is None:
+        here = np.unique(table.ids[(table.frames == 1) & ~table.ignore])
+        shown = ", ".join(map(str, here[:8])) + (", ..." if here.size > 8 else "")
+        raise InputError(f"{gt_path} holds {ids.size} people and model {args.model!r} "
+                         f"follows one: give --gt-id ID (annotated in frame 1: "
+                         f"{shown or 'none'}) or --init X,Y,W,H, or track everyone with "
+                         f"--detections FILE or --detector NAME")
+    if not args.quiet:
+        print(f"pgm: {gt_path} holds {ids.size} people; the run is not scored (give --gt-id "
+              f"ID to score the person --init starts on)", file=sys.stderr)
+    return None
+
+
 def cmd_track(args) -> int:
     """``pgm track``: one object from a box, or every target from detections, as the
     model's kind says."""
     from pgm.app.runner import init_box_from_gt, track
-    from pgm.io.annotations import load_single_gt
     from pgm.io.video import open_source
     from pgm.models.config import VideoInfo
 
@@ -199,7 +269,9 @@ def cmd_track(args) -> int:
     if args.model is None:
         args.model = args.model_config.name
         if not args.quiet:
-            print(f"pgm: using model {args.model} (no --model given)", file=sys.stderr)
+            hint = _given(args, "detections") or _given(args, "detector")
+            _, why = default_model_and_reason(args.source, hint)
+            print(f"pgm: using model {args.model} (no --model given; {why})", file=sys.stderr)
     if args.model.endswith(".json"):
         saved = load_model_file(args.model)
     kind = _kind(args, saved)
@@ -208,6 +280,9 @@ def cmd_track(args) -> int:
                          f"likelihood: it runs on measurements from Python "
                          f"(pgm.inference.Engine), not on a video")
     if kind == "multi-target":
+        if args.gt_id is not None:
+            raise InputError(f"--gt-id picks the one person a single-object model follows; "
+                             f"{args.model!r} tracks every target (leave --gt-id out)")
         return cmd_track_multi(args, source, saved)
     if _given(args, "detections") or _given(args, "detector"):
         raise InputError(f"--detections/--detector apply to multi-target models, not to the "
@@ -222,7 +297,7 @@ def cmd_track(args) -> int:
         if not args.quiet:
             print(f"pgm: using the sequence's ground truth {gt_path}", file=sys.stderr)
     if gt_path is not None:
-        gt = load_single_gt(gt_path)
+        gt = _single_gt(gt_path, args)
     box_xywh, what = None, "--init box"
     if args.init is not None:
         box_xywh = parse_box(args.init)
@@ -249,9 +324,10 @@ def cmd_track(args) -> int:
                    show_particles=args.show_particles, progress=not args.quiet,
                    max_frames=args.max_frames, camera_motion=args.camera_motion or "off",
                    memory_limit_bytes=_memory_limit(args), record=_record_option(args),
-                   lost_below=args.lost_below)
-    print(f"tracked {len(result.frames)} frames at {result.fps:.1f} frames/s "
-          f"(inference only) -> {Path(args.out) / 'tracks.txt'}")
+                   lost_below=args.lost_below, command=getattr(args, "argv", None),
+                   video_scale=args.video_scale, trails=args.trails)
+    print(f"tracked {len(result.frames)} frames: {result.end_to_end_fps:.1f} frames/s end to "
+          f"end (inference alone {result.fps:.1f}) -> {Path(args.out) / 'tracks.txt'}")
     if result.metrics is not None:
         _print_metrics({**result.metrics, "fps": result.fps})
     return 0

@@ -39,7 +39,9 @@ denominator), the plots the mean curve with the seeds' range shaded. Runs of one
 sequence and model that differ in length (``run.json``'s ``frames``) or settings
 (particles, camera motion, dropped frames, ``model.json``'s engine settings) are not
 seeds of one configuration: each gets the settings that differ in its label
-(``colour-pf (50 frames)``), a row of its own, and the page and a warning say so. When
+(``colour-pf (50 frames)``), a row of its own, and the page and a warning say so. Runs
+whose ``run.json`` records the same seed as well repeat one run: they are not seeds of
+it and are not averaged (``colour-pf (seed 0, repeat 2)``, a row each). When
 runs of one model name sit in differently named parent folders (two configurations of
 one model, e.g. ``runs/<seq>/phd/`` and ``runs/<seq>/phd-scores/``), the parent
 folder's name tells them apart.

@@ -281,6 +281,33 @@ def split_configurations(runs: list[Run]) -> list[str]:
         notes.append(f"{sequence}, {label}: {len(members)} runs differ in "
                      f"{', '.join(k.replace('_', ' ') for k in differing)}; shown as "
                      f"{len({r.label for r in members})} rows, not averaged")
+    return notes + _split_repeats(runs)
+
+
+def _split_repeats(runs: list[Run]) -> list[str]:
+    """Runs of one sequence, label and configuration that record the same seed are
+    repeats of one run, not seeds: each gets ``(seed S, repeat k)`` in its label and a row
+    of its own. Runs that record no seed (before ``run.json`` had one) are taken as seeds,
+    as they always were."""
+    by_key: dict[tuple[str, str], list[Run]] = {}
+    for r in runs:
+        by_key.setdefault((r.sequence, r.label), []).append(r)
+    notes = []
+    for (sequence, label), members in sorted(by_key.items()):
+        seeds = [r.info.get("seed") for r in members]
+        if any(not isinstance(s, int) or isinstance(s, bool) for s in seeds):
+            continue
+        repeated = sorted({s for s in seeds if seeds.count(s) > 1})
+        if not repeated:
+            continue
+        count: dict[int, int] = {}
+        for r, s in zip(members, seeds, strict=True):
+            if s in repeated:
+                count[s] = count.get(s, 0) + 1
+                r.label = f"{label} (seed {s}, repeat {count[s]})"
+        notes.append(f"{sequence}, {label}: runs with seed "
+                     f"{', '.join(map(str, repeated))} repeat one run (the seed is the same), "
+                     f"so they are not averaged as seeds; shown as rows of their own")
     return notes
 
 

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from pgm.app.record import Recorder, RecordSettings, record_settings
-from pgm.core.errors import InputError, Interrupted, user_message
+from pgm.core.errors import InputError, Interrupted, uninterrupted, user_message
 from pgm.core.frame import FrameContext
 from pgm.inference.engine import Engine, StepRecord
 from pgm.io.annotated_video import AnnotatedVideoWriter
@@ -66,9 +66,9 @@ def run_frames(frames: Iterable[tuple[int, np.ndarray]], engine: Engine,
             t0 = time.perf_counter()
             record = engine.step(ctx)
             secs += time.perf_counter() - t0
-            n += 1
-            last = int(number)
-            emit(number, image, record, extra)
+            with uninterrupted():  # a frame's outputs are written whole and counted
+                emit(number, image, record, extra)
+                n, last = n + 1, int(number)
             if outputs.bar is not None:
                 outputs.bar.update(1)
     except BaseException as exc:

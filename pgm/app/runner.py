@@ -11,7 +11,7 @@ excluded).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from pgm.app.memory import check_memory, estimate_memory, memory_limit
-from pgm.app.overlay import annotated_frame, xy_columns
+from pgm.app.overlay import Trails, annotated_frame, frame_caption, xy_columns
 from pgm.app.record import Recorder, RecordSettings
 from pgm.app.run_loop import (
     RunOutputs,
@@ -36,7 +36,7 @@ from pgm.evaluation.single_object import single_object_metrics
 from pgm.inference.engine import Engine, StepRecord
 from pgm.io.annotated_video import AnnotatedVideoWriter
 from pgm.io.annotations import MotWriter, SingleTrack, load_single_gt
-from pgm.io.outputs import prepare_run_folder, write_json, write_run_status
+from pgm.io.outputs import prepare_run_folder, provenance, write_json, write_run_status
 from pgm.io.video import FrameSource, open_source
 from pgm.observation.camera_motion import CameraMotionEstimator
 from pgm.plotting.annotate import annotate
@@ -67,6 +67,9 @@ class TrackResult:
         The model's calibrated confidence per frame (the probability that the box
         overlaps the truth by half; :func:`pgm.core.readout.confidence`), 1 for a model
         that declares none.
+    wall_seconds : float
+        The run end to end: from reading the first frame to the last row and video frame
+        written (decoding, camera motion, drawing and encoding included).
     """
 
     frames: np.ndarray
@@ -76,11 +79,17 @@ class TrackResult:
     out_dir: Path | None = None
     records: list[StepRecord] = field(default_factory=list)
     scores: np.ndarray | None = None
+    wall_seconds: float = 0.0
 
     @property
     def fps(self) -> float:
         """Frames per second of inference."""
         return len(self.frames) / self.inference_seconds if self.inference_seconds > 0 else 0.0
+
+    @property
+    def end_to_end_fps(self) -> float:
+        """Frames per second end to end (:attr:`wall_seconds`): what a user waits."""
+        return len(self.frames) / self.wall_seconds if self.wall_seconds > 0 else 0.0
 
 
 def output_box(graph: FactorGraph, record: StepRecord) -> np.ndarray:
@@ -170,7 +179,9 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
           on_frame: Callable[[StepRecord], None] | None = None,
           memory_limit_bytes: float | None = None,
           record: bool | RecordSettings | dict | None = None,
-          lost_below: float | None = None) -> TrackResult:
+          lost_below: float | None = None,
+          command: Sequence[str] | None = None,
+          video_scale: float | None = None, trails: int = 0) -> TrackResult:
     """Track one object through ``source`` with the tracker ``graph``.
 
     Parameters
@@ -218,6 +229,16 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
         confidence thresholds) and, where the ground truth marks frames as absent,
         ``"absence"``: how well ``confidence < lost_below`` (0.5 when off) flags them
         (:func:`pgm.evaluation.single_object.absence_signal`).
+    command : list of str, optional
+        The command line the run came from (``pgm`` first), recorded in ``run.json``
+        with the seed, the toolkit's version and its commit
+        (:func:`pgm.io.outputs.provenance`).
+    video_scale : float, optional
+        The annotated video's scale (``(0, 1]``); default: so that its long side is at
+        most 1280 px (:func:`pgm.io.annotated_video.video_scale`). It is encoded in a
+        thread of its own.
+    trails : int
+        Draw each identity's last ``trails`` centres in the video (0: none).
 
     Notes
     -----
@@ -255,7 +276,8 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     motion = CameraMotionEstimator(camera_motion)
     out = prepare_run_folder(out_dir) if out_dir is not None else None
     run = {"model": graph.name, "source": source_text(source),
-           "num_particles": engine.num_particles, "camera_motion": camera_motion}
+           "num_particles": engine.num_particles, "camera_motion": camera_motion,
+           **provenance(rng, command)}
     outputs = RunOutputs(out, run)
     if rec_settings is not None and out is not None:
         outputs.recorder = Recorder(out, engine, rec_settings, fps=fps)
@@ -270,8 +292,9 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     scores_done: list[float] = []
     records: list[StepRecord] = []
     outputs.writer = MotWriter(out / "tracks.txt") if out is not None else None
-    outputs.video = (AnnotatedVideoWriter(out / "annotated.mp4", fps)
+    outputs.video = (AnnotatedVideoWriter(out / "annotated.mp4", fps, scale=video_scale)
                      if out is not None and write_video else None)
+    trail = Trails(trails)
     outputs.bar = progress_bar(progress, total, graph.name)
 
     def context(number, image):
@@ -287,16 +310,19 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
         if outputs.writer is not None and (lost_below is None or score >= lost_below):
             outputs.writer.write(number, [1], box[None], [score])
         if outputs.video is not None:
-            outputs.video.write(annotated_frame(engine, record, image, box,
-                                                 gt_by_frame.get(int(number)), show_particles))
+            outputs.video.write(annotated_frame(
+                engine, record, image, box, gt_by_frame.get(int(number)), show_particles,
+                score=score if "confidence" in engine.graph.meta else None, trails=trail))
         if outputs.recorder is not None:
             outputs.recorder.write(engine, record, image,
                                    targets={"ids": [1], "boxes": box[None], "scores": [score]})
         if on_frame is not None:
             on_frame(record)
 
+    t_start = time.perf_counter()
     _, seconds, _ = run_frames(frames_iter, engine, outputs, max_frames=max_frames,
                                context=context, emit=emit)
+    wall = time.perf_counter() - t_start
     frames_arr = np.asarray(frames_done)
     boxes_arr = np.asarray(boxes_done)
     # score the annotated frames up to the last frame processed (max_frames may stop early)
@@ -314,10 +340,12 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     if out is not None and lost_below is not None:
         run["lost_below"] = lost_below
         run["frames_reported_lost"] = int(np.sum(scores_arr < lost_below))
-    result = TrackResult(frames_arr, boxes_arr, metrics, seconds, out, records, scores_arr)
+    result = TrackResult(frames_arr, boxes_arr, metrics, seconds, out, records, scores_arr,
+                         wall)
     if out is not None:
         run.update({"frames": len(frames_done), "last_frame": int(frames_arr[-1]),
                     "inference_seconds": seconds, "fps": result.fps,
+                    "wall_seconds": wall, "fps_end_to_end": result.end_to_end_fps,
                     "camera_motion_frames": motion.frames_moved,
                     "video": outputs.video is not None, **outputs.summary()})
         if metrics is not None:
@@ -352,11 +380,18 @@ class MultiTrackResult:
     n_frames: int
     out_dir: Path | None = None
     noise_sigma: list[float] = field(default_factory=list)
+    wall_seconds: float = 0.0
 
     @property
     def fps(self) -> float:
         """Frames per second of inference (detection and decoding excluded)."""
         return self.n_frames / self.inference_seconds if self.inference_seconds > 0 else 0.0
+
+    @property
+    def end_to_end_fps(self) -> float:
+        """Frames per second end to end: from reading the first frame to the last row and
+        video frame written (decoding, detection, drawing and encoding included)."""
+        return self.n_frames / self.wall_seconds if self.wall_seconds > 0 else 0.0
 
 
 def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph, detector, *,
@@ -367,7 +402,9 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
                 camera_motion: str = "auto",
                 memory_limit_bytes: float | None = None,
                 drop_frames: Iterable[int] | None = None,
-                record: bool | RecordSettings | dict | None = None) -> MultiTrackResult:
+                record: bool | RecordSettings | dict | None = None,
+                command: Sequence[str] | None = None,
+                video_scale: float | None = None, trails: int = 0) -> MultiTrackResult:
     """Track every target through ``source`` with a set-variable graph (PHD, VB-PHD) or a
     plate graph (one sub-graph per target: ``multi-pf``, ``gpdm``), both run by the one
     :class:`~pgm.inference.Engine`.
@@ -384,7 +421,11 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
     images and detections are withheld, the targets are predicted through them (and
     reported and scored there), as a tracker must across a gap in the video.
 
-    ``record`` records what the viewer shows, as for :func:`track`.
+    ``record`` records what the viewer shows, ``command`` goes into ``run.json``,
+    ``video_scale`` scales the annotated video and ``trails`` draws the tracks' last
+    centres in it, as for :func:`track`. The video's header says the model, the frame
+    and how many tracks it shows; the ground truth's ignored regions are drawn dashed
+    and grey, apart from its scored boxes, and a legend says which is which.
     """
     from pgm.evaluation.mot import evaluate_mot
     from pgm.io.annotations import MotTable, load_mot
@@ -416,7 +457,8 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
     motion_secs = 0.0
     noise = [v for v in engine.graph.variables.values() if v.role == "noise"]
     out = prepare_run_folder(out_dir) if out_dir is not None else None
-    run = {"model": graph.name, "source": source_text(source), "camera_motion": camera_motion}
+    run = {"model": graph.name, "source": source_text(source), "camera_motion": camera_motion,
+           **provenance(rng, command)}
     if dropped:
         run["dropped_frames"] = sorted(dropped)
     outputs = RunOutputs(out, run)
@@ -426,8 +468,9 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
     if out is not None:
         write_run_status(out, {**run, "frames": 0}, complete=False, stopped="running")
     outputs.writer = MotWriter(out / "tracks.txt") if out is not None else None
-    outputs.video = (AnnotatedVideoWriter(out / "annotated.mp4", source.fps)
+    outputs.video = (AnnotatedVideoWriter(out / "annotated.mp4", source.fps, scale=video_scale)
                      if out is not None and write_video else None)
+    trail = Trails(trails)
     known = source._known_length()
     total = known if max_frames is None else (max_frames if known is None
                                               else min(known, max_frames))
@@ -465,18 +508,30 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
                 x = np.asarray(record.beliefs[var].x)
                 particles = ({var: x.reshape(-1, x.shape[-1])[
                     :, xy_columns(engine.graph, var)]} if x.size else None)
-            gt_boxes = gt.at(number)[1] if gt is not None else None
+            gt_boxes = ignored = None
+            if gt is not None:  # the scored boxes, and the ignored regions apart
+                rows = gt.rows(number)
+                gt_boxes, ignored = gt.boxes[rows][gt.scored[rows]], gt.boxes[rows][gt.ignore[rows]]
+            words = f"{len(ids)} track{'s' if len(ids) != 1 else ''}"
+            if show_particles and targets.text:
+                words += f"  {targets.text}"
             outputs.video.write(annotate(image, boxes=boxes, ids=ids.tolist(),
                                          gt_boxes=gt_boxes, particles=particles,
-                                         text=f"{graph.name} frame {number} {targets.text}"))
+                                         ignore_boxes=ignored if ignored is not None
+                                         and len(ignored) else None,
+                                         trails=trail.update(ids.tolist(), boxes),
+                                         legend=True,
+                                         text=frame_caption(graph.name, number, words)))
         if outputs.recorder is not None:
             outputs.recorder.write(engine, record, image, detections=dets,
                                    dropped=number in dropped,
                                    targets={"ids": ids, "boxes": boxes, "scores": conf,
                                             "text": targets.text})
 
+    t_start = time.perf_counter()
     n, secs, number = run_frames(source.frames(), engine, outputs, max_frames=max_frames,
                                  context=context, emit=emit)
+    wall = time.perf_counter() - t_start
     table = MotTable(np.asarray(rows_f, dtype=np.int64), np.asarray(rows_i, dtype=np.int64),
                      np.asarray(rows_b, dtype=float).reshape(-1, 4),
                      np.asarray(rows_c, dtype=float))
@@ -486,12 +541,13 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
         metrics = evaluate_mot(gt.until(last), table, num_frames=last)
         metrics["fps"] = n / secs if secs > 0 else 0.0
         metrics["detector_fps"] = n / det_secs if det_secs > 0 else 0.0
-    result = MultiTrackResult(table, metrics, secs, det_secs, n, out, sigmas)
+    result = MultiTrackResult(table, metrics, secs, det_secs, n, out, sigmas, wall)
     if out is not None:
         if metrics is not None:
             write_json(out / "metrics.json", metrics)
         run.update({"frames": n, "last_frame": int(number), "inference_seconds": secs,
                     "detector_seconds": det_secs, "fps": result.fps,
+                    "wall_seconds": wall, "fps_end_to_end": result.end_to_end_fps,
                     "camera_motion_frames": motion.frames_moved,
                     "camera_motion_seconds": motion_secs,
                     "video": outputs.video is not None, **outputs.summary()})

@@ -298,16 +298,21 @@ _JSON_NAMES = {int: "an integer", str: "a string", dict: "an object", list: "a l
 
 
 def _image_path(folder: Path, name: str, where: str) -> Path:
-    """The thumbnail a record line names, inside the record folder *by name*: relative,
-    without ``..`` (a crafted record must not make the page embed the user's other
-    files; a ``record/frames`` that is a symbolic link to a data folder still works, as
-    the name is checked, not where it resolves)."""
+    """The thumbnail a record line names, inside the record folder: by name (relative,
+    without ``..``) and where it resolves (a symbolic link, of the file or of a folder on
+    its way, to anything outside the record folder is refused): a crafted record must not
+    make the page embed the user's other files."""
     parts = Path(name).parts
     if not name or Path(name).is_absolute() or ".." in parts or "\\" in name:
         raise InputError(f"{where}: image {name!r} is not a path inside {folder} (the "
                          f"record names its thumbnails relative to it, e.g. "
                          f"frames/000001.jpg)")
-    return folder / name
+    path = folder / name
+    real, root = path.resolve(), folder.resolve()
+    if path.exists() and not real.is_relative_to(root):
+        raise InputError(f"{where}: image {name!r} resolves to {real}, outside {root} (a "
+                         f"symbolic link out of the record is not followed)")
+    return path
 
 
 def _check_frames(folder: Path, frames: list[Any]) -> list[Path | None]:

@@ -241,6 +241,15 @@ class FactorGraph:
             raise ValueError("not a pgm factor-graph declaration (missing format tag)")
         if d.get("version") != FORMAT_VERSION:
             raise ValueError(f"unsupported declaration version {d.get('version')!r}")
+        for key, required in (("variables", True), ("factors", True), ("plates", False)):
+            if key not in d and not required:
+                continue
+            if not isinstance(d.get(key), list) and not (key == "plates" and d[key] is None):
+                raise ValueError(f"malformed factor-graph declaration: {key!r} must be a list, "
+                                 f"got {type(d.get(key)).__name__}")
+        if d.get("meta") is not None and not isinstance(d["meta"], dict):
+            raise ValueError(f"malformed factor-graph declaration: 'meta' must be an object, "
+                             f"got {type(d['meta']).__name__}")
         try:
             variables = [Variable.from_dict(v) for v in d["variables"]]
             factors = [factor_from_dict(f) for f in d["factors"]]

@@ -75,6 +75,9 @@ class Variable:
     @classmethod
     def from_dict(cls, d: dict) -> Variable:
         """Inverse of :meth:`to_dict`."""
+        if not isinstance(d, dict):
+            raise ValueError(f"malformed variable declaration {d!r}: expected an object with "
+                             f"'name' and 'dim'")
         labels = d.get("labels")
         dim = d["dim"]
         if isinstance(dim, bool) or not isinstance(dim, (int, float)) or int(dim) != dim:

@@ -10,12 +10,15 @@ Layout
 * Predictions ``PRED``: one ``PRED/<SEQ>.txt`` per sequence (MOTChallenge result rows,
   as ``pgm track`` writes to ``tracks.txt``).
 
-Every ground-truth sequence is scored. A sequence with no prediction file is **scored
-as an empty prediction** (every target missed: MOTA 0, OSPA at its cut-off) and listed
-under ``missing``, as a benchmark server scores a submission that leaves a sequence out;
-prediction files with no ground truth are listed under ``unmatched`` and not scored. A
-prediction folder that matches no sequence at all is an error (most likely the wrong
-folder).
+The sequences with a prediction file are scored; a ground-truth sequence with none is
+listed under ``missing`` and left out of every row (a user who ran two of five
+sequences sees the two, not a COMBINED row dragged down by three it never ran). With
+``all_sequences=True`` (``pgm eval --all-sequences``) every ground-truth sequence is
+scored and one without a prediction file is **scored as an empty prediction** (every
+target missed: MOTA 0, OSPA at its cut-off), as a benchmark server scores a submission
+that leaves a sequence out. Prediction files with no ground truth are listed under
+``unmatched`` and not scored. A prediction folder that matches no sequence at all is an
+error (most likely the wrong folder).
 
 Summary rows
 ------------
@@ -160,8 +163,8 @@ def _mean(rows: list[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
-def evaluate_mot_folders(gt_dir: str | Path, pred_dir: str | Path,
-                         **kwargs: Any) -> dict[str, Any]:
+def evaluate_mot_folders(gt_dir: str | Path, pred_dir: str | Path, *,
+                         all_sequences: bool = False, **kwargs: Any) -> dict[str, Any]:
     """Score every ground-truth sequence of ``gt_dir`` against ``pred_dir/<SEQ>.txt``.
 
     See the module docstring for the layout, missing predictions and the summary rows.
@@ -170,6 +173,9 @@ def evaluate_mot_folders(gt_dir: str | Path, pred_dir: str | Path,
     ----------
     gt_dir, pred_dir : path
         The two folders.
+    all_sequences : bool
+        Score every ground-truth sequence, one without a prediction file as an empty
+        prediction (False, the default: only those with a prediction file).
     **kwargs
         Passed to :func:`pgm.evaluation.mot.evaluate_mot` (``iou``, ``ospa_params``, ...).
 
@@ -178,7 +184,8 @@ def evaluate_mot_folders(gt_dir: str | Path, pred_dir: str | Path,
     dict
         JSON-ready: ``sequences`` (name → the scalar metrics of
         :func:`~pgm.evaluation.mot.evaluate_mot`), ``combined`` and ``mean`` (the summary
-        rows), ``missing`` (sequences without a prediction file, scored as empty),
+        rows), ``missing`` (sequences without a prediction file: not scored, or scored
+        as empty with ``all_sequences``), ``all_sequences``,
         ``unmatched`` (prediction files without ground truth, not scored) and
         ``combined_method`` (one sentence saying how ``combined`` is computed).
 
@@ -200,6 +207,8 @@ def evaluate_mot_folders(gt_dir: str | Path, pred_dir: str | Path,
     per_seq: dict[str, dict[str, Any]] = {}
     gt_tables, pred_tables, lengths = [], [], []
     for name, gt_path in gts.items():
+        if name not in preds and not all_sequences:
+            continue
         gt = load_mot(gt_path, kind="gt")
         pred = load_tracks(preds[name]) if name in preds else empty
         n = _seq_length(gt_path) if gt_path.name == "gt.txt" else None
@@ -218,7 +227,7 @@ def evaluate_mot_folders(gt_dir: str | Path, pred_dir: str | Path,
     combined["ospa2"] = float(np.dot(weights, [per_seq[s]["ospa2"] for s in per_seq])
                               / weights.sum())
     return {"sequences": per_seq, "combined": combined, "mean": _mean(list(per_seq.values())),
-            "missing": [s for s in gts if s not in preds],
+            "missing": [s for s in gts if s not in preds], "all_sequences": bool(all_sequences),
             "unmatched": [s for s in preds if s not in gts],
             "combined_method": "all sequences scored as one (frames end to end, identities "
                                "distinct per sequence): counts summed, MOTA/IDF1/HOTA of the "

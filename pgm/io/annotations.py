@@ -499,8 +499,7 @@ def load_mot(path: str | Path, *, kind: str = "gt", min_score: float | None = No
     checks = (
         (~np.isfinite(frames_f) | (frames_f != np.round(frames_f)) | (frames_f < 1)
          | (frames_f > MAX_FRAME), f"frame must be an integer from 1 to {MAX_FRAME}"),
-        (~np.isfinite(ids_f) | (ids_f != np.round(ids_f)) | (np.abs(ids_f) > MAX_FRAME),
-         f"id must be an integer from -{MAX_FRAME} to {MAX_FRAME}"),
+        (~np.isfinite(ids_f) | (ids_f != np.round(ids_f)), "id must be an integer"),
         (~np.all(np.isfinite(boxes), axis=1), "box is not finite"),
         (np.any(np.abs(boxes) > MAX_COORDINATE, axis=1),
          f"box coordinates beyond ±{MAX_COORDINATE:g} px"),
@@ -513,6 +512,7 @@ def load_mot(path: str | Path, *, kind: str = "gt", min_score: float | None = No
         if np.any(bad):
             i = int(np.flatnonzero(bad)[0])
             raise InputError(f"{p}:{lineno[i]}: {message} ({lines[i].strip()[:60]!r})")
+    ids = _exact_ids(p, lines, lineno, ids_f)
     conf = np.where(np.isnan(conf), 1.0, conf)
     boxes = boxes.copy()
     boxes[:, :2] -= 1.0
@@ -528,8 +528,30 @@ def load_mot(path: str | Path, *, kind: str = "gt", min_score: float | None = No
                  "visibility": table[keep, 8], "fmt": "mot16"}
     else:
         ignore = (conf == 0) if kind == "gt" else np.zeros(len(lines), dtype=bool)
-    return MotTable(frames=frames_f[keep].astype(np.int64), ids=ids_f[keep].astype(np.int64),
+    return MotTable(frames=frames_f[keep].astype(np.int64), ids=ids[keep],
                     boxes=boxes[keep], conf=conf[keep], ignore=ignore[keep], **extra)
+
+
+def _exact_ids(path: Path, lines: list[str], lineno: np.ndarray, ids_f: np.ndarray
+               ) -> np.ndarray:
+    """The id column as ``int64``, exactly: any 64-bit integer is an id. Ids of magnitude
+    2^53 and above (where a float no longer holds every integer) are read again from
+    their text; one that is not a 64-bit integer is an :class:`InputError` naming its
+    line."""
+    ids = np.zeros(len(ids_f), dtype=np.int64)
+    small = np.abs(ids_f) < 2.0 ** 53
+    ids[small] = ids_f[small].astype(np.int64)
+    for i in np.flatnonzero(~small):
+        text = _SPLIT.split(lines[i].strip())[1]
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or not -2 ** 63 <= value < 2 ** 63:
+            raise InputError(f"{path}:{lineno[i]}: id must be a 64-bit integer "
+                             f"({lines[i].strip()[:60]!r})")
+        ids[i] = value
+    return ids
 
 
 #: MOT16/17 ground-truth class of the evaluated targets (pedestrians)

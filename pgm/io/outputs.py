@@ -21,13 +21,19 @@ a read-only parent) is an :class:`~pgm.core.errors.InputError` naming the path.
 
 from __future__ import annotations
 
+import functools
 import json
 import os
+import subprocess
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from pgm.core.errors import InputError
+from pgm.core.version import __version__
 
 __all__ = ["RUN_OUTPUTS", "prepare_run_folder", "prepare_output_file", "write_json", "write_text",
            "write_run_status"]
@@ -123,6 +129,35 @@ def write_text(path: str | Path, text: str) -> Path:
 def write_json(path: str | Path, data: Any) -> Path:
     """Write ``data`` as JSON to ``path`` atomically (:func:`write_text`)."""
     return write_text(path, json.dumps(data, indent=1))
+
+
+def provenance(rng: Any, command: Sequence[str] | None = None) -> dict[str, Any]:
+    """What ``run.json`` records to reproduce a run: ``"seed"`` (the integer seed; None
+    where a generator was given), ``"command"`` (the argument list, ``pgm`` first, where
+    the run came from the command line; None from the API), ``"pgm_version"`` and
+    ``"commit"`` (the toolkit's git commit where it runs from a checkout, with ``+dirty``
+    when its tracked files differ from it; None for an installed copy)."""
+    seed = int(rng) if isinstance(rng, (int, np.integer)) and not isinstance(rng, bool) else None
+    return {"seed": seed, "command": None if command is None else [str(a) for a in command],
+            "pgm_version": __version__, "commit": toolkit_commit()}
+
+
+@functools.lru_cache(maxsize=1)
+def toolkit_commit() -> str | None:
+    """The git commit of the checkout the toolkit runs from (``+dirty`` appended when its
+    tracked files differ), or None (an installed copy, no git, or git too slow)."""
+    root = Path(__file__).resolve().parents[2]
+    if not (root / ".git").exists():
+        return None
+    try:
+        head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True,
+                              text=True, timeout=5, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain",
+                                "--untracked-files=no"], capture_output=True, text=True,
+                               timeout=5, check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return f"{head}+dirty" if dirty else head or None
 
 
 def write_run_status(out: Path, info: dict[str, Any], *, complete: bool,

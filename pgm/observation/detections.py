@@ -12,6 +12,9 @@ pixel coordinates and one score per box. Two sources are provided:
     Background subtraction (OpenCV MOG2) for a static camera: foreground mask, shadows
     removed, morphological clean-up, one box per connected component of plausible size
     and shape. Stateful: it must see the frames in order.
+:class:`CallableDetector`
+    A user's own detector (YOLO, RT-DETR, ...): a function from a frame to boxes and
+    scores (``pgm track --detector my_module:detect`` or ``--detector my_file.py:detect``).
 
 :func:`make_detector` builds either from a short spec string (``"public"``,
 ``"public:40"``, ``"mog2"``).
@@ -68,13 +71,15 @@ __all__ = [
     "DetectionSource",
     "PublicDetections",
     "MOG2Detector",
+    "CallableDetector",
     "make_detector",
     "DETECTOR_SPECS",
     "MatchCounts",
     "match_detections",
 ]
 
-DETECTOR_SPECS: tuple[str, ...] = ("public", "public:<min_score>", "mog2")
+DETECTOR_SPECS: tuple[str, ...] = ("public", "public:<min_score>", "mog2",
+                                   "<module or file.py>:<function>")
 """The spec strings :func:`make_detector` accepts."""
 
 
@@ -429,6 +434,85 @@ class MOG2Detector(DetectionSource):
 # --------------------------------------------------------------------------- factory
 
 
+class CallableDetector(DetectionSource):
+    """A user's own detector: a function from a frame to boxes and scores.
+
+    ``fn(image)`` gets each frame (``H x W x 3`` BGR ``uint8``, as OpenCV reads it) in
+    frame order and returns either :class:`Detections`, or ``(boxes, scores)`` with
+    ``boxes`` top-left ``(x, y, w, h)`` in pixels ``(M, 4)`` and ``scores`` ``(M,)``, or
+    one ``(M, 5)`` array of ``x, y, w, h, score`` rows (``M`` may be 0). Scores may be on
+    any scale: the multi-target default reads them by their quantile among the video's
+    scores; a core that reads the detector's own numbers (``--scores detector``) takes
+    them as probabilities in ``[0, 1]`` unless ``fn.score_range = (low, high)`` says
+    otherwise. A box with a non-positive or non-finite size, a non-finite coordinate or
+    score, or a return value of another shape is an :class:`InputError` naming the
+    detector and the frame (the user's code: one line, never a traceback).
+
+    >>> import numpy as np
+    >>> det = CallableDetector(lambda img: (np.array([[10, 20, 30, 60]]), np.array([0.9])),
+    ...                        name="mine")
+    >>> det(1, np.zeros((100, 100, 3), np.uint8)).boxes.tolist()
+    [[10.0, 20.0, 30.0, 60.0]]
+    """
+
+    def __init__(self, fn, name: str = "callable"):
+        if not callable(fn):
+            raise InputError(f"detector {name!r} is not callable (got {type(fn).__name__})")
+        self.fn = fn
+        self.name = str(name)
+        rng = getattr(fn, "score_range", (0.0, 1.0))
+        try:
+            lo, hi = (float(v) for v in rng)
+        except (TypeError, ValueError):
+            raise InputError(f"detector {self.name!r}: score_range must be (low, high), got "
+                             f"{rng!r}") from None
+        if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+            raise InputError(f"detector {self.name!r}: score_range must be finite with "
+                             f"low <= high, got {rng!r}")
+        #: the scale of the scores (what the models' score maps are chosen from)
+        self.score_range = np.array([lo, hi])
+
+    def __call__(self, frame_number: int, image: np.ndarray | None) -> Detections:
+        where = f"detector {self.name!r}, frame {frame_number}"
+        if image is None:
+            raise InputError(f"{where}: it needs the frame's image")
+        try:
+            out = self.fn(image)
+        except InputError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - the user's code: any failure, one line
+            raise InputError(f"{where}: {type(exc).__name__}: {' '.join(str(exc).split())}"
+                             ) from None
+        if isinstance(out, Detections):
+            boxes, scores = out.boxes, out.scores
+        else:
+            try:
+                if isinstance(out, tuple) and len(out) == 2:
+                    boxes = np.asarray(out[0], dtype=float).reshape(-1, 4)
+                    scores = np.asarray(out[1], dtype=float).reshape(-1)
+                else:
+                    rows = np.asarray(out, dtype=float)
+                    if rows.size == 0:
+                        rows = rows.reshape(0, 5)
+                    if rows.ndim != 2 or rows.shape[1] != 5:
+                        raise ValueError(f"an array of shape {rows.shape}")
+                    boxes, scores = rows[:, :4], rows[:, 4]
+            except (TypeError, ValueError) as exc:
+                raise InputError(f"{where}: expected Detections, (boxes (M, 4), scores (M,)) "
+                                 f"or an (M, 5) array, got {' '.join(str(exc).split())}"
+                                 ) from None
+        if boxes.shape[0] != scores.shape[0]:
+            raise InputError(f"{where}: {boxes.shape[0]} boxes but {scores.shape[0]} scores")
+        bad = ~np.all(np.isfinite(boxes), axis=1) | ~np.isfinite(scores)
+        bad |= ~((boxes[:, 2] > 0) & (boxes[:, 3] > 0)) if len(boxes) else bad
+        if np.any(bad):
+            i = int(np.flatnonzero(bad)[0])
+            raise InputError(f"{where}: detection {i} is {boxes[i].tolist()} with score "
+                             f"{scores[i]!r} (a box needs finite x, y, w > 0, h > 0 and a "
+                             f"finite score)")
+        return Detections(boxes, scores)
+
+
 def make_detector(spec: str, source: Any = None) -> DetectionSource:
     """Build a :class:`DetectionSource` from a spec string.
 
@@ -470,6 +554,10 @@ def make_detector(spec: str, source: Any = None) -> DetectionSource:
         return PublicDetections(det_path, min_score=min_score)
     if kind == "mog2" and not sep:
         return MOG2Detector()
+    if sep and kind not in ("public", "mog2") and arg.strip().isidentifier():
+        raise InputError(f"detector {spec!r} names a user's function (module:function): "
+                         f"the application imports it (pgm track --detector {spec}); from "
+                         f"Python pass CallableDetector(function)")
     raise InputError(f"unknown detector {spec!r} (choices: {choices})")
 
 

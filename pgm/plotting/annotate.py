@@ -58,15 +58,79 @@ def _draw_text(img, text: str, origin: tuple[int, int], colour, scale: float,
     cv2.putText(img, text, (x, y), _FONT, fs, colour, th, cv2.LINE_AA)
 
 
-def _draw_box(img, xywh, colour, thickness, scale, label=None):
+def _draw_box(img, xywh, colour, thickness, scale, label=None, taken=None):
+    """A box, and its ``label`` at the first of four places around its corners (above
+    or inside the top-left corner, below or inside the bottom-left one) whose text does
+    not overlap a label in ``taken`` (a list of placed ``(x0, y0, x1, y1)``, extended)."""
     x, y, w, h = (float(v) for v in xywh)
     p1 = (int(round(x)), int(round(y)))
     p2 = (int(round(x + w)), int(round(y + h)))
     cv2.rectangle(img, p1, p2, colour, _px(thickness, scale), lineType=cv2.LINE_AA)
-    if label:
-        (_, t_h), _ = cv2.getTextSize(label, _FONT, 0.45 * scale, _px(1, scale))
-        _draw_text(img, label, (p1[0], max(t_h + _px(2, scale), p1[1] - _px(4, scale))),
-                   colour, scale, font_scale=0.45, plate=None)
+    if not label:
+        return
+    fs, th = 0.45 * scale, _px(1, scale)
+    (t_w, t_h), base = cv2.getTextSize(label, _FONT, fs, th)
+    gap = _px(4, scale)
+    img_h, img_w = img.shape[:2]
+    places = [(p1[0], p1[1] - gap), (p1[0] + gap, p1[1] + t_h + gap),
+              (p1[0], p2[1] + t_h + gap), (p1[0] + gap, p2[1] - base - gap)]
+    rects = []
+    for px, py in places:
+        px = int(min(max(px, 0), max(img_w - t_w, 0)))
+        py = int(min(max(py, t_h), max(img_h - base, t_h)))
+        rects.append((px, py, (px, py - t_h, px + t_w, py + base)))
+    taken = [] if taken is None else taken
+
+    def free(r):
+        return all(r[2] <= q[0] or q[2] <= r[0] or r[3] <= q[1] or q[3] <= r[1] for q in taken)
+
+    px, py, rect = next((c for c in rects if free(c[2])), rects[0])
+    taken.append(rect)
+    _draw_text(img, label, (px, py), colour, scale, font_scale=0.45, plate=(0, 0, 0))
+
+
+#: colour of the ground truth's boxes (thin) and of its ignored regions (dashed)
+GT_COLOUR = (255, 255, 255)
+IGNORE_COLOUR = (150, 150, 150)
+
+
+def _dashed_box(img, xywh, colour, scale) -> None:
+    """A thin dashed rectangle (an ignored region: neither a target nor a miss)."""
+    x, y, w, h = (float(v) for v in xywh)
+    corners = [(x, y), (x + w, y), (x + w, y + h), (x, y + h), (x, y)]
+    dash = 6.0 * scale
+    for (xa, ya), (xb, yb) in zip(corners[:-1], corners[1:], strict=True):
+        length = max(abs(xb - xa), abs(yb - ya))
+        for t0 in np.arange(0.0, length, 2 * dash):
+            t1 = min(t0 + dash, length)
+            a = (int(round(xa + (xb - xa) * t0 / max(length, 1e-9))),
+                 int(round(ya + (yb - ya) * t0 / max(length, 1e-9))))
+            b = (int(round(xa + (xb - xa) * t1 / max(length, 1e-9))),
+                 int(round(ya + (yb - ya) * t1 / max(length, 1e-9))))
+            cv2.line(img, a, b, colour, _px(1, scale), cv2.LINE_AA)
+
+
+def _legend(img, entries: list[tuple[str, tuple[int, int, int], str]], scale) -> None:
+    """A legend at the bottom left: one line per ``(text, colour, style)``, ``style``
+    ``"solid"``, ``"thin"`` or ``"dashed"``."""
+    fs, th = 0.45 * scale, _px(1, scale)
+    sizes = [cv2.getTextSize(t, _FONT, fs, th) for t, _, _ in entries]
+    line_h = max(s[0][1] + s[1] for s in sizes) + _px(6, scale)
+    swatch = _px(22, scale)
+    width = swatch + _px(8, scale) + max(s[0][0] for s in sizes) + _px(8, scale)
+    h_img = img.shape[0]
+    x0, y0 = _px(6, scale), h_img - _px(6, scale) - line_h * len(entries)
+    cv2.rectangle(img, (x0 - _px(3, scale), y0 - _px(3, scale)),
+                  (x0 + width, h_img - _px(3, scale)), (0, 0, 0), -1)
+    for k, ((text, colour, style), (_, base)) in enumerate(zip(entries, sizes, strict=True)):
+        yc = y0 + k * line_h + line_h // 2
+        if style == "dashed":
+            _dashed_box(img, (x0, yc - 1, swatch, 2), colour, scale)
+        else:
+            cv2.line(img, (x0, yc), (x0 + swatch, yc), colour,
+                     _px(2 if style == "solid" else 1, scale), cv2.LINE_AA)
+        cv2.putText(img, text, (x0 + swatch + _px(8, scale), yc + line_h // 2 - base - 2),
+                    _FONT, fs, (255, 255, 255), th, cv2.LINE_AA)
 
 
 def annotate(image: np.ndarray, *, boxes: Sequence | np.ndarray | None = None,
@@ -75,7 +139,9 @@ def annotate(image: np.ndarray, *, boxes: Sequence | np.ndarray | None = None,
              particle_weights: dict[str, np.ndarray] | None = None,
              messages: dict[str, np.ndarray] | None = None,
              part_boxes: dict[str, np.ndarray] | None = None,
-             text: str | None = None) -> np.ndarray:
+             text: str | None = None, ignore_boxes: np.ndarray | None = None,
+             trails: dict[int, np.ndarray] | None = None,
+             legend: bool = False) -> np.ndarray:
     """Return a copy of ``image`` with the run's state drawn on it.
 
     Parameters
@@ -92,6 +158,17 @@ def annotate(image: np.ndarray, *, boxes: Sequence | np.ndarray | None = None,
         Per-part estimates, drawn thin.
     text : str
         A caption (frame number, ESS, ...), white on a black plate at the top left.
+    ignore_boxes : (I, 4), optional
+        The ground truth's ignored regions (neither targets nor misses), drawn thin,
+        dashed, in grey.
+    trails : dict identity → (k, 2), optional
+        Each identity's last centres, oldest first, drawn as a line in its colour.
+    legend : bool
+        A legend at the bottom left of what the frame shows (tracks; ground truth and
+        ignored regions where given).
+
+    Identity labels are placed where they overlap no other label (above or inside a
+    box's top-left corner, or at its bottom-left one).
 
     Text, line widths and markers grow with the frame (:func:`drawing_scale`): a
     1920×1080 frame gets them 2.25 times as large as a 640×480 one.
@@ -117,14 +194,30 @@ def annotate(image: np.ndarray, *, boxes: Sequence | np.ndarray | None = None,
     for k, (name, box) in enumerate((part_boxes or {}).items()):
         _draw_box(img, cxcywh_to_xywh(np.asarray(box, dtype=float)[:4]), colour_for_id(k + 6),
                   1, scale, name)
+    if ignore_boxes is not None:
+        for b in np.asarray(ignore_boxes, dtype=float).reshape(-1, 4):
+            _dashed_box(img, b, IGNORE_COLOUR, scale)
     if gt_boxes is not None:
         for b in np.asarray(gt_boxes, dtype=float).reshape(-1, 4):
-            _draw_box(img, b, (255, 255, 255), 1, scale)
+            _draw_box(img, b, GT_COLOUR, 1, scale)
+    for i, pts in (trails or {}).items():
+        pts = np.asarray(pts, dtype=float).reshape(-1, 2)
+        if len(pts) > 1:
+            cv2.polylines(img, [np.round(pts).astype(np.int32).reshape(-1, 1, 2)], False,
+                          colour_for_id(i), _px(1, scale), cv2.LINE_AA)
     if boxes is not None:
         boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
         ids = list(ids) if ids is not None else list(range(1, len(boxes) + 1))
+        taken: list = []
         for b, i in zip(boxes, ids, strict=True):
-            _draw_box(img, b, colour_for_id(i), 2, scale, str(i))
+            _draw_box(img, b, colour_for_id(i), 2, scale, str(i), taken)
+    if legend:
+        entries = [("tracks (colour and number: identity)", colour_for_id(1), "solid")]
+        if gt_boxes is not None:
+            entries.append(("ground truth", GT_COLOUR, "thin"))
+        if ignore_boxes is not None:
+            entries.append(("ignored region (not scored)", IGNORE_COLOUR, "dashed"))
+        _legend(img, entries, scale)
     if text:
         (_, t_h), _ = cv2.getTextSize(text, _FONT, 0.5 * scale, _px(1, scale))
         margin = _px(6, scale)

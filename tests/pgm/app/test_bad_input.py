@@ -504,7 +504,7 @@ def test_ffmpeg_and_warnings_are_one_line(files, tmp_path):
     ini = short / "seqinfo.ini"
     ini.write_text(ini.read_text().replace(f"seqLength={N_FRAMES}", "seqLength=3"))
     res = subprocess.run([sys.executable, "-m", "pgm.app.cli", "track", str(short), "--model",
-                          "phd", "--out", str(tmp_path / "o2"), "--quiet", "--no-video"],
+                          "phd", "--out", str(tmp_path / "o2"), "--no-video"],
                          capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr
     lines = res.stderr.strip().splitlines()

@@ -232,18 +232,28 @@ def test_view_embeds_no_file_outside_the_record(recorded, tmp_path, capsys):
     assert code == 2 and not (run / "view.html").exists()
 
 
-def test_view_follows_a_symlinked_frames_folder(recorded, tmp_path, capsys):
-    """Names are checked, not where they resolve: thumbnails kept in another folder
-    behind a symbolic link are embedded."""
+def test_view_refuses_a_thumbnail_that_links_out_of_the_record(recorded, tmp_path, capsys):
+    """Where a name resolves is checked too: a thumbnail that is a symbolic link to a file
+    outside the record, or a ``frames`` folder that links elsewhere, is refused in one
+    line and the page is not written."""
+    secret = tmp_path / "secret.jpg"
+    shutil.copy(next((recorded / "record" / "frames").iterdir()), secret)
     run = tmp_path / "run"
     shutil.copytree(recorded, run)
-    elsewhere = tmp_path / "data" / "thumbs"
-    shutil.move(str(run / "record" / "frames"), elsewhere)
-    (run / "record" / "frames").symlink_to(elsewhere, target_is_directory=True)
+    first = sorted((run / "record" / "frames").iterdir())[0]
+    first.unlink()
+    first.symlink_to(secret)
     code, _, err = run_cli(capsys, ["view", run])
-    assert code == 0, err
-    page = (run / "view.html").read_text(encoding="utf-8")
-    assert page.count("data:image/jpeg;base64,") == N_FRAMES
+    assert_names_the_input(code, err, "line 1", first.name, "outside")
+    assert not (run / "view.html").exists()
+    linked = tmp_path / "linked"
+    shutil.copytree(recorded, linked)
+    elsewhere = tmp_path / "data" / "thumbs"
+    shutil.move(str(linked / "record" / "frames"), elsewhere)
+    (linked / "record" / "frames").symlink_to(elsewhere, target_is_directory=True)
+    code, _, err = run_cli(capsys, ["view", linked])
+    assert_names_the_input(code, err, "outside")
+    assert not (linked / "view.html").exists()
 
 
 # -- 15: silently wrong -------------------------------------------------------------------------

@@ -37,7 +37,7 @@ def test_track_writes_every_output(scene_dir, tmp_path, capsys):
     out = tmp_path / "out"
     code, stdout, _ = run_cli(capsys, "track", scene_dir, "--model", "colour-pf", "--gt",
                               scene_dir / "groundtruth_rect.txt", "--out", out,
-                              "--particles", 50, "--seed", 3, "--quiet")
+                              "--particles", 50, "--seed", 3)
     assert code == 0
     assert "success AUC" in stdout
     rows = (out / "tracks.txt").read_text().splitlines()
@@ -184,7 +184,7 @@ def test_api_raises_value_error(scene_dir):
 def test_console_script_end_to_end(tmp_path):
     """The installed entry point: demo writes everything; a bad call is one line, exit 2."""
     res = subprocess.run([sys.executable, "-m", "pgm.app.cli", "demo", "--out", str(tmp_path),
-                          "--frames", "20", "--quiet"], capture_output=True, text=True,
+                          "--frames", "20"], capture_output=True, text=True,
                          timeout=300)
     assert res.returncode == 0, res.stderr
     for name in ("tracks.txt", "annotated.mp4", "metrics.json", "graph.png", "graph.dot"):
@@ -231,7 +231,7 @@ def mot_dir(tmp_path_factory):
 def test_multi_target_track_and_eval(mot_dir, tmp_path, capsys, model):
     out = tmp_path / model
     code, stdout, err = run_cli(capsys, "track", mot_dir, "--model", model, "--out", out,
-                                "--quiet", "--show-particles")
+                                "--show-particles")
     assert code == 0, err
     assert "MOTA" in stdout and "OSPA(50,1)" in stdout
     rows = [r.split(",") for r in (out / "tracks.txt").read_text().splitlines()]

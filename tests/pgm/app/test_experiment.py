@@ -226,9 +226,13 @@ def test_cli_runs_the_example_and_then_skips_it(shared_data, tmp_path, capsys):
     assert {r["model"] for r in rows} == {"colour-pf", "part-graph-2", "single-object"}
     assert len(rows) == 27 and (out / "results.md").is_file()
     assert (out / "experiment.toml").read_text() == EXAMPLE.read_text()
+    assert main(["bench", str(EXAMPLE), "--out", str(out)]) == 0
+    captured = capsys.readouterr()
+    assert "(0 run now, 27 skipped)" in captured.out
+    assert "27 complete, skipped; running 0" in captured.err
     assert main(["bench", str(EXAMPLE), "--out", str(out), "--quiet"]) == 0
     captured = capsys.readouterr()
-    assert "(0 run now, 27 skipped)" in captured.out and captured.err == ""
+    assert captured.out == "" and captured.err == ""  # --quiet: nothing but errors
     assert table(out) == rows
 
 

@@ -33,8 +33,17 @@ def folders(tmp_path):
     return gt, pred
 
 
-def test_hand_checked_numbers(folders):
+def test_only_the_predicted_sequences_are_scored_by_default(folders):
+    """B has no prediction file: it is listed, and left out of every row."""
     res = evaluate_mot_folders(*folders)
+    assert list(res["sequences"]) == ["A"] and res["missing"] == ["B"]
+    assert not res["all_sequences"]
+    for row in (res["combined"], res["mean"]):
+        assert (row["mota"], row["idf1"], row["num_frames"]) == (1.0, 1.0, 12)
+
+
+def test_hand_checked_numbers(folders):
+    res = evaluate_mot_folders(*folders, all_sequences=True)
     a, b = res["sequences"]["A"], res["sequences"]["B"]
     assert list(res["sequences"]) == ["A", "B"]
     assert res["missing"] == ["B"] and res["unmatched"] == ["C"]
@@ -69,6 +78,12 @@ def test_cli_table_and_json(folders, capsys):
     gt, pred = folders
     code, out, err = run_cli(capsys, "eval", "--gt-dir", gt, "--pred-dir", pred)
     assert code == 0, err
+    assert "| B |" not in out and any(ln.startswith("| COMBINED | 1.000 |")
+                                      for ln in out.splitlines())
+    assert "no prediction file (not scored; --all-sequences scores them as empty): B" in out
+    code, out, err = run_cli(capsys, "eval", "--gt-dir", gt, "--pred-dir", pred,
+                             "--all-sequences")
+    assert code == 0, err
     lines = out.splitlines()
     assert lines[0].startswith("| sequence | MOTA")
     assert any(ln.startswith("| A | 1.000 |") for ln in lines)
@@ -78,7 +93,8 @@ def test_cli_table_and_json(folders, capsys):
     assert "COMBINED: all sequences scored as one" in out
     assert "no prediction file (scored as empty): B" in out
     assert "prediction files without ground truth (not scored): C" in out
-    code, out, _ = run_cli(capsys, "eval", "--gt-dir", gt, "--pred-dir", pred, "--json")
+    code, out, _ = run_cli(capsys, "eval", "--gt-dir", gt, "--pred-dir", pred, "--json",
+                           "--all-sequences")
     assert code == 0
     data = json.loads(out)
     assert data["combined"]["mota"] == pytest.approx(0.8) and data["missing"] == ["B"]

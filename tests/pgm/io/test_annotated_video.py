@@ -137,3 +137,61 @@ def test_track_writes_h264_and_says_so(tmp_path):
     assert run["video_codec"] == "h264"
     name, _, w, h, n = _probe(tmp_path / "out" / "annotated.mp4")
     assert (name, w, h, n) == ("h264", 320, 240, 4)
+
+
+@needs_h264
+def test_a_large_frame_is_written_at_1280_on_its_long_side_by_default(tmp_path):
+    from pgm.io.annotated_video import DEFAULT_MAX_SIDE, video_scale
+
+    frame = np.full((1080, 1920, 3), 90, np.uint8)
+    cv2.rectangle(frame, (600, 300), (900, 700), (0, 0, 255), -1)
+    with AnnotatedVideoWriter(tmp_path / "big.mp4", fps=25) as video:
+        for _ in range(3):
+            video.write(frame)
+    assert video.size == (1280, 720) and video.frames_written == 3
+    assert _probe(tmp_path / "big.mp4")[4] == 3
+    with AnnotatedVideoWriter(tmp_path / "half.mp4", fps=25, scale=0.5) as video:
+        video.write(frame)
+    assert video.size == (960, 540)
+    assert video_scale((640, 480)) == 1.0 and video_scale((2560, 1440)) == DEFAULT_MAX_SIDE / 2560
+    with pytest.raises(InputError, match=r"scale must be in \(0, 1\]"):
+        AnnotatedVideoWriter(tmp_path / "x.mp4", scale=1.5)
+
+
+@needs_h264
+def test_the_background_encoder_writes_what_the_foreground_one_does(tmp_path):
+    frames = _frames(12)
+    for background in (True, False):
+        with AnnotatedVideoWriter(tmp_path / f"{background}.mp4", fps=10,
+                                  background=background) as video:
+            for f in frames:
+                video.write(f)
+        assert video.frames_written == 12
+    a, b = (_probe(tmp_path / f"{bg}.mp4") for bg in (True, False))
+    assert a == b
+
+
+def test_an_encoder_failure_reaches_the_caller(tmp_path):
+    class Broken:
+        codec = "mp4v"
+
+        def __init__(self, *a):
+            pass
+
+        def write(self, image):
+            raise OSError("disk full")
+
+        def close(self):
+            pass
+
+    video = AnnotatedVideoWriter(tmp_path / "f.mp4", codec="mp4v")
+    import pgm.io.annotated_video as av_mod
+    original = av_mod._OpenCVSink
+    av_mod._OpenCVSink = Broken
+    try:
+        with pytest.raises(InputError, match="cannot write video .*OSError: disk full"):
+            for f in _frames(30):
+                video.write(f)
+            video.close()
+    finally:
+        av_mod._OpenCVSink = original
