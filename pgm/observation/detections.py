@@ -444,7 +444,9 @@ class CallableDetector(DetectionSource):
     any scale: the multi-target default reads them by their quantile among the video's
     scores; a core that reads the detector's own numbers (``--scores detector``) takes
     them as probabilities in ``[0, 1]`` unless ``fn.score_range = (low, high)`` says
-    otherwise. A box with a non-positive or non-finite size, a non-finite coordinate or
+    otherwise, and ``fn.score_range = None`` that they carry no confidence at all (as
+    background subtraction's fill fractions: every detection is then taken as
+    confident). A box with a non-positive or non-finite size, a non-finite coordinate or
     score, or a return value of another shape is an :class:`InputError` naming the
     detector and the frame (the user's code: one line, never a traceback).
 
@@ -461,6 +463,11 @@ class CallableDetector(DetectionSource):
         self.fn = fn
         self.name = str(name)
         rng = getattr(fn, "score_range", (0.0, 1.0))
+        #: the scale of the scores (what the models' score maps are chosen from; None: no
+        #: confidence)
+        self.score_range: np.ndarray | None = None
+        if rng is None:
+            return
         try:
             lo, hi = (float(v) for v in rng)
         except (TypeError, ValueError):
@@ -469,7 +476,6 @@ class CallableDetector(DetectionSource):
         if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
             raise InputError(f"detector {self.name!r}: score_range must be finite with "
                              f"low <= high, got {rng!r}")
-        #: the scale of the scores (what the models' score maps are chosen from)
         self.score_range = np.array([lo, hi])
 
     def __call__(self, frame_number: int, image: np.ndarray | None) -> Detections:

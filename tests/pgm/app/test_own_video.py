@@ -445,3 +445,19 @@ def test_the_header_is_plain_words(tmp_path):
         overlay.annotate = original
     assert captions[0] == "single-object  frame 1  confidence 0.93"
     assert captions[1].startswith("single-object  frame 1  confidence 0.93  ESS ")
+
+
+def test_a_detector_declares_the_scale_of_its_scores():
+    from pgm.observation.detections import CallableDetector
+
+    def plain(image):
+        return np.zeros((0, 5))
+
+    assert CallableDetector(plain).score_range.tolist() == [0.0, 1.0]
+    plain.score_range = (-5, 140)
+    assert CallableDetector(plain).score_range.tolist() == [-5.0, 140.0]
+    plain.score_range = None
+    assert CallableDetector(plain).score_range is None
+    plain.score_range = (3, 1)
+    with pytest.raises(InputError, match="score_range"):
+        CallableDetector(plain)
