@@ -224,28 +224,29 @@ def _single_gt(gt_path, args):
         return load_single_gt(gt_path)
     table = load_mot(gt_path, kind="gt")
     ids = np.unique(table.ids[~table.ignore]) if len(table) else np.zeros(0, np.int64)
+
+    def listed(values, most: int = 8) -> str:
+        return (", ".join(map(str, values[:most])) + (", ..." if values.size > most else "")
+                or "none")
+
+    first = np.unique(table.ids[(table.frames == 1) & ~table.ignore])
     if args.gt_id is not None:
         if args.gt_id not in ids:
-            shown = ", ".join(map(str, ids[:12])) + (", ..." if ids.size > 12 else "")
             raise InputError(f"--gt-id {args.gt_id}: no such identity in {gt_path} "
-                             f"(identities: {shown})")
+                             f"(identities: {listed(ids, 12)})")
         track = load_single_gt(gt_path, "mot", obj_id=int(args.gt_id))
         if args.init is None and int(track.frames[0]) > 1:
-            here = np.unique(table.ids[(table.frames == 1) & ~table.ignore])
-            shown = ", ".join(map(str, here[:8])) + (", ..." if here.size > 8 else "")
             raise InputError(f"--gt-id {args.gt_id} is first annotated in frame "
                              f"{int(track.frames[0])} of {gt_path}, and the run starts at "
                              f"frame 1: give --init X,Y,W,H, or an identity annotated in "
-                             f"frame 1 ({shown or 'none'})")
+                             f"frame 1 ({listed(first)})")
         return track
     if ids.size <= 1:
         return load_single_gt(gt_path, "mot")
     if args.init is None:
-        here = np.unique(table.ids[(table.frames == 1) & ~table.ignore])
-        shown = ", ".join(map(str, here[:8])) + (", ..." if here.size > 8 else "")
         raise InputError(f"{gt_path} holds {ids.size} people and model {args.model!r} "
                          f"follows one: give --gt-id ID (annotated in frame 1: "
-                         f"{shown or 'none'}) or --init X,Y,W,H, or track everyone with "
+                         f"{listed(first)}) or --init X,Y,W,H, or track everyone with "
                          f"--detections FILE or --detector NAME")
     if not args.quiet:
         print(f"pgm: {gt_path} holds {ids.size} people; the run is not scored (give --gt-id "
