@@ -138,4 +138,4 @@ print(pgm_cli("graph", "brightness-pf", "--out", out / "brightness_graph.png").s
 scene = out / "scene"
 demo_scene(seed=0, n_frames=args.max_frames or 60).write_otb(scene)
 print(pgm_cli("track", scene, "--model", "brightness-pf", "--tau", "6", "--out",
-              out / "run", "--no-video", "--quiet"))
+              out / "run", "--no-video"))  # (--quiet would print nothing but errors)
