@@ -152,7 +152,9 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
                         "(default: none)")
     t.add_argument("--detector", default=None,
                    help="multi-target models: 'public' (the sequence's det/det.txt, default), "
-                        "'public:MIN_SCORE', 'mog2' (background subtraction) or your own "
+                        "'public:MIN_SCORE', 'mog2' (background subtraction), 'hog' "
+                        "(OpenCV's HOG people detector, where the installed OpenCV has it) "
+                        "or your own "
                         "detector, 'MODULE:FUNCTION' or 'FILE.py:FUNCTION' (a function from "
                         "a BGR frame to boxes x,y,w,h and scores; docs/tutorials/"
                         "16_your_own_detector.py)")

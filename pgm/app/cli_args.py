@@ -254,7 +254,7 @@ def is_user_detector(spec: str | None) -> bool:
         return False
     module, _, fn = spec.rpartition(":")
     return (bool(module.strip()) and fn.strip().isidentifier()
-            and module.strip().lower() not in ("public", "mog2"))
+            and module.strip().lower() not in ("public", "mog2", "hog"))
 
 
 def user_detector(spec: str):

@@ -78,7 +78,7 @@ __all__ = [
     "match_detections",
 ]
 
-DETECTOR_SPECS: tuple[str, ...] = ("public", "public:<min_score>", "mog2",
+DETECTOR_SPECS: tuple[str, ...] = ("public", "public:<min_score>", "mog2", "hog",
                                    "<module or file.py>:<function>")
 """The spec strings :func:`make_detector` accepts."""
 
@@ -560,6 +560,10 @@ def make_detector(spec: str, source: Any = None) -> DetectionSource:
         return PublicDetections(det_path, min_score=min_score)
     if kind == "mog2" and not sep:
         return MOG2Detector()
+    if kind == "hog" and not sep:
+        from .hog import HOGPeopleDetector  # noqa: PLC0415 - it builds on this module
+
+        return HOGPeopleDetector()
     if sep and kind not in ("public", "mog2") and arg.strip().isidentifier():
         raise InputError(f"detector {spec!r} names a user's function (module:function): "
                          f"the application imports it (pgm track --detector {spec}); from "

@@ -11,6 +11,7 @@ from cli_run import run_cli
 
 from pgm.core.graph import FactorGraph
 from pgm.io.annotations import InputError, load_mot
+from pgm.observation.hog import hog_available
 from pgm.synthetic import multi_target_scene
 
 N_FRAMES = 6
@@ -461,3 +462,70 @@ def test_a_detector_declares_the_scale_of_its_scores():
     plain.score_range = (3, 1)
     with pytest.raises(InputError, match="score_range"):
         CallableDetector(plain)
+
+
+# -- item 2: OpenCV's HOG people detector -------------------------------------------------
+class _FakeHOG:
+    """Stands in for cv2.HOGDescriptor: two overlapping windows and one apart, in the
+    resized frame's pixels."""
+
+    seen: list = []
+
+    def setSVMDetector(self, w):  # noqa: N802 - OpenCV's name
+        pass
+
+    def detectMultiScale(self, image, **kw):  # noqa: N802 - OpenCV's name
+        _FakeHOG.seen.append(image.shape)
+        return (np.array([[100, 50, 64, 128], [104, 52, 64, 128], [300, 60, 64, 128]]),
+                np.array([2.0, 1.0, 0.5]))
+
+
+def test_hog_boxes_are_the_windows_less_their_margin_in_frame_pixels(monkeypatch):
+    import cv2
+
+    from pgm.observation import hog
+
+    monkeypatch.setattr(cv2, "HOGDescriptor", _FakeHOG, raising=False)
+    monkeypatch.setattr(cv2, "HOGDescriptor_getDefaultPeopleDetector", lambda: None,
+                        raising=False)
+    det = hog.HOGPeopleDetector(platt={"a": 2.0, "b": -1.0})
+    _FakeHOG.seen.clear()
+    d = det(1, np.zeros((480, 640, 3), np.uint8))
+    s = 128 / (480 * hog.SMALLEST)  # a sixth of 480 px resized to the 128 px window
+    assert _FakeHOG.seen[0][:2] == (round(480 * s), round(640 * s))
+    assert len(d) == 2  # the two overlapping windows are one detection, the stronger kept
+    x, y, w, h = np.array([100, 50, 64, 128]) / s
+    np.testing.assert_allclose(d.boxes[0], [x + w / 4, y + h / 8, w / 2, h * 3 / 4])
+    np.testing.assert_allclose(d.scores, 1 / (1 + np.exp(-(2 * np.array([2.0, 0.5]) - 1))))
+    assert det.score_range.tolist() == [0.0, 1.0]
+
+
+def test_hog_where_opencv_has_none_is_one_line(monkeypatch, mot, tmp_path, capsys):
+    import cv2
+
+    monkeypatch.delattr(cv2, "HOGDescriptor", raising=False)
+    code, _, err = run_cli(capsys, "track", mot, "--detector", "hog", "--out", tmp_path / "r",
+                           "--no-video")
+    lines = [ln for ln in err.splitlines() if ln.startswith("pgm: error:")]
+    assert code == 2 and len(lines) == 1
+    assert "opencv-contrib-python-headless" in lines[0] and "FILE.py:FUNCTION" in lines[0]
+
+
+@pytest.mark.skipif(not hog_available(),
+                    reason="the installed OpenCV has no HOGDescriptor (OpenCV 5's main wheel; "
+                           "opencv-contrib-python-headless has it)")
+def test_hog_finds_the_people_of_a_real_frame():
+    from conftest import SHARED_DATA
+
+    from pgm.io.annotations import load_mot
+    from pgm.io.video import open_source
+    from pgm.observation.detections import match_detections
+    from pgm.observation.hog import HOGPeopleDetector
+    if not (SHARED_DATA / "TUD-Campus").is_dir():
+        pytest.skip(f"{SHARED_DATA / 'TUD-Campus'} not found")
+    src = open_source(SHARED_DATA / "TUD-Campus")
+    gt = load_mot(src.gt_path, kind="gt")
+    number, image = next(iter(src.frames()))
+    d = HOGPeopleDetector()(number, image)
+    counts = match_detections(d, gt.at(number)[1], criterion="iou", iou_min=0.3)
+    assert counts.tp >= 1 and np.all((d.scores > 0) & (d.scores < 1))
