@@ -71,14 +71,13 @@ __all__ = ["main", "build_parser", "parse_args", "parse_box", "model_config_for"
 
 
 def _video_scale(text: str) -> float:
-    """``--video-scale``: a number in (0, 1]."""
+    """``--video-scale``: a number in (0, 1] (:func:`pgm.io.annotated_video.video_scale`)."""
+    from pgm.io.annotated_video import video_scale
+
     try:
-        value = float(text)
-    except ValueError:
+        return video_scale((1, 1), float(text))
+    except (ValueError, InputError):
         raise argparse.ArgumentTypeError(f"must be a number in (0, 1], got {text!r}") from None
-    if not 0.0 < value <= 1.0:  # also false for NaN
-        raise argparse.ArgumentTypeError(f"must be in (0, 1], got {text!r}")
-    return value
 
 
 def build_parser(model_config=None) -> argparse.ArgumentParser:

@@ -247,16 +247,6 @@ def import_user_code(spec: str, option: str = "--import"):
         raise InputError(f"{option} {spec}: {type(exc).__name__}: {one_line(exc)}") from None
 
 
-def is_user_detector(spec: str | None) -> bool:
-    """Whether a ``--detector`` value names a user's function (``module:function`` or
-    ``file.py:function``) rather than a built-in detector (``public:MIN`` is one)."""
-    if not spec or ":" not in spec:
-        return False
-    module, _, fn = spec.rpartition(":")
-    return (bool(module.strip()) and fn.strip().isidentifier()
-            and module.strip().lower() not in ("public", "mog2", "hog"))
-
-
 def user_detector(spec: str):
     """``--detector MODULE:FUNCTION`` (or ``FILE.py:FUNCTION``): the user's function
     imported and wrapped as a :class:`~pgm.observation.detections.CallableDetector`."""

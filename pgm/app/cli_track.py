@@ -26,7 +26,6 @@ from .cli_args import (
     _print_metrics,
     _print_mot_metrics,
     _record_option,
-    is_user_detector,
     load_model_file,
     parse_box,
     parse_drop_frames,
@@ -163,7 +162,7 @@ def cmd_track_multi(args, source, saved=None) -> int:
     from pgm.app.runner import track_multi
     from pgm.io.annotations import load_mot
     from pgm.models.config import VideoInfo
-    from pgm.observation.detections import PublicDetections, make_detector
+    from pgm.observation.detections import PublicDetections, make_detector, names_a_function
 
     if args.init is not None:
         raise InputError(f"--init does not apply to the multi-target model {args.model!r}")
@@ -171,7 +170,7 @@ def cmd_track_multi(args, source, saved=None) -> int:
         raise InputError("give either --detections FILE or --detector SPEC, not both")
     if args.detections is not None:
         detector = PublicDetections(args.detections)
-    elif is_user_detector(args.detector):
+    elif names_a_function(args.detector):
         detector = user_detector(args.detector)
     else:
         detector = make_detector(args.detector or "public", source)

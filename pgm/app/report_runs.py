@@ -252,17 +252,22 @@ def _describe(key: str, text: str) -> str:
     return f"{name} {value}"
 
 
+def _by_label(runs: list[Run]) -> list[tuple[tuple[str, str], list[Run]]]:
+    """The runs grouped by (sequence, label), sorted by it."""
+    by_key: dict[tuple[str, str], list[Run]] = {}
+    for r in runs:
+        by_key.setdefault((r.sequence, r.label), []).append(r)
+    return sorted(by_key.items())
+
+
 def split_configurations(runs: list[Run]) -> list[str]:
     """Tell apart runs of one sequence and label that are not seeds of one configuration
     (a 300-frame and a 50-frame run; other particle counts or engine settings): each
     such run's label gets the settings that differ, e.g. ``colour-pf (50 frames)``, so
     they are separate rows, never averaged. Returns one line per (sequence, label) split.
     """
-    by_key: dict[tuple[str, str], list[Run]] = {}
-    for r in runs:
-        by_key.setdefault((r.sequence, r.label), []).append(r)
     notes = []
-    for (sequence, label), members in sorted(by_key.items()):
+    for (sequence, label), members in _by_label(runs):
         configs = [_config(r) for r in members]
         keys = sorted({k for c in configs for k in c})
         differing = [k for k in keys if len({c.get(k) for c in configs}) > 1]
@@ -289,11 +294,8 @@ def _split_repeats(runs: list[Run]) -> list[str]:
     repeats of one run, not seeds: each gets ``(seed S, repeat k)`` in its label and a row
     of its own. Runs that record no seed (before ``run.json`` had one) are taken as seeds,
     as they always were."""
-    by_key: dict[tuple[str, str], list[Run]] = {}
-    for r in runs:
-        by_key.setdefault((r.sequence, r.label), []).append(r)
     notes = []
-    for (sequence, label), members in sorted(by_key.items()):
+    for (sequence, label), members in _by_label(runs):
         seeds = [r.info.get("seed") for r in members]
         if any(not isinstance(s, int) or isinstance(s, bool) for s in seeds):
             continue

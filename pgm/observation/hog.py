@@ -33,7 +33,7 @@ import numpy as np
 
 from pgm.core.errors import InputError
 
-from .detections import Detections, DetectionSource
+from .detection_base import Detections, DetectionSource
 
 __all__ = ["HOGPeopleDetector", "hog_available", "PLATT", "SMALLEST", "NMS_IOU"]
 

@@ -97,17 +97,16 @@ IGNORE_COLOUR = (150, 150, 150)
 def _dashed_box(img, xywh, colour, scale) -> None:
     """A thin dashed rectangle (an ignored region: neither a target nor a miss)."""
     x, y, w, h = (float(v) for v in xywh)
-    corners = [(x, y), (x + w, y), (x + w, y + h), (x, y + h), (x, y)]
+    corners = np.array([(x, y), (x + w, y), (x + w, y + h), (x, y + h), (x, y)])
     dash = 6.0 * scale
-    for (xa, ya), (xb, yb) in zip(corners[:-1], corners[1:], strict=True):
-        length = max(abs(xb - xa), abs(yb - ya))
-        for t0 in np.arange(0.0, length, 2 * dash):
-            t1 = min(t0 + dash, length)
-            a = (int(round(xa + (xb - xa) * t0 / max(length, 1e-9))),
-                 int(round(ya + (yb - ya) * t0 / max(length, 1e-9))))
-            b = (int(round(xa + (xb - xa) * t1 / max(length, 1e-9))),
-                 int(round(ya + (yb - ya) * t1 / max(length, 1e-9))))
-            cv2.line(img, a, b, colour, _px(1, scale), cv2.LINE_AA)
+    for a, b in zip(corners[:-1], corners[1:], strict=True):
+        length = float(np.abs(b - a).max())
+        for t0 in np.arange(0.0, length, 2 * dash):  # a dash, then as long a gap
+            p0 = a + (b - a) * t0 / length
+            p1 = a + (b - a) * min(t0 + dash, length) / length
+            cv2.line(img, tuple(np.round(p0).astype(int).tolist()),
+                     tuple(np.round(p1).astype(int).tolist()), colour, _px(1, scale),
+                     cv2.LINE_AA)
 
 
 def _legend(img, entries: list[tuple[str, tuple[int, int, int], str]], scale) -> None:

@@ -37,7 +37,7 @@ import numpy as np
 from pgm.core.errors import InputError
 from pgm.core.rng import as_generator
 from pgm.synthetic._checks import _box, _check_n_frames, _color, _finite, _frame_range, _nonneg
-from pgm.synthetic.sequence import SyntheticSequence
+from pgm.synthetic.sequence import ObjectTruth, SyntheticSequence
 
 __all__ = ["ObjectSpec", "OccluderSpec", "ObjectTruth", "Scene", "MAGAZINE_COLOR"]
 
@@ -185,21 +185,6 @@ class OccluderSpec:
         x, y, w, h = self.box
         t = float(frame - self.start)
         return np.array([x + self.velocity[0] * t, y + self.velocity[1] * t, w, h])
-
-
-@dataclass(eq=False)
-class ObjectTruth:
-    """Ground truth of one object over the frames where it is in the image.
-
-    ``frames`` (K,) 1-based frame numbers where the object exists and its box overlaps
-    the image; ``boxes`` (K, 4) top-left ``(x, y, w, h)`` 0-based (not clipped to the
-    image); ``visibility`` (K,) visible fraction of the box; ``id`` the 1-based MOT id.
-    """
-
-    id: int
-    frames: np.ndarray
-    boxes: np.ndarray
-    visibility: np.ndarray
 
 
 # --------------------------------------------------------------------------- geometry

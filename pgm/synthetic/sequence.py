@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 import numpy as np
 
@@ -15,10 +15,37 @@ from pgm.io.annotations import MotWriter, write_otb_groundtruth
 from pgm.io.video import write_image_sequence, write_seqinfo
 from pgm.synthetic._checks import _nonneg
 
-if TYPE_CHECKING:
-    from pgm.synthetic.scene import ObjectTruth, Scene
+__all__ = ["SyntheticSequence", "ObjectTruth", "SceneGeometry"]
 
-__all__ = ["SyntheticSequence"]
+
+class SceneGeometry(Protocol):
+    """What a sequence reads of the scene that rendered it
+    (:class:`pgm.synthetic.scene.Scene`; a protocol here, so that this module sits below
+    the scene's and neither imports the other's)."""
+
+    width: int
+    height: int
+
+    def _check_obj(self, obj_index: int) -> None: ...
+
+    def band_visibility(self, obj_index: int, frame: int, n_bands: int) -> np.ndarray: ...
+
+
+@dataclass(eq=False)
+class ObjectTruth:
+    """Ground truth of one object over the frames where it is in the image.
+
+    ``frames`` (K,) 1-based frame numbers where the object exists and its box overlaps
+    the image; ``boxes`` (K, 4) top-left ``(x, y, w, h)`` 0-based (not clipped to the
+    image); ``visibility`` (K,) visible fraction of the box; ``id`` the 1-based MOT id.
+    """
+
+    id: int
+    frames: np.ndarray
+    boxes: np.ndarray
+    visibility: np.ndarray
+
+
 
 
 @dataclass(eq=False)
@@ -34,8 +61,9 @@ class SyntheticSequence:
     visibility : ndarray (n_objects, n_frames)
         Visible fraction of each object's box (0 where absent).
     fps : float
-    scene : Scene
-        The geometry, for :meth:`band_visibility` and friends.
+    scene : SceneGeometry
+        The scene that rendered it (a :class:`pgm.synthetic.scene.Scene`): the geometry, for
+        :meth:`band_visibility` and friends.
     name : str
     """
 
@@ -43,7 +71,7 @@ class SyntheticSequence:
     gt: list[ObjectTruth]
     visibility: np.ndarray
     fps: float
-    scene: Scene
+    scene: SceneGeometry
     name: str = "synthetic"
     _band_cache: dict[tuple[int, int], np.ndarray] = field(default_factory=dict, repr=False,
                                                            init=False)
