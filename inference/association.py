@@ -39,6 +39,7 @@ from pgm.core.batched import BatchedGaussian, BatchedInverseGamma, BatchedPartic
 from pgm.core.boxes import box_coding, encode_boxes, iou_matrix, state_boxes
 from pgm.core.frame import FrameContext
 from pgm.core.motion import linear_state_warp
+from pgm.core.resolution import appearance_matrix, learn_all
 from pgm.factors import GaussianPrior, LinearGaussianTransition
 from pgm.factors.association import (
     APPEARANCE,
@@ -321,18 +322,7 @@ def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> dict[str
         for k, j in zip(a.rows, a.cols, strict=True):
             histories[k].observe(boxes[j])
     if factor.appearance is not None and frame.image is not None:  # learn from the match
-        h, w = frame.image.shape[:2]
-        half = boxes[:, 2:] / 2.0  # a detection wholly outside the image shows nothing
-        seen = np.all((boxes[:, :2] + half > 0) & (boxes[:, :2] - half < (w, h)), axis=1)
-        for k, j in zip(a.rows, a.cols, strict=True):
-            if not seen[j]:
-                continue
-            state = ctx.replicas.state[int(k)].get(var, TrackState)
-            models = state.appearance
-            if models is None:
-                models = state.appearance = factor.appearance_model()
-            for m in models:
-                m.learn(frame, boxes[j])
+        _learn_appearance(ctx, factor, frame, boxes, a)
     ctx.assignment = a
     # per replica, the index of its detection (NaN: none), a float so that replicas born
     # later in the frame read NaN too
@@ -345,23 +335,53 @@ def _appearance(ctx: RuleContext, factor, frame: FrameContext, boxes: np.ndarray
                 ) -> np.ndarray | None:
     """``(K, M)`` similarity of each replica's appearance model with each detection
     (``exp(log-likelihood / λ)`` per cue, multiplied over cues; 0 for a replica without a
-    model yet), or None (no appearance, no image, no detections)."""
+    model yet), or None (no appearance, no image, no detections). Each cue scores every
+    replica against every detection in one call, on the frame at the resolution the
+    detections need (:func:`~pgm.observation.appearance.resolution.working_frame`)."""
     if factor.appearance is None or frame.image is None or not len(boxes):
         return None
     var = factor.variables[0]
     slots = ctx.replicas.state
     out = np.zeros((len(slots), len(boxes)))
+    rows, models = [], []
     for k, slot in enumerate(slots):
         state = slot.find(var, TrackState)
-        models = None if state is None else state.appearance
-        if models is None:
-            continue
-        ll = np.zeros(len(boxes))
-        for m in models:
-            ll = ll + np.asarray(m.log_likelihood(boxes, frame), dtype=float) / \
-                getattr(m, "lam", 1.0)
-        out[k] = np.exp(ll)
+        if state is not None and state.appearance is not None:
+            rows.append(k)
+            models.append(state.appearance)
+    if not rows:
+        return out
+    ll = np.zeros((len(rows), len(boxes)))
+    for c in range(len(models[0])):
+        cue = [m[c] for m in models]
+        lam = np.array([getattr(m, "lam", 1.0) for m in cue], dtype=float)[:, None]
+        ll += appearance_matrix(cue, boxes, frame, factor.appearance_pixels) / lam
+    out[rows] = np.exp(ll)
     return out
+
+
+def _learn_appearance(ctx: RuleContext, factor, frame: FrameContext, boxes: np.ndarray,
+                      a: Assignment) -> None:
+    """Each matched replica's appearance models learn its detection (a replica's first
+    match gives it its models), every cue in one call, on the frame at the resolution the
+    detections need (as :func:`_appearance` scores them). A detection wholly outside the
+    image shows nothing and teaches nothing."""
+    var = factor.variables[0]
+    h, w = frame.image.shape[:2]
+    half = boxes[:, 2:] / 2.0
+    seen = np.all((boxes[:, :2] + half > 0) & (boxes[:, :2] - half < (w, h)), axis=1)
+    pairs = [(int(k), int(j)) for k, j in zip(a.rows, a.cols, strict=True) if seen[j]]
+    if not pairs:
+        return
+    models = []
+    for k, _ in pairs:
+        state = ctx.replicas.state[k].get(var, TrackState)
+        if state.appearance is None:
+            state.appearance = factor.appearance_model()
+        models.append(state.appearance)
+    learned = boxes[[j for _, j in pairs]]
+    for c in range(len(models[0])):
+        learn_all([m[c] for m in models], frame, learned, factor.appearance_pixels)
 
 
 class ObservationHistory:

@@ -24,6 +24,7 @@ from pgm.core.boxes import BOX_CODINGS, box_coding, xywh_to_cxcywh
 from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
+from pgm.core.resolution import BOX_PIXELS
 from pgm.core.variable import Variable
 from pgm.factors.kinds import LikelihoodFactor
 from pgm.factors.scores import (
@@ -175,6 +176,12 @@ class DetectionAssociation(Factor):
         term. Saved as the factors' declarations.
     appearance_weight : float
         Its weight (against an IoU in [0, 1]).
+    appearance_pixels : float
+        The pixels the frame's smaller boxes keep where the appearance is computed: each
+        frame's detections are scored, and learned from, on the frame halved as many
+        times as keeps the lower quartile of their areas at this many pixels
+        (:func:`pgm.core.resolution.working_frame`; default
+        :data:`~pgm.core.resolution.BOX_PIXELS`, 0: full resolution).
     terms, gates : list of dict, optional
         The association's extension points, applied in every round (a round's own
         ``"terms"`` and ``"gates"`` keys add to them in that round only: ByteTrack's
@@ -196,6 +203,7 @@ class DetectionAssociation(Factor):
     def __init__(self, variable: str, *, rounds: list[dict[str, Any]] | None = None,
                  score_map: str = "none", direction_weight: float = 0.2, delta_t: int = 3,
                  appearance: list | None = None, appearance_weight: float = 0.5,
+                 appearance_pixels: float = BOX_PIXELS,
                  terms: list[dict[str, Any]] | None = None,
                  gates: list[dict[str, Any]] | None = None, name: str | None = None):
         super().__init__(variable, name=name)
@@ -214,6 +222,8 @@ class DetectionAssociation(Factor):
             self.appearance = items or None
         self.appearance_weight = float(check_finite_param(f"{self.name}.appearance_weight",
                                                           appearance_weight, nonneg=True))
+        self.appearance_pixels = float(check_finite_param(f"{self.name}.appearance_pixels",
+                                                          appearance_pixels, nonneg=True))
         if score_map not in SCORE_MAPS:
             raise ValueError(f"factor {self.name!r}: unknown score_map {score_map!r} (choose "
                              f"from {SCORE_MAPS})")
@@ -375,6 +385,8 @@ class DetectionAssociation(Factor):
         if self.appearance is not None:
             p.update(appearance=[a.to_dict() for a in self.appearance],
                      appearance_weight=self.appearance_weight)
+            if self.appearance_pixels != BOX_PIXELS:
+                p["appearance_pixels"] = self.appearance_pixels
         if self.terms:
             p["terms"] = [dict(t) for t in self.terms]
         if self.gates:

@@ -39,6 +39,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from pgm.core.errors import InputError
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
 from pgm.observation.appearance.base import (  # noqa: F401  (names of this module)
@@ -152,17 +153,71 @@ class ColourHistogramLikelihood(BoxAppearanceLikelihood):
         return ("colour", self.layout, self.n_h, self.n_s, self.n_v, self.kernel)
 
     @classmethod
-    def log_likelihood_batch(cls, factors, xs, ctx):
-        """All the factors' boxes scored in one :meth:`ColourHistogramScorer.rho_many`."""
-        if any(f.template is None for f in factors):
-            raise ValueError("a colour factor has no template: run it from the first frame")
-        boxes = np.concatenate([f.boxes(x) for f, x in zip(factors, xs, strict=True)])
-        owner = np.repeat(np.arange(len(factors)), [len(x) for x in xs])
-        rho = factors[0].scorer.rho_many(ctx, boxes, np.array([f.template for f in factors]),
-                                         owner)
-        lam = np.repeat([f.lam for f in factors], [len(x) for x in xs])
-        out = -lam * (1.0 - rho)
-        return np.split(out, np.cumsum([len(x) for x in xs])[:-1])
+    def _one_pass(cls, models) -> bool:
+        """Whether ``models`` read their boxes alike (one histogram pass serves them all)."""
+        first = models[0]
+        return all(type(m) is type(first) and m.batch_key == first.batch_key
+                   and m.box_indices == first.box_indices for m in models)
+
+    def _frame_histograms(self, ctx, boxes: np.ndarray, levels: np.ndarray | None
+                          ) -> tuple[np.ndarray, np.ndarray]:
+        """``(hist, in_frac)`` of ``boxes`` on frame ``ctx``, box ``i`` read on the lattice
+        of every ``2**levels[i]``-th pixel (:meth:`ColourHistogramScorer.box_histograms`;
+        the kernel's own histograms for another kernel, at full resolution), each box
+        counted once per frame and bin layout: kept in the frame's cache by the box's
+        coordinates and level, so that learning from boxes already scored this frame
+        counts nothing again."""
+        if self.kernel != "uniform":
+            return self.scorer.histograms(ctx, boxes)
+        lv = np.zeros(len(boxes), dtype=np.intp) if levels is None else np.asarray(levels)
+        store = ctx.cached(("colour-box-histograms",) + self.batch_key, dict)
+        keys = [(box.tobytes(), int(k)) for box, k in zip(boxes, lv, strict=True)]
+        missing = [i for i, key in enumerate(keys) if key not in store]
+        if missing:
+            hist, in_frac = self.scorer.box_histograms(ctx, boxes[missing], lv[missing])
+            store.update(zip([keys[i] for i in missing], zip(hist, in_frac, strict=True), strict=True))
+        got = [store[key] for key in keys]
+        return (np.array([g[0] for g in got]).reshape(len(boxes), -1),
+                np.array([g[1] for g in got], dtype=float))
+
+    @classmethod
+    def log_likelihood_matrix(cls, models, x, ctx, levels=None) -> np.ndarray:
+        """``(K, M)`` :meth:`log_likelihood` of the states ``x`` under ``K`` templates, box
+        ``j`` read on the lattice of every ``2**levels[j]``-th pixel (None: every pixel;
+        :mod:`pgm.core.resolution`): the boxes' histograms computed once, then one matrix
+        product with the templates (at full resolution equal to scoring model by
+        model)."""
+        if not cls._one_pass(models):
+            return np.array([m.log_likelihood(x, ctx) for m in models])
+        for m in models:
+            m.require_model()
+        first = models[0]
+        boxes = np.ascontiguousarray(first.boxes(np.asarray(x, dtype=float)))
+        hist, in_frac = first._frame_histograms(ctx, boxes, levels)
+        q = np.array([m.template for m in models], dtype=float)
+        q /= q.sum(axis=1, keepdims=True)
+        rho = (np.sqrt(q) @ np.sqrt(hist).T) * in_frac
+        lam = np.array([m.lam for m in models], dtype=float)[:, None]
+        return -lam * (1.0 - rho)
+
+    @classmethod
+    def learn_many(cls, models, ctx, values, levels=None) -> None:
+        """Each model's template from its own state in ``values`` ``(K, d)``, read as
+        :meth:`log_likelihood_matrix` reads it, the boxes' histograms computed in one pass
+        (at full resolution equal to :meth:`learn` model by model)."""
+        values = np.asarray(values, dtype=float).reshape(len(models), -1)
+        if not cls._one_pass(models):
+            for m, v in zip(models, values, strict=True):
+                m.learn(ctx, v)
+            return
+        boxes = np.ascontiguousarray(values[:, list(models[0].box_indices)])
+        hist, in_frac = models[0]._frame_histograms(ctx, boxes, levels)
+        outside = np.flatnonzero(in_frac <= 0)
+        if len(outside):
+            raise InputError(f"template box {boxes[outside[0]].tolist()} lies wholly outside "
+                             f"the image")
+        for m, h in zip(models, hist, strict=True):
+            m.template = h / h.sum()
 
 
 class FragmentsLikelihood(BoxAppearanceLikelihood):

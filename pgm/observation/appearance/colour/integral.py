@@ -53,7 +53,8 @@ def _bounds(b: np.ndarray, height: int, width: int):
 
     Returns ``ints`` ``(2, 2, N)`` intp, ``[[x0, y0], [x1, y1]]`` clipped to ``[0, W]``
     / ``[0, H]`` (a box covers ``bins[y0:y1, x0:x1]``), the in-image pixel count
-    ``inside`` and ``in_frac``. About 17 numpy calls for x and y together (numpy's
+    ``inside`` and ``in_frac`` (``height`` and ``width`` may be arrays ``(N,)``: each
+    box's own image size). About 17 numpy calls for x and y together (numpy's
     per-call overhead dominates at tracker sizes, N of 10-100).
     """
     t = b.T
@@ -64,7 +65,9 @@ def _bounds(b: np.ndarray, height: int, width: int):
     lohi += 0.5
     np.floor(lohi, out=lohi)                               # [[x0, y0], [x1, y1]]
     np.maximum(lohi[1], lohi[0] + 1.0, out=lohi[1])        # at least one pixel
-    ints = np.minimum(np.maximum(lohi, 0.0), np.array([[width], [height]])).astype(np.intp)
+    limit = (np.array([[width], [height]]) if np.ndim(width) == 0
+             else np.stack([width, height]))                # (2, 1), or per box (2, N)
+    ints = np.minimum(np.maximum(lohi, 0.0), limit).astype(np.intp)
     ext = ints[1] - ints[0]
     inside = ext[0] * ext[1]
     span = lohi[1] - lohi[0]
