@@ -86,6 +86,11 @@ MAX_WINDOW_PX = 512
 #: frames are checked for a still camera (while the context is learned) at most this
 #: many pixels wide: the verdicts on the shared sequences are those at 640
 CAMERA_CHECK_PX = 320
+#: how the camera is checked: every frame's corners found anew and followed in wide
+#: windows, the frame shrunk to exactly ``CAMERA_CHECK_PX`` (the settings the single-object
+#: defaults were chosen with)
+CAMERA_CHECK = {"max_side": CAMERA_CHECK_PX, "max_corners": 400, "win_size": 21,
+                "pyramid_levels": 3, "track": False, "halve": False}
 #: windows a frame's particles may open (:meth:`CorrelationFilterLikelihood.relative_response`):
 #: the first at the particles' mean, the others at particles outside every window so far
 MAX_WINDOWS = 4
@@ -406,8 +411,8 @@ class CorrelationFilterLikelihood(LearnedContext, RedetectionScan, ResponseReadi
         self.camera_moved_at = None
         self._camera = self._first_frames = None
         if self.context is not None:
-            self._camera = CameraMotionEstimator("auto", max_side=CAMERA_CHECK_PX)
-            self._first_frames = CameraMotionEstimator("on", max_side=CAMERA_CHECK_PX)
+            self._camera = CameraMotionEstimator("auto", **CAMERA_CHECK)
+            self._first_frames = CameraMotionEstimator("on", **CAMERA_CHECK)
             self._checked = 0
             for check in (self._camera, self._first_frames):
                 check(ctx.image)

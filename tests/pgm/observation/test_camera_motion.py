@@ -89,3 +89,38 @@ def test_auto_mode_compensates_a_camera_that_keeps_moving():
     assert all(a is None for a in got[:16])
     assert all(a is not None for a in got[16:]) and est.frames_moved == 14
     np.testing.assert_allclose(got[-1][:, 2], [-3.0, 0.0], atol=0.15)
+
+
+def test_a_1080p_camera_is_estimated_on_a_halved_frame_with_followed_corners(monkeypatch):
+    """Issue 39: a 1920x1080 frame is analysed at 480x270 (two halvings), its corners are
+    followed from frame to frame (found anew only when fewer than half remain), and a
+    known pan and zoom is recovered within half a full-resolution pixel at the corners."""
+    import pgm.observation.camera_motion as cm
+
+    rng = np.random.default_rng(3)
+    big = _scene(rng, 1300, 2300)
+    h, w = 1080, 1920
+    found = []
+    real = cv2.goodFeaturesToTrack
+    monkeypatch.setattr(cm.cv2, "goodFeaturesToTrack",
+                        lambda img, **kw: found.append(img.shape) or real(img, **kw))
+    est = CameraMotionEstimator("on")
+    errs = []
+    for k in range(6):
+        A_true = _similarity(0.1 * k, 1.0 + 0.003 * k, -7.0 * k, 2.0 * k, (w / 2, h / 2))
+        full = np.hstack([A_true[:, :2],
+                          (A_true[:, :2] @ [-150, -100] + A_true[:, 2])[:, None]])
+        frame = cv2.warpAffine(big, full, (w, h), flags=cv2.INTER_LINEAR)
+        A = est(frame)
+        if k == 0:
+            assert A is None
+        else:
+            # the motion since the previous frame: A_k composed with the inverse of A_{k-1}
+            prev = np.vstack([A_prev, [0, 0, 1]])
+            step = (np.vstack([A_true, [0, 0, 1]]) @ np.linalg.inv(prev))[:2]
+            corners = np.array([[0, 0], [w, 0], [0, h], [w, h]], dtype=float)
+            errs.append(np.abs(corners @ A[:, :2].T + A[:, 2]
+                               - (corners @ step[:, :2].T + step[:, 2])).max())
+        A_prev = A_true
+    assert found[0] == (270, 480) and len(found) < 5  # halved twice; corners followed
+    assert max(errs) < 0.5, errs
