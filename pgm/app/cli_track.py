@@ -201,9 +201,9 @@ def cmd_track_multi(args, source, saved=None) -> int:
                          command=getattr(args, "argv", None), video_scale=args.video_scale,
                          trails=args.trails,
                          record=_record_option(args))
-    print(f"tracked {result.n_frames} frames: {result.end_to_end_fps:.1f} frames/s end to end "
-          f"(inference alone {result.fps:.1f}, detector alone "
-          f"{result.n_frames / max(result.detector_seconds, 1e-9):.0f}) -> "
+    print(f"tracked {result.n_frames} frames: {result.end_to_end_fps:.1f} frames/s end to end, "
+          f"{result.fps:.1f} inference (camera motion included), "
+          f"{result.n_frames / max(result.detector_seconds, 1e-9):.0f} detector alone -> "
           f"{Path(args.out) / 'tracks.txt'}")
     if result.metrics is not None:
         _print_mot_metrics(result.metrics)
@@ -327,7 +327,8 @@ def cmd_track(args) -> int:
                    lost_below=args.lost_below, command=getattr(args, "argv", None),
                    video_scale=args.video_scale, trails=args.trails)
     print(f"tracked {len(result.frames)} frames: {result.end_to_end_fps:.1f} frames/s end to "
-          f"end (inference alone {result.fps:.1f}) -> {Path(args.out) / 'tracks.txt'}")
+          f"end, {result.fps:.1f} inference (camera motion included) -> "
+          f"{Path(args.out) / 'tracks.txt'}")
     if result.metrics is not None:
         _print_metrics({**result.metrics, "fps": result.fps})
     return 0

@@ -59,7 +59,8 @@ class TrackResult:
     metrics : dict or None
         OTB metrics against the ground truth, when given.
     inference_seconds : float
-        Time spent in ``engine.step`` (decoding, drawing and writing excluded).
+        Time spent in ``engine.step`` and estimating the camera's motion (decoding,
+        drawing and writing excluded).
     out_dir : Path or None
     records : list of StepRecord
         Kept only with ``keep_records=True``.
@@ -297,8 +298,14 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     trail = Trails(trails)
     outputs.bar = progress_bar(progress, total, graph.name)
 
+    motion_secs = 0.0
+
     def context(number, image):
-        return FrameContext(number, image, camera_motion=motion(image)), None
+        nonlocal motion_secs
+        t0 = time.perf_counter()
+        moved = motion(image)
+        motion_secs += time.perf_counter() - t0
+        return FrameContext(number, image, camera_motion=moved), None
 
     def emit(number, image, record, _):
         box, score = output_target(engine.graph, record)
@@ -323,6 +330,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     _, seconds, _ = run_frames(frames_iter, engine, outputs, max_frames=max_frames,
                                context=context, emit=emit)
     wall = time.perf_counter() - t_start
+    seconds += motion_secs  # the camera's motion is inference too
     frames_arr = np.asarray(frames_done)
     boxes_arr = np.asarray(boxes_done)
     # score the annotated frames up to the last frame processed (max_frames may stop early)
@@ -347,6 +355,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
                     "inference_seconds": seconds, "fps": result.fps,
                     "wall_seconds": wall, "fps_end_to_end": result.end_to_end_fps,
                     "camera_motion_frames": motion.frames_moved,
+                    "camera_motion_seconds": motion_secs,
                     "video": outputs.video is not None, **outputs.summary()})
         if metrics is not None:
             write_json(out / "metrics.json", {**metrics, "fps": result.fps})
@@ -384,7 +393,8 @@ class MultiTrackResult:
 
     @property
     def fps(self) -> float:
-        """Frames per second of inference (detection and decoding excluded)."""
+        """Frames per second of inference: ``engine.step`` and the camera's motion
+        (detection and decoding excluded)."""
         return self.n_frames / self.inference_seconds if self.inference_seconds > 0 else 0.0
 
     @property
@@ -532,6 +542,7 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
     n, secs, number = run_frames(source.frames(), engine, outputs, max_frames=max_frames,
                                  context=context, emit=emit)
     wall = time.perf_counter() - t_start
+    secs += motion_secs  # the camera's motion is inference too
     table = MotTable(np.asarray(rows_f, dtype=np.int64), np.asarray(rows_i, dtype=np.int64),
                      np.asarray(rows_b, dtype=float).reshape(-1, 4),
                      np.asarray(rows_c, dtype=float))

@@ -62,3 +62,58 @@ def test_stopping_early_decodes_little_more(seq, reads):
     src = open_source(seq)
     assert [k for k, _ in src.frames(6)] == [6, 7, 8]
     assert reads[before:] == [f.name for f in src.files[5:]]  # skipped files never read
+
+
+def test_read_ahead_gives_the_items_and_the_error_where_it_happened():
+    """Video files decode on a thread of their own (issue 39, item 2): the producer's
+    items in order, its exception raised at the item where it happened."""
+    def items():
+        yield from range(5)
+        raise InputError("frame 6 is corrupt")
+
+    got = []
+    with pytest.raises(InputError, match="frame 6"):
+        for x in video._read_ahead(items(), 2):
+            got.append(x)
+    assert got == list(range(5))
+
+
+def test_read_ahead_stopped_early_stops_and_closes_the_producer():
+    import threading
+
+    closed = threading.Event()
+    made = []
+
+    def items():
+        try:
+            for k in range(1000):
+                made.append(k)
+                yield k
+        finally:
+            closed.set()
+
+    it = video._read_ahead(items(), 2)
+    assert [next(it), next(it)] == [0, 1]
+    it.close()
+    assert closed.wait(5) and len(made) <= 2 + 2 + 2  # two used, at most a few ahead
+    assert not any(t.name == "pgm-decode-video" and t.is_alive()
+                   for t in threading.enumerate())
+
+
+def test_a_video_file_reads_ahead_the_same_frames(tmp_path):
+    scene = demo_scene(seed=0, n_frames=6)
+    path = tmp_path / "clip.avi"
+    out = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10.0,
+                          scene.frames[0].shape[1::-1])
+    for f in scene.frames:
+        out.write(f)
+    out.release()
+    src = open_source(path)
+    cap = cv2.VideoCapture(str(path))
+    want = [cap.read()[1] for _ in range(6)]
+    cap.release()
+    got = list(src)
+    assert [k for k, _ in got] == list(range(1, 7))
+    for (_, img), w in zip(got, want, strict=True):
+        np.testing.assert_array_equal(img, w)
+    assert [k for k, _ in src.frames(2, 4)] == [2, 3]
