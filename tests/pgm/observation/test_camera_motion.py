@@ -105,7 +105,7 @@ def test_a_1080p_camera_is_estimated_on_a_halved_frame_with_followed_corners(mon
     monkeypatch.setattr(cm.cv2, "goodFeaturesToTrack",
                         lambda img, **kw: found.append(img.shape) or real(img, **kw))
     est = CameraMotionEstimator("on")
-    errs = []
+    errs, A_prev = [], np.eye(2, 3)
     for k in range(6):
         A_true = _similarity(0.1 * k, 1.0 + 0.003 * k, -7.0 * k, 2.0 * k, (w / 2, h / 2))
         full = np.hstack([A_true[:, :2],
