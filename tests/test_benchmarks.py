@@ -223,3 +223,40 @@ def test_detectors_benchmark_wraps_a_function_at_no_cost_to_the_tracks(shared_da
     assert rows["public"][5:7] == ["+0.000", "+0.000"]
     assert rows["mog2"][2:5] == rows["yours"][2:5]  # the same tracks' scores
     assert all(float(r[7]) > 0 and float(r[8]) > 0 for r in rows.values())
+
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+
+
+@pytest.mark.skipif(not (SHARED / "TUD-Campus").is_dir() or not (SHARED / "David").is_dir(),
+                    reason="../shared/data (TUD-Campus, David, MOT16-11) is not there")
+def test_speed_benchmark_prints_its_tables():
+    """``benchmarks/speed.py`` on a small input prints each section's table with finite
+    timings and ratios (no wall-clock thresholds)."""
+    import subprocess
+
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run(
+        [sys.executable, str(root / "benchmarks" / "speed.py"), "--sequences", "TUD-Campus",
+         "--sot", "David", "--frames", "15", "--repeats", "1", "--no-peers", "--seeds", "1",
+         "--camera-frames", "8", "--phd-particles", "1000", "--cores", "sort"],
+        cwd=root, capture_output=True, text=True, timeout=600, check=True).stdout
+    lines = out.splitlines()
+
+    def row(prefix):
+        hit = [ln for ln in lines if ln.strip().startswith(prefix)]
+        assert hit, f"no row {prefix!r} in:\n{out}"
+        return hit[0].split()
+
+    decode = row("decode only")
+    assert float(decode[-2]) == 1.0 and float(decode[-4]) > 0   # the baseline's own ratio
+    for label in ("ocsort-colour (default): inference", "ocsort-colour (default): end to end",
+                  "sort: inference", "sort: end to end"):
+        r = row(label)
+        assert np.isfinite(float(r[-4])) and float(r[-4]) > 0 and float(r[-2]) > 0
+    assert "resident memory over one run" in out
+    cam = [row("before (640 wide"), row("now (defaults")]
+    assert all(float(c[-3]) >= 0 for c in cam)
+    assert float(row("David")[3]) > 0
+    phd = row("1000")
+    assert float(phd[1]) > 0 and float(phd[2]) > 0

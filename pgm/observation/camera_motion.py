@@ -181,9 +181,10 @@ class CameraMotionEstimator:
         pyramid levels (:func:`track_camera_motion`).
     track : bool
         ``"checked"``: the corners a fit explained are followed into the next frame, and
-        new corners are found only when fewer than half of ``max_corners`` remain (saves
-        finding corners on most frames; on MOT16-11 as close to a full-resolution
-        estimate as finding 400 corners anew on every 640-pixel frame).
+        new corners are found only when fewer than half of ``max_corners`` remain or the
+        followed ones give no fit (saves finding corners on most frames; on MOT16-11 as
+        close to a finer estimate as finding 400 corners anew on every 640-pixel frame:
+        ``python benchmarks/speed.py --sections camera``).
     method : {"checked", "botsort"}
         ``"checked"``: the toolkit's similarity fit with its checks
         (:func:`estimate_camera_motion`); ``"botsort"``: BoT-SORT's sparse optical flow
@@ -244,9 +245,11 @@ class CameraMotionEstimator:
         followed = self._followed
         points = (followed[1] if self.track and followed is not None and followed[0] is prev
                   and len(followed[1]) >= self.max_corners // 2 else None)
-        A, _, nxt = track_camera_motion(prev, grey, points, max_corners=self.max_corners,
-                                        win_size=self.win_size,
-                                        pyramid_levels=self.pyramid_levels)
+        settings = {"max_corners": self.max_corners, "win_size": self.win_size,
+                    "pyramid_levels": self.pyramid_levels}
+        A, _, nxt = track_camera_motion(prev, grey, points, **settings)
+        if A is None and points is not None:  # the followed corners fail: find them anew
+            A, _, nxt = track_camera_motion(prev, grey, None, **settings)
         self._followed = None if nxt is None else (grey, nxt)
         if A is not None:
             A = A.copy()

@@ -1,0 +1,394 @@
+"""Speed where users run it: the defaults end to end at their native resolution, the peers in
+the same run.
+
+    python benchmarks/speed.py [--sections mot,camera,sot,phd] [--sequences A,B] [--sot A,B]
+                               [--frames N] [--repeats 3] [--no-peers] [--seeds 3]
+
+``mot`` — on each shared MOT sequence (public detections, native resolution; MOT16-11 is
+1920x1080): the time to only **decode** its frames (one thread, one frame after another:
+the baseline), then for the multi-target default and each classic core, run as ``pgm
+track`` runs them (:func:`pgm.app.runner.track_multi`, tracks written, no video):
+**inference** frames/s (``engine.step`` plus the camera's motion) and **end to end** frames/s
+(from the first frame read to the last row written), the median of ``--repeats`` runs
+interleaved with as many decoding runs (the machine's speed drifts: only ratios measured
+side by side mean much); the whole ``pgm track SEQ --no-video`` process (start-up and
+evaluation included) with its maximum resident set; the six ``trackers`` peers'
+``update`` frames/s on the same detections (their own venv,
+``bash benchmarks/peers/setup_env.sh``). On the largest sequence, the default's resident
+memory is sampled through a run: its peak over the first and the second half says whether
+memory stays flat over a video's length.
+
+``camera`` — the camera's motion on the shared moving-camera sequence (MOT16-11), estimated
+as before issue 39 (every frame shrunk to 640 wide, 400 corners found anew) and as now
+(halved to 480 wide, 200 corners followed), each against a finer estimate (960 wide, 1000
+corners): ms per frame and the corner error.
+
+``sot`` — on each single-object sequence (its first ``--frames`` frames): the single-object
+default's inference frames/s (``engine.step``; decoding excluded) against OpenCV's CSRT,
+KCF and MIL (``update`` only; the peers' venv), and the ratio to CSRT.
+
+``phd`` — the reference multi-target scenario (``../shared/bench``): the PHD filter at the
+nominal particle counts of the bench's Stone Soup SMC-PHD rows (10^3, 5·10^3, 2·10^4),
+ms per step and OSPA(50, 1) over ``--seeds`` seeds, against Stone Soup's figures **as the
+bench README gives them** (Stone Soup is not installed here: those are not measured in this
+run), and the ratio of the times.
+
+Columns: ms per frame, frames per second, peak memory (MiB, maximum resident set of a fresh
+process), and the ratios named in each table's header.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import SHARED_DATA, machine_note, print_table, single_thread  # noqa: E402
+
+single_thread()
+
+MOT_SEQUENCES = ("MOT16-11", "PETS09-S2L1", "PETS09-S2L1-video", "TUD-Campus",
+                 "TUD-Stadtmitte")
+SOT_SEQUENCES = ("David", "FaceOcc1", "Tiger1", "Girl", "Crossing", "Biker", "MotorRolling",
+                 "UAV10-group3")
+CORES = ("sort", "bytetrack", "ocsort", "botsort", "cbiou")
+BENCH = Path(__file__).resolve().parents[2] / "shared" / "bench"
+
+
+# decoding ----------------------------------------------------------------------------
+def decode_seconds(name: str) -> tuple[float, int]:
+    """Seconds to decode every frame of ``name`` in this thread, one after another (the
+    toolkit's own decoding, without its read-ahead thread), and the frame count."""
+    from pgm.io import video
+
+    src = video.open_source(SHARED_DATA / name)
+    t0 = time.perf_counter()
+    n = 0
+    if isinstance(src, video.ImageSequenceSource):
+        for path in src.files:
+            video._read_image(path)
+            n += 1
+    else:
+        for _ in src._decode(1, None):
+            n += 1
+    return time.perf_counter() - t0, n
+
+
+# the toolkit's multi-target runs -------------------------------------------------------
+def mot_graph(name: str, model: str):
+    from pgm.io.video import open_source
+    from pgm.models import get_config
+    from pgm.models.config import VideoInfo
+    from pgm.observation.detections import PublicDetections
+
+    src = open_source(SHARED_DATA / name)
+    det = PublicDetections(SHARED_DATA / name / "det" / "det.txt")
+    graph = get_config(model).graph_for({}, VideoInfo(
+        *src.size, fps=src.fps, score_range=det.score_range,
+        typical_height=float(np.median(det.table.boxes[:, 3]))))
+    return graph, det
+
+
+def mot_run(name: str, model: str) -> dict:
+    """One run as ``pgm track`` runs it (tracks written, no video): inference and end-to-end
+    seconds as it reports them."""
+    from pgm.app.runner import track_multi
+    from pgm.io.video import open_source
+
+    graph, det = mot_graph(name, model)
+    with tempfile.TemporaryDirectory() as tmp:
+        r = track_multi(open_source(SHARED_DATA / name), graph, det, rng=0, out_dir=tmp,
+                        write_video=False, progress=False)
+    return {"frames": r.n_frames, "inference": r.inference_seconds, "wall": r.wall_seconds}
+
+
+class RssSampler:
+    """This process's resident set (MiB), sampled every ``period`` seconds on a thread."""
+
+    def __init__(self, period: float = 0.02):
+        self.period, self.samples = period, []
+        self._stop = threading.Event()
+
+    @staticmethod
+    def rss_mib() -> float:
+        with open("/proc/self/statm") as f:
+            pages = int(f.read().split()[1])
+        import os
+
+        return pages * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+    def __enter__(self):
+        def loop():
+            while not self._stop.is_set():
+                self.samples.append(self.rss_mib())
+                time.sleep(self.period)
+
+        self._thread = threading.Thread(target=loop, daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join()
+
+
+_CLI_WITH_RSS = ("import resource, sys\n"
+                 "from pgm.app.cli import main\n"
+                 "code = main(sys.argv[1:])\n"
+                 "print('MAXRSS', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, "
+                 "file=sys.stderr)\n"
+                 "sys.exit(code)\n")
+
+
+def cli_process(name: str, model: str) -> dict:
+    """Wall seconds and maximum resident set of ``pgm track SEQ --no-video`` in a fresh
+    process (start-up, decoding, inference, writing and evaluation)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [sys.executable, "-c", _CLI_WITH_RSS, "track", str(SHARED_DATA / name),
+               "--model", model, "--out", tmp, "--quiet", "--no-video"]
+        t0 = time.perf_counter()
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        secs = time.perf_counter() - t0
+    if r.returncode != 0:
+        raise SystemExit(f"pgm track failed: {r.stderr[-2000:]}")
+    rss = [line.split()[1] for line in r.stderr.splitlines() if line.startswith("MAXRSS ")]
+    return {"seconds": secs, "rss_mib": float(rss[-1]) / 1024.0 if rss else float("nan")}
+
+
+def mot_section(names: list[str], repeats: int, peers: bool, cores: list[str]) -> None:
+    from pgm.models import DEFAULT_MULTI_TARGET
+
+    largest = max(names, key=lambda q: _pixels(q))
+    for name in names:
+        decode, runs = [], {m: [] for m in [DEFAULT_MULTI_TARGET, *cores]}
+        for k in range(repeats):  # interleaved: each ratio's two sides see the same drift
+            decode.append(decode_seconds(name)[0])
+            for m in runs:
+                if k == 0 or m == DEFAULT_MULTI_TARGET:
+                    runs[m].append(mot_run(name, m))
+        n = runs[DEFAULT_MULTI_TARGET][0]["frames"]
+        dec = statistics.median(decode)
+        proc = cli_process(name, DEFAULT_MULTI_TARGET)
+        ps = _mot_peers(name, n) if peers else {}
+        base = ps.get("ocsort", {}).get("fps")
+        rows = []
+
+        def row(label, secs, mem="-", rows=rows, n=n, dec=dec, base=base):
+            fps = n / secs
+            rows.append([label, f"{1000 * secs / n:.2f}", f"{fps:.1f}", mem,
+                         f"{secs / dec:.3f}", f"{fps / base:.3f}" if base else "-"])
+
+        row("decode only (one thread)", dec)
+        for m, rs in runs.items():
+            inf = statistics.median(r["inference"] for r in rs)
+            wall = statistics.median(r["wall"] for r in rs)
+            tag = " (default)" if m == DEFAULT_MULTI_TARGET else ""
+            row(f"{m}{tag}: inference (+ camera motion)", inf)
+            row(f"{m}{tag}: end to end, no video", wall)
+        row(f"{DEFAULT_MULTI_TARGET}: pgm track process (start-up, evaluation)",
+            proc["seconds"], f"{proc['rss_mib']:.0f}")
+        for peer, r in ps.items():
+            if "error" in r:
+                rows.append([f"{peer} (trackers)", "-", "-", "-", "-", r["error"][:60]])
+                continue
+            row(f"{peer} (trackers): update", n / r["fps"])
+        print_table(["", "ms/frame", "frames/s", "peak MiB", "x decode time",
+                     "x OC-SORT (trackers) fps"], rows,
+                    title=f"{name}: {n} frames, {_size(name)}; median of {repeats} runs "
+                          f"(the default's and decoding's), one for the cores")
+        if name == largest:
+            _memory_over_run(name, DEFAULT_MULTI_TARGET)
+
+
+def _memory_over_run(name: str, model: str) -> None:
+    with RssSampler() as s:
+        mot_run(name, model)
+    half = max(1, len(s.samples) // 2)
+    first, second = max(s.samples[:half]), max(s.samples[half:] or s.samples)
+    print(f"{name}, {model}: resident memory over one run: peak {first:.0f} MiB in its first "
+          f"half, {second:.0f} MiB in its second ({len(s.samples)} samples)")
+
+
+def _mot_peers(name: str, n: int) -> dict[str, dict]:
+    from _peers import MOT_PEERS, run_mot_peers
+
+    out = {}
+    for peer in MOT_PEERS:
+        with tempfile.TemporaryDirectory() as tmp:
+            r = run_mot_peers(SHARED_DATA / name, last_frame=n, trackers=(peer,), workdir=tmp)
+        out[peer] = r[peer]
+    return out
+
+
+def _pixels(name: str) -> int:
+    from pgm.io.video import open_source
+
+    w, h = open_source(SHARED_DATA / name).size
+    return w * h
+
+
+def _size(name: str) -> str:
+    from pgm.io.video import open_source
+
+    w, h = open_source(SHARED_DATA / name).size
+    return f"{w}x{h}"
+
+
+# the camera's motion ----------------------------------------------------------------------
+#: how the camera's motion was estimated before issue 39: every frame shrunk to 640 wide,
+#: 400 corners found anew, 21-pixel windows over 3 levels
+CAMERA_BEFORE = {"max_side": 640, "max_corners": 400, "win_size": 21, "pyramid_levels": 3,
+                 "track": False, "halve": False}
+#: the reference the two are held against: 960 wide (one halving of 1080p), 1000 corners
+#: found anew, 21-pixel windows over 4 levels
+CAMERA_REFERENCE = {"max_side": 960, "max_corners": 1000, "win_size": 21, "pyramid_levels": 4,
+                    "track": False}
+
+
+def camera_section(name: str, frames: int) -> None:
+    """The camera's motion on the moving-camera sequence, estimated as before and as now,
+    each held against a finer estimate: ms per frame, how far each moves the image's
+    corners from where the reference moves them (full-resolution pixels), and the
+    median corner shift itself (the size of what is estimated)."""
+    from pgm.io.video import open_source
+    from pgm.observation.camera_motion import CameraMotionEstimator
+
+    src = open_source(SHARED_DATA / name)
+    images = [img for _, img in src.frames(1, frames + 1)]
+    w, h = src.size
+    corners = np.array([[0, 0], [w, 0], [0, h], [w, h]], dtype=float)
+
+    def moved(A):
+        return corners @ A[:, :2].T + A[:, 2]
+
+    def run(settings):
+        est = CameraMotionEstimator("on", **settings)
+        out, t0 = [], time.perf_counter()
+        for img in images:
+            out.append(est(img))
+        return out, (time.perf_counter() - t0) / len(images)
+
+    ref, _ = run(CAMERA_REFERENCE)
+    shift = [np.abs(moved(A) - corners).max() for A in ref if A is not None]
+    rows = []
+    for label, settings in (("before (640 wide, 400 corners anew)", CAMERA_BEFORE),
+                            ("now (defaults: halved, 200 followed)", {})):
+        got, secs = run(settings)
+        err = [np.abs(moved(a) - moved(r)).max() for a, r in zip(got, ref, strict=True)
+               if a is not None and r is not None]
+        e = np.quantile(err, [0.5, 0.95, 1.0]) if err else [float("nan")] * 3
+        rows.append([label, f"{1000 * secs:.2f}", sum(a is not None for a in got[1:]),
+                     f"{e[0]:.2f}", f"{e[1]:.2f}", f"{e[2]:.2f}"])
+    print_table(["camera motion", "ms/frame", "frames with a fit", "corner error median px",
+                 "95%", "max"], rows,
+                title=f"{name}: {len(images)} frames; error against a finer estimate "
+                      f"(960 wide, 1000 corners); its median corner shift "
+                      f"{np.median(shift):.1f} px per frame")
+
+
+# one object -----------------------------------------------------------------------------
+def sot_section(names: list[str], frames: int, peers: bool) -> None:
+    from _peers import frame_paths, run_sot_peers
+
+    from pgm.app.runner import init_box_from_gt, track
+    from pgm.io.annotations import load_single_gt
+    from pgm.io.video import open_source
+    from pgm.models import DEFAULT_SINGLE_OBJECT, get_config
+    from pgm.models.config import VideoInfo
+
+    rows = []
+    for name in names:
+        src = open_source(SHARED_DATA / name)
+        gt = load_single_gt(src.gt_path)
+        c = init_box_from_gt(gt, 1)
+        w, h = src.size
+        graph = get_config(DEFAULT_SINGLE_OBJECT).graph_for({}, VideoInfo(
+            width=w, height=h, fps=float(src.fps), init_box=tuple(float(v) for v in c)))
+        n = min(frames, len(src))
+        r = track(src, graph, rng=0, write_video=False, progress=False, max_frames=n)
+        ours = r.fps
+        ps = {}
+        if peers:
+            xywh = [c[0] - c[2] / 2, c[1] - c[3] / 2, c[2], c[3]]
+            ps = run_sot_peers(frame_paths(src, 1, n + 1), xywh)
+        fps = {k: v.get("fps", float("nan")) for k, v in ps.items()}
+        csrt = fps.get("csrt")
+        rows.append([name, f"{w}x{h}", n, f"{ours:.1f}",
+                     *(f"{fps[k]:.1f}" if k in fps and np.isfinite(fps[k]) else "-"
+                       for k in ("csrt", "kcf", "mil")),
+                     f"{ours / csrt:.2f}" if csrt else "-"])
+    print_table(["sequence", "size", "frames", f"{DEFAULT_SINGLE_OBJECT} fps", "CSRT fps",
+                 "KCF fps", "MIL fps", "x CSRT"], rows,
+                title="one object: inference frames/s (decoding excluded), peers' update "
+                      "frames/s (OpenCV, their own venv)")
+
+
+# the PHD filter --------------------------------------------------------------------------
+def phd_section(seeds: int, totals: list[int]) -> None:
+    import phd_scenario
+
+    from pgm.models import phd
+
+    path = BENCH / "phd_scenario_seed2024.json"
+    if not path.is_file():
+        print(f"\nphd: {path} not found, skipped")
+        return
+    p, truth, meas = phd_scenario.load(path)
+    rows = []
+    for total in totals:
+        ss = phd_scenario.STONE_SOUP[total]
+        res = [phd_scenario.run(phd.Params, phd.build_graph, p, meas, truth, total, s)
+               for s in range(seeds)]
+        ms = float(np.median([r["ms"] for r in res]))
+        ospa = float(np.mean([r["ospa_raw"] for r in res]))
+        rows.append([total, f"{ms:.2f}", f"{ospa:.1f}", ss[0], ss[1], f"{ss[0] / ms:.1f}"])
+    print_table(["N", "PHD ms/step", "PHD OSPA(50,1)", "Stone Soup ms/step (bench README)",
+                 "Stone Soup OSPA(50,1)", "x Stone Soup speed"], rows,
+                title=f"PHD filter on {path.name}: median ms over {seeds} seeds, mean OSPA "
+                      f"(per-measurement extraction); Stone Soup's figures are the bench "
+                      f"README's, not measured in this run")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--sections", default="mot,camera,sot,phd")
+    ap.add_argument("--camera-frames", type=int, default=300,
+                    help="frames of MOT16-11 for the camera section (default 300)")
+    ap.add_argument("--sequences", default=",".join(MOT_SEQUENCES))
+    ap.add_argument("--sot", default=",".join(SOT_SEQUENCES))
+    ap.add_argument("--frames", type=int, default=150,
+                    help="frames per single-object sequence (default 150)")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--cores", default=",".join(CORES),
+                    help="the classic cores timed beside the default")
+    ap.add_argument("--phd-particles", default="1000,5000,20000",
+                    help="nominal particle counts (those of the bench's Stone Soup rows)")
+    ap.add_argument("--no-peers", action="store_true", help="the toolkit's rows only")
+    args = ap.parse_args(argv)
+    sections = set(args.sections.split(","))
+    print(machine_note())
+    present = [q for q in args.sequences.split(",") if (SHARED_DATA / q).is_dir()]
+    if "mot" in sections and present:
+        mot_section(present, max(1, args.repeats), not args.no_peers,
+                    [c for c in args.cores.split(",") if c])
+    if "camera" in sections and (SHARED_DATA / "MOT16-11").is_dir():
+        camera_section("MOT16-11", args.camera_frames)
+    sot = [q for q in args.sot.split(",") if (SHARED_DATA / q).is_dir()]
+    if "sot" in sections and sot:
+        sot_section(sot, args.frames, not args.no_peers)
+    if "phd" in sections:
+        phd_section(args.seeds, [int(t) for t in args.phd_particles.split(",")])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
