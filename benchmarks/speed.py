@@ -25,7 +25,8 @@ corners): ms per frame and the corner error.
 
 ``sot`` — on each single-object sequence (its first ``--frames`` frames): the single-object
 default's inference frames/s (``engine.step``; decoding excluded) against OpenCV's CSRT,
-KCF and MIL (``update`` only; the peers' venv), and the ratio to CSRT.
+KCF and MIL (``update`` only; the peers' venv), each the median of ``--repeats`` runs
+interleaved, and the ratio to CSRT.
 
 ``phd`` — the reference multi-target scenario (``../shared/bench``): the PHD filter at the
 nominal particle counts of the bench's Stone Soup SMC-PHD rows (10^3, 5·10^3, 2·10^4),
@@ -295,7 +296,7 @@ def camera_section(name: str, frames: int) -> None:
 
 
 # one object -----------------------------------------------------------------------------
-def sot_section(names: list[str], frames: int, peers: bool) -> None:
+def sot_section(names: list[str], frames: int, peers: bool, repeats: int) -> None:
     from _peers import frame_paths, run_sot_peers
 
     from pgm.app.runner import init_box_from_gt, track
@@ -313,13 +314,16 @@ def sot_section(names: list[str], frames: int, peers: bool) -> None:
         graph = get_config(DEFAULT_SINGLE_OBJECT).graph_for({}, VideoInfo(
             width=w, height=h, fps=float(src.fps), init_box=tuple(float(v) for v in c)))
         n = min(frames, len(src))
-        r = track(src, graph, rng=0, write_video=False, progress=False, max_frames=n)
-        ours = r.fps
-        ps = {}
-        if peers:
-            xywh = [c[0] - c[2] / 2, c[1] - c[3] / 2, c[2], c[3]]
-            ps = run_sot_peers(frame_paths(src, 1, n + 1), xywh)
-        fps = {k: v.get("fps", float("nan")) for k, v in ps.items()}
+        ours, fps = [], {}
+        for _ in range(repeats):  # interleaved, each side's median
+            ours.append(track(src, graph, rng=0, write_video=False, progress=False,
+                              max_frames=n).fps)
+            if peers:
+                xywh = [c[0] - c[2] / 2, c[1] - c[3] / 2, c[2], c[3]]
+                for k, v in run_sot_peers(frame_paths(src, 1, n + 1), xywh).items():
+                    fps.setdefault(k, []).append(v.get("fps", float("nan")))
+        ours = statistics.median(ours)
+        fps = {k: statistics.median(v) for k, v in fps.items()}
         csrt = fps.get("csrt")
         rows.append([name, f"{w}x{h}", n, f"{ours:.1f}",
                      *(f"{fps[k]:.1f}" if k in fps and np.isfinite(fps[k]) else "-"
@@ -327,8 +331,9 @@ def sot_section(names: list[str], frames: int, peers: bool) -> None:
                      f"{ours / csrt:.2f}" if csrt else "-"])
     print_table(["sequence", "size", "frames", f"{DEFAULT_SINGLE_OBJECT} fps", "CSRT fps",
                  "KCF fps", "MIL fps", "x CSRT"], rows,
-                title="one object: inference frames/s (decoding excluded), peers' update "
-                      "frames/s (OpenCV, their own venv)")
+                title=f"one object: inference frames/s (decoding excluded), peers' update "
+                      f"frames/s (OpenCV, their own venv); medians of {repeats} runs, "
+                      f"interleaved")
 
 
 # the PHD filter --------------------------------------------------------------------------
@@ -384,7 +389,7 @@ def main(argv: list[str] | None = None) -> int:
         camera_section("MOT16-11", args.camera_frames)
     sot = [q for q in args.sot.split(",") if (SHARED_DATA / q).is_dir()]
     if "sot" in sections and sot:
-        sot_section(sot, args.frames, not args.no_peers)
+        sot_section(sot, args.frames, not args.no_peers, max(1, args.repeats))
     if "phd" in sections:
         phd_section(args.seeds, [int(t) for t in args.phd_particles.split(",")])
     return 0

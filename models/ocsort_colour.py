@@ -10,7 +10,8 @@ cores, each one setting:
   :class:`~pgm.observation.appearance.likelihoods.ColourHistogramLikelihood`) learned
   from the detections it is given, and the association adds its similarity to each
   detection (``exp(ρ − 1)``, weight 1) to the IoU and OC-SORT's momentum term, so that
-  people who cross keep their identities;
+  people who cross keep their identities (each detection's histogram read once per frame
+  from between 1 024 and 4 096 of its pixels, :mod:`pgm.core.resolution`);
 * ``score_map="quantile"``, ``score_threshold=0.2`` — a detection's score is read as its
   quantile among the video's scores so far (:class:`~pgm.factors.scores.ScoreQuantiles`),
   and the lowest fifth of the detections are neither used nor start tracks: a statement
