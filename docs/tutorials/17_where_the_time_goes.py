@@ -86,7 +86,7 @@ levels = box_levels(first)                          # boxes (cx, cy, w, h): only
 print(f"\nframe 1: each box read from between {BOX_PIXELS} and {4 * BOX_PIXELS} of its "
       f"pixels")
 print("   box w x h   pixels  level  pixels read")
-for (x, y, w, h), k in zip(first, levels, strict=True):
+for (_, _, w, h), k in zip(first, levels, strict=True):
     print(f"  {w:5.0f} x {h:4.0f}  {w * h:7.0f}  {k:5d}  {w * h / 4 ** k:11.0f}")
 
 # %%
