@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import subprocess
 import sys
 import tempfile
 import threading
@@ -141,27 +140,12 @@ class RssSampler:
         self._thread.join()
 
 
-_CLI_WITH_RSS = ("import resource, sys\n"
-                 "from pgm.app.cli import main\n"
-                 "code = main(sys.argv[1:])\n"
-                 "print('MAXRSS', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, "
-                 "file=sys.stderr)\n"
-                 "sys.exit(code)\n")
-
-
 def cli_process(name: str, model: str) -> dict:
     """Wall seconds and maximum resident set of ``pgm track SEQ --no-video`` in a fresh
     process (start-up, decoding, inference, writing and evaluation)."""
-    with tempfile.TemporaryDirectory() as tmp:
-        cmd = [sys.executable, "-c", _CLI_WITH_RSS, "track", str(SHARED_DATA / name),
-               "--model", model, "--out", tmp, "--quiet", "--no-video"]
-        t0 = time.perf_counter()
-        r = subprocess.run(cmd, capture_output=True, text=True)
-        secs = time.perf_counter() - t0
-    if r.returncode != 0:
-        raise SystemExit(f"pgm track failed: {r.stderr[-2000:]}")
-    rss = [line.split()[1] for line in r.stderr.splitlines() if line.startswith("MAXRSS ")]
-    return {"seconds": secs, "rss_mib": float(rss[-1]) / 1024.0 if rss else float("nan")}
+    from mot_speed import toolkit_end_to_end
+
+    return toolkit_end_to_end(name, model, video=False)
 
 
 def mot_section(names: list[str], repeats: int, peers: bool, cores: list[str]) -> None:
