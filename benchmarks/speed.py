@@ -11,7 +11,9 @@ track`` runs them (:func:`pgm.app.runner.track_multi`, tracks written, no video)
 **inference** frames/s (``engine.step`` plus the camera's motion) and **end to end** frames/s
 (from the first frame read to the last row written), the median of ``--repeats`` runs
 interleaved with as many decoding runs (the machine's speed drifts: only ratios measured
-side by side mean much); the whole ``pgm track SEQ --no-video`` process (start-up and
+side by side mean much); the default's ``engine.step`` and camera motion *alone*, on the
+first 150 frames decoded beforehand (no decoding thread sharing the two cores), scaled to
+the sequence's length; the whole ``pgm track SEQ --no-video`` process (start-up and
 evaluation included) with its maximum resident set; the six ``trackers`` peers'
 ``update`` frames/s on the same detections (their own venv,
 ``bash benchmarks/peers/setup_env.sh``). On the largest sequence, the default's resident
@@ -110,6 +112,29 @@ def mot_run(name: str, model: str) -> dict:
     return {"frames": r.n_frames, "inference": r.inference_seconds, "wall": r.wall_seconds}
 
 
+def inference_alone(name: str, model: str, frames: int = 150) -> dict:
+    """Seconds of ``engine.step`` and of the camera's motion on the first ``frames`` frames,
+    decoded beforehand (nothing else running: no decoding thread sharing the cores)."""
+    from pgm.core.frame import FrameContext
+    from pgm.inference import Engine
+    from pgm.io.video import open_source
+    from pgm.observation.camera_motion import CameraMotionEstimator
+
+    graph, det = mot_graph(name, model)
+    images = list(open_source(SHARED_DATA / name).frames(1, frames + 1))
+    engine, motion = Engine(graph, np.random.default_rng(0)), CameraMotionEstimator("auto")
+    step = camera = 0.0
+    for number, image in images:
+        t0 = time.perf_counter()
+        moved = motion(image)
+        t1 = time.perf_counter()
+        engine.step(FrameContext(number, image, detections=det(number, image),
+                                 camera_motion=moved))
+        camera += t1 - t0
+        step += time.perf_counter() - t1
+    return {"frames": len(images), "step": step, "camera": camera}
+
+
 class RssSampler:
     """This process's resident set (MiB), sampled every ``period`` seconds on a thread."""
 
@@ -161,6 +186,10 @@ def mot_section(names: list[str], repeats: int, peers: bool, cores: list[str]) -
                     runs[m].append(mot_run(name, m))
         n = runs[DEFAULT_MULTI_TARGET][0]["frames"]
         dec = statistics.median(decode)
+        alone = [inference_alone(name, DEFAULT_MULTI_TARGET) for _ in range(repeats)]
+        k = alone[0]["frames"]
+        step = statistics.median(a["step"] for a in alone) * n / k
+        camera = statistics.median(a["camera"] for a in alone) * n / k
         proc = cli_process(name, DEFAULT_MULTI_TARGET)
         ps = _mot_peers(name, n) if peers else {}
         base = ps.get("ocsort", {}).get("fps")
@@ -172,6 +201,9 @@ def mot_section(names: list[str], repeats: int, peers: bool, cores: list[str]) -
                          f"{secs / dec:.3f}", f"{fps / base:.3f}" if base else "-"])
 
         row("decode only (one thread)", dec)
+        row(f"{DEFAULT_MULTI_TARGET}: alone, frames decoded before: engine.step", step)
+        row(f"{DEFAULT_MULTI_TARGET}: alone: the camera's motion", camera)
+        row(f"{DEFAULT_MULTI_TARGET}: alone: both", step + camera)
         for m, rs in runs.items():
             inf = statistics.median(r["inference"] for r in rs)
             wall = statistics.median(r["wall"] for r in rs)

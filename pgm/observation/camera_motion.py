@@ -12,8 +12,8 @@ previous frame to the current one; it is attached to the frame
 (:attr:`pgm.core.frame.FrameContext.camera_motion`) and the engine's transition rules
 move every target's past states through it (:func:`pgm.core.motion.warp_states`).
 
-Frames are analysed halved (``INTER_AREA``) until at most ``max_side`` (640) pixels wide
-— a 1920x1080 frame at 480x270 — and the motion is rescaled to full resolution. The
+Frames are analysed halved (``INTER_AREA``) until at most ``max_side`` (480) pixels wide
+— a 1920x1080 frame at 480x270, a 640x480 one at 320x240 — and the motion is rescaled to full resolution. The
 corners a fit explained are followed into the next frame: new ones are found only when
 fewer than half of ``max_corners`` (200) remain or the followed ones give no fit. On
 MOT16-11 (a camera walking with the crowd) that costs 2.0 ms a frame against 13.9 for
@@ -181,7 +181,7 @@ class CameraMotionEstimator:
         last ``window`` frames (this one included) moved by ``min_shift``.
     max_side : int
         Frames are analysed at most this many pixels wide: halved (``INTER_AREA``) until
-        they are (a 1920x1080 frame at 480x270, a 1280x720 one at 640x360), or with
+        they are (a 1920x1080 frame at 480x270, a 1280x720 one at 320x180), or with
         ``halve=False`` shrunk to exactly ``max_side`` (one arbitrary ``INTER_AREA``
         shrink of the grey frame: several times a halving's cost).
     max_corners, win_size, pyramid_levels : int
@@ -203,7 +203,7 @@ class CameraMotionEstimator:
     """
 
     def __init__(self, mode: str = "auto", *, min_shift: float = 1.0, window: int = 20,
-                 min_fraction: float = 0.8, max_side: int = 640, method: str = "checked",
+                 min_fraction: float = 0.8, max_side: int = 480, method: str = "checked",
                  downscale: int = 2, max_corners: int = 200, win_size: int = 11,
                  pyramid_levels: int = 2, track: bool = True, halve: bool = True):
         if mode not in MODES:
