@@ -164,21 +164,29 @@ class ColourHistogramLikelihood(BoxAppearanceLikelihood):
         """``(hist, in_frac)`` of ``boxes`` on frame ``ctx``, box ``i`` read on the lattice
         of every ``2**levels[i]``-th pixel (:meth:`ColourHistogramScorer.box_histograms`;
         the kernel's own histograms for another kernel, at full resolution), each box
-        counted once per frame and bin layout: kept in the frame's cache by the box's
-        coordinates and level, so that learning from boxes already scored this frame
-        counts nothing again."""
+        counted once per frame and bin layout: the frame's cache keeps what was counted,
+        and boxes already counted (same coordinates, same level: those a track learns
+        from after they were scored) are looked up, not counted again."""
         if self.kernel != "uniform":
             return self.scorer.histograms(ctx, boxes)
-        lv = np.zeros(len(boxes), dtype=np.intp) if levels is None else np.asarray(levels)
-        store = ctx.cached(("colour-box-histograms",) + self.batch_key, dict)
-        keys = [(box.tobytes(), int(k)) for box, k in zip(boxes, lv, strict=True)]
-        missing = [i for i, key in enumerate(keys) if key not in store]
-        if missing:
-            hist, in_frac = self.scorer.box_histograms(ctx, boxes[missing], lv[missing])
-            store.update(zip([keys[i] for i in missing], zip(hist, in_frac, strict=True), strict=True))
-        got = [store[key] for key in keys]
-        return (np.array([g[0] for g in got]).reshape(len(boxes), -1),
-                np.array([g[1] for g in got], dtype=float))
+        lv = (np.zeros(len(boxes), dtype=np.intp) if levels is None
+              else np.asarray(levels, dtype=np.intp))
+        seen = ctx.cached(("colour-box-histograms",) + self.batch_key, list)
+        hist = np.zeros((len(boxes), self.scorer.n_bins))
+        in_frac = np.zeros(len(boxes))
+        todo = np.ones(len(boxes), dtype=bool)
+        for b, k, h, f in seen:  # a frame's entries: the boxes scored, those learned
+            same = (boxes[:, None, :] == b[None]).all(axis=2) & (lv[:, None] == k[None])
+            hit = same.any(axis=1) & todo
+            if hit.any():
+                j = same[hit].argmax(axis=1)
+                hist[hit], in_frac[hit] = h[j], f[j]
+                todo &= ~hit
+        if todo.any():
+            h, f = self.scorer.box_histograms(ctx, boxes[todo], lv[todo])
+            hist[todo], in_frac[todo] = h, f
+            seen.append((boxes[todo].copy(), lv[todo].copy(), h, f))
+        return hist, in_frac
 
     @classmethod
     def log_likelihood_matrix(cls, models, x, ctx, levels=None) -> np.ndarray:
