@@ -82,11 +82,17 @@ def toolkit_end_to_end(name: str, model: str, video: bool) -> dict:
     return {"seconds": secs, "rss_mib": float(rss[-1]) / 1024.0 if rss else float("nan")}
 
 
+#: the CLI in a fresh interpreter reporting its own peak resident set in KiB: the VmHWM of
+#: its address space (Linux), since ``ru_maxrss`` keeps the parent's peak across ``exec``
 _CLI_WITH_RSS = ("import resource, sys\n"
                  "from pgm.app.cli import main\n"
                  "code = main(sys.argv[1:])\n"
-                 "print('MAXRSS', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, "
-                 "file=sys.stderr)\n"
+                 "try:\n"
+                 "    hwm = [ln.split()[1] for ln in open('/proc/self/status')\n"
+                 "           if ln.startswith('VmHWM:')][0]\n"
+                 "except (OSError, IndexError):\n"
+                 "    hwm = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss\n"
+                 "print('MAXRSS', hwm, file=sys.stderr)\n"
                  "sys.exit(code)\n")
 
 
