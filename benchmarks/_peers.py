@@ -242,6 +242,26 @@ def run_sot_peers(frames_paths: Iterable[str | Path], init_xywh: Sequence[float]
     return results
 
 
+def run_phd_peer(scenario: str | Path, totals: Sequence[int], seeds: int,
+                 timeout: float | None = 3600.0) -> dict:
+    """Stone Soup's SMC-PHD on the bench's scenario (``peers/phd_peers.py``): ``{N: [{"ms",
+    "extract_ms", "estimates"}, ...] per seed}``, or ``{"error": str}`` when the peers' venv
+    or Stone Soup in it is missing or the run fails."""
+    py = peer_python()
+    if py is None:
+        return {"error": SETUP_HINT}
+    with tempfile.TemporaryDirectory(prefix="pgm-peers-phd-") as tmp:
+        res = Path(tmp) / "result.json"
+        code, log = _run([str(py), str(PEERS_DIR / "phd_peers.py"), "--scenario",
+                          str(Path(scenario).resolve()), "--out", str(res), "--particles",
+                          ",".join(str(int(t)) for t in totals), "--seeds", str(int(seeds))],
+                         timeout)
+        if not res.is_file():
+            return {"error": f"phd_peers.py exit {code}: {_tail(log)}"}
+        data = json.loads(res.read_text())
+    return {int(n): [runs[k] for k in sorted(runs, key=int)] for n, runs in data.items()}
+
+
 def frame_paths(source: str | Path | FrameSource, start: int = 1,
                 stop: int | None = None) -> list[Path]:
     """Image files of frames ``start <= n < stop`` (1-based, as ``source.frames``).

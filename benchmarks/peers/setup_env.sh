@@ -3,10 +3,11 @@
 #
 #   bash benchmarks/peers/setup_env.sh
 #
-# The peers (OpenCV CSRT / KCF / MIL, and SORT / ByteTrack / OC-SORT from the PyPI
-# package `trackers`) are never toolkit dependencies: they run as subprocesses in this
-# venv (benchmarks/peers/{mot,sot}_peers.py) and exchange plain files with the toolkit's
-# benchmarks (benchmarks/_peers.py), which score their output with pgm's own metrics.
+# The peers (OpenCV CSRT / KCF / MIL, SORT / ByteTrack / OC-SORT from the PyPI package
+# `trackers`, and Stone Soup's SMC-PHD) are never toolkit dependencies: they run as
+# subprocesses in this venv (benchmarks/peers/{mot,sot,phd}_peers.py) and exchange plain
+# files with the toolkit's benchmarks (benchmarks/_peers.py), which score their output with
+# pgm's own metrics.
 #
 # Why a separate venv, and why the OpenCV dance below:
 #  * `trackers` 2.6.1 requires `opencv-python` (the GUI build); the toolkit uses
@@ -33,6 +34,9 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 VENV="${PGM_PEERS_VENV:-$ROOT/.venv-peers}"
 PYTHON="${PGM_PEERS_BASE_PYTHON:-python3.11}"
 TRACKERS_VERSION="2.6.1"
+# Stone Soup, the PHD filter's peer (benchmarks/peers/phd_peers.py); optional: when it cannot
+# be installed the peer trackers still are, and benchmarks/speed.py says so
+STONESOUP_VERSION="1.9.1"
 
 check() {
   [ -x "$VENV/bin/python" ] || return 1
@@ -64,7 +68,16 @@ if ! grep -qxF ".venv-peers/" "$ROOT/.gitignore" 2>/dev/null; then
   echo ".venv-peers/" >> "$ROOT/.gitignore"
 fi
 
+ensure_stonesoup() {
+  "$VENV/bin/python" -c "import importlib.metadata as m; assert m.version('stonesoup') == '$STONESOUP_VERSION'" \
+    2>/dev/null && return 0
+  echo "installing stonesoup==$STONESOUP_VERSION into $VENV"
+  "$VENV/bin/python" -m pip --disable-pip-version-check install -q "stonesoup==$STONESOUP_VERSION" \
+    || echo "stonesoup not installed: the PHD filter's peer is missing (benchmarks/speed.py says so)" >&2
+}
+
 if check; then
+  ensure_stonesoup
   echo "peer venv OK: $VENV"
   exit 0
 fi
@@ -92,6 +105,7 @@ echo "installing trackers==$TRACKERS_VERSION and $contrib into $VENV"
 "${PIP[@]}" install -q --force-reinstall --no-deps "$contrib"
 
 if check; then
+  ensure_stonesoup
   echo "peer venv OK: $VENV"
 else
   echo "peer venv check FAILED in $VENV; details:" >&2
