@@ -12,10 +12,12 @@ import numpy as np
 
 from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
+from pgm.core.resolution import working_frames
 from pgm.core.variable import Variable
 from pgm.factors import LikelihoodFactor
 
-__all__ = ["BoxAppearanceLikelihood", "SIZE_BOUNDS", "bounded_int", "grey_frame"]
+__all__ = ["BoxAppearanceLikelihood", "FeatureDotCue", "SIZE_BOUNDS", "bounded_int",
+           "grey_frame"]
 
 
 #: bounds of the sizes an appearance cue takes (bins, cells, rings, samples, ...): a
@@ -143,3 +145,65 @@ def grey_frame(ctx: FrameContext) -> np.ndarray:
         return np.ascontiguousarray(grey, dtype=np.float32)
 
     return ctx.cached(("grey-f32",), make)
+
+
+class FeatureDotCue:
+    """Mixin of the cues scored as ``log p(z | X) = -λ (1 - f(X) · t)``: a feature vector
+    ``f`` of the box (the class's ``feature_method``, ``(N, D)``) against a template ``t``
+    that is ``f`` of the first box. Many models of such a cue are scored against many
+    boxes, and learn from boxes, with one feature pass over the boxes per level
+    (:func:`pgm.core.resolution.appearance_matrix`, :func:`~pgm.core.resolution.learn_all`),
+    each level's frame halved by averaging, the boxes ``(cx, cy, w, h)`` given as the
+    states (``box_indices`` (0, 1, 2, 3)). Models whose features differ (another
+    ``feature_key``) are asked one by one on the same frames."""
+
+    #: the method ``(x, ctx) -> (N, D)`` giving the features
+    feature_method: ClassVar[str] = ""
+
+    def feature_key(self) -> tuple:
+        """What the features depend on (models with equal keys share one pass)."""
+        raise NotImplementedError
+
+    @classmethod
+    def _shared(cls, models) -> bool:
+        key = models[0].feature_key()
+        return all(type(m) is type(models[0]) and m.feature_key() == key for m in models)
+
+    @classmethod
+    def log_likelihood_matrix(cls, models, x, ctx, levels=None) -> np.ndarray:
+        """``(K, M)`` log-likelihoods of the boxes ``x`` under ``K`` models, box ``j`` read
+        on the frame halved ``levels[j]`` times (None: the frame itself)."""
+        x = np.asarray(x, dtype=float).reshape(-1, 4)
+        lv = np.zeros(len(x), dtype=np.intp) if levels is None else np.asarray(levels)
+        out = np.zeros((len(models), len(x)))
+        shared = cls._shared(models)
+        if shared:
+            for m in models:
+                m.require_model()
+            templates = np.array([m.template for m in models], dtype=float)
+            lam = np.array([m.lam for m in models], dtype=float)[:, None]
+        for frame, idx, xb in working_frames(ctx, x, lv):
+            if shared:
+                f = np.asarray(getattr(models[0], cls.feature_method)(xb, frame), dtype=float)
+                out[:, idx] = -lam * (1.0 - templates @ f.T)
+            else:
+                for i, m in enumerate(models):
+                    out[i, idx] = m.log_likelihood(xb, frame)
+        return out
+
+    @classmethod
+    def learn_many(cls, models, ctx, values, levels=None) -> None:
+        """Each model's template from its own box in ``values`` ``(K, 4)``, read as
+        :meth:`log_likelihood_matrix` reads it, the features computed in one pass per
+        level."""
+        values = np.asarray(values, dtype=float).reshape(len(models), 4)
+        lv = np.zeros(len(values), dtype=np.intp) if levels is None else np.asarray(levels)
+        shared = cls._shared(models)
+        for frame, idx, xb in working_frames(ctx, values, lv):
+            if shared:
+                f = np.asarray(getattr(models[0], cls.feature_method)(xb, frame), dtype=float)
+                for i, row in zip(idx, f, strict=True):
+                    models[i].template = row.copy()
+            else:
+                for i, v in zip(idx, xb, strict=True):
+                    models[i].learn(frame, v)

@@ -19,6 +19,7 @@ from pgm.core.frame import FrameContext
 from pgm.core.numerics import check_finite_param
 from pgm.observation.appearance.base import (
     BoxAppearanceLikelihood,
+    FeatureDotCue,
     _bounded_pair,
     bounded_int,
     grey_frame,
@@ -29,7 +30,7 @@ __all__ = ["GradientLikelihood", "RotationInvariantLikelihood", "GMMKLLikelihood
            "TemplateLikelihood"]
 
 
-class GradientLikelihood(BoxAppearanceLikelihood):
+class GradientLikelihood(FeatureDotCue, BoxAppearanceLikelihood):
     """Oriented-gradient likelihood: the box's cell histograms of gradient orientation
     (integral images of gradient magnitude per orientation bin, computed once per frame
     and shared through the frame cache) against a template taken in the first frame.
@@ -41,6 +42,8 @@ class GradientLikelihood(BoxAppearanceLikelihood):
     Unlike a whole-box colour histogram, the cell layout changes with the box size, so
     this cue can see scale; it multiplies with colour cues by declaring both.
     """
+
+    feature_method = "descriptors"
 
     def __init__(self, variable: str, *, lam: float = 20.0, n_orient: int = 9, cells=(3, 3),
                  template=None, box_indices=(0, 1, 2, 3), name: str | None = None):
@@ -58,6 +61,9 @@ class GradientLikelihood(BoxAppearanceLikelihood):
         if self.template is not None:
             p["template"] = self.template
         return p
+
+    def feature_key(self) -> tuple:
+        return ("gradient", self.n_orient, self.cells, self.box_indices)
 
     def descriptors(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         """``(N, n_orient · cells)`` L2-normalised gradient descriptors of particles ``x``."""
@@ -259,7 +265,7 @@ class GMMKLLikelihood(BoxAppearanceLikelihood):
         return -self.lam * self.divergence(x, ctx)
 
 
-class TemplateLikelihood(BoxAppearanceLikelihood):
+class TemplateLikelihood(FeatureDotCue, BoxAppearanceLikelihood):
     r"""Grey-level template matching by zero-mean normalised cross-correlation (NCC).
 
     Every box is read on a fixed ``grid = (columns, rows)`` of sample points placed
@@ -275,6 +281,8 @@ class TemplateLikelihood(BoxAppearanceLikelihood):
     contrast changes. With ``adapt_rate > 0`` the template is blended towards the
     estimate's samples after each frame.
     """
+
+    feature_method = "samples"
 
     def __init__(self, variable: str, *, lam: float = 20.0, grid=(12, 24),
                  adapt_rate: float = 0.0, template=None, box_indices=(0, 1, 2, 3),
@@ -304,6 +312,9 @@ class TemplateLikelihood(BoxAppearanceLikelihood):
         if self.template is not None:
             p["template"] = self.template
         return p
+
+    def feature_key(self) -> tuple:
+        return ("template", self.grid, self.box_indices)
 
     @staticmethod
     def _normalise(v: np.ndarray) -> np.ndarray:

@@ -19,7 +19,12 @@ from pgm.core.resolution import (
     working_frames,
 )
 from pgm.observation.appearance.colour import ColourHistogramScorer
-from pgm.observation.appearance.likelihoods import ColourHistogramLikelihood, GradientLikelihood
+from pgm.observation.appearance.likelihoods import (
+    ColourHistogramLikelihood,
+    GradientLikelihood,
+    RotationInvariantLikelihood,
+    TemplateLikelihood,
+)
 
 
 def _image(rng, h=300, w=400):
@@ -157,21 +162,54 @@ def test_reduced_resolution_scores_stay_close_to_full_resolution():
     assert np.abs(full - reduced).max() / lam < 0.02       # rho within 0.02
 
 
+def _per_model_on_shrunk_frames(models, b, ctx):
+    """The oracle: each model asked alone, each box on the frame halved by averaging to its
+    level, in that frame's pixels."""
+    want = np.zeros((len(models), len(b)))
+    for frame, idx, xb in working_frames(ctx, b, box_levels(b)):
+        for i, m in enumerate(models):
+            want[i, idx] = m.log_likelihood(xb, frame)
+    return want
+
+
+@pytest.mark.parametrize("cue", ["gradient", "template"])
+def test_feature_cues_score_and_learn_in_one_pass(cue):
+    """Gradient descriptors and grey templates: one feature pass per level equals asking
+    each model alone on the shrunk frames, and learning many at once equals learning each."""
+    rng = np.random.default_rng(6)
+    img = _image(rng, 600, 800)
+    make = (lambda i: GradientLikelihood("box", name=f"g{i}")) if cue == "gradient" else \
+        (lambda i: TemplateLikelihood("box", name=f"t{i}"))
+    models = [make(i) for i in range(3)]
+    for i, m in enumerate(models):
+        m.learn(FrameContext(1, img), np.array([200.0 + 100 * i, 300, 120, 240]))
+    b = np.array([[210.0, 300, 120, 240], [500, 300, 20, 30], [400, 250, 64, 128]])
+    ctx = FrameContext(1, img)
+    assert box_levels(b).tolist() == [2, 0, 1]
+    got = appearance_matrix(models, b, ctx)
+    np.testing.assert_allclose(got, _per_model_on_shrunk_frames(models, b, ctx),
+                               rtol=1e-10, atol=1e-10)
+    learned = [make(10 + i) for i in range(3)]
+    learn_all(learned, FrameContext(2, img), b, box_pixels=0)
+    for m, box in zip(learned, b, strict=True):
+        alone = make(99)
+        alone.learn(FrameContext(2, img), box)
+        np.testing.assert_allclose(m.template, alone.template, rtol=1e-12)
+
+
 def test_a_cue_without_a_matrix_is_asked_per_model_on_the_shrunk_frame():
     """A cue with no ``log_likelihood_matrix`` gets, per level, the frame halved by
     averaging and its boxes in that frame's pixels."""
-    rng = np.random.default_rng(6)
+    rng = np.random.default_rng(7)
     img = _image(rng, 600, 800)
-    models = [GradientLikelihood("box", name=f"g{i}") for i in range(3)]
+    models = [RotationInvariantLikelihood("box", name=f"r{i}") for i in range(3)]
+    assert not hasattr(RotationInvariantLikelihood, "log_likelihood_matrix")
     for i, m in enumerate(models):
         m.learn(FrameContext(1, img), np.array([200.0 + 100 * i, 300, 120, 240]))
     b = np.array([[210.0, 300, 120, 240], [500, 300, 20, 30]])
     ctx = FrameContext(1, img)
-    got = appearance_matrix(models, b, ctx)
-    levels = box_levels(b)
-    assert levels.tolist() == [2, 0]
+    np.testing.assert_allclose(appearance_matrix(models, b, ctx),
+                               _per_model_on_shrunk_frames(models, b, ctx))
     small = pyramid_level(ctx, 2)
-    want0 = [m.log_likelihood(b[:1] / 4.0, small)[0] for m in models]
-    want1 = [m.log_likelihood(b[1:], ctx)[0] for m in models]
-    np.testing.assert_allclose(got[:, 0], want0)
-    np.testing.assert_allclose(got[:, 1], want1)
+    np.testing.assert_allclose(appearance_matrix(models, b, ctx)[:, 0],
+                               [m.log_likelihood(b[:1] / 4.0, small)[0] for m in models])
