@@ -45,6 +45,7 @@ process), and the ratios named in each table's header.
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
 import tempfile
@@ -125,16 +126,14 @@ def inference_alone(name: str, model: str, frames: int = 150) -> dict:
     graph, det = mot_graph(name, model)
     images = list(open_source(SHARED_DATA / name).frames(1, frames + 1))  # held: ~1 GB at 1080p
     engine, motion = Engine(graph, np.random.default_rng(0)), CameraMotionEstimator("auto")
-    step = camera = 0.0
+    step = 0.0
     for number, image in images:
+        ctx = FrameContext(number, image, detections=det(number, image),
+                           camera_motion=motion(image))
         t0 = time.perf_counter()
-        moved = motion(image)
-        t1 = time.perf_counter()
-        engine.step(FrameContext(number, image, detections=det(number, image),
-                                 camera_motion=moved))
-        camera += t1 - t0
-        step += time.perf_counter() - t1
-    return {"frames": len(images), "step": step, "camera": camera}
+        engine.step(ctx)
+        step += time.perf_counter() - t0
+    return {"frames": len(images), "step": step, "camera": motion.seconds}
 
 
 class RssSampler:
@@ -148,8 +147,6 @@ class RssSampler:
     def rss_mib() -> float:
         with open("/proc/self/statm") as f:
             pages = int(f.read().split()[1])
-        import os
-
         return pages * os.sysconf("SC_PAGE_SIZE") / 2**20
 
     def __enter__(self):

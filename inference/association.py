@@ -336,8 +336,8 @@ def _appearance(ctx: RuleContext, factor, frame: FrameContext, boxes: np.ndarray
     """``(K, M)`` similarity of each replica's appearance model with each detection
     (``exp(log-likelihood / λ)`` per cue, multiplied over cues; 0 for a replica without a
     model yet), or None (no appearance, no image, no detections). Each cue scores every
-    replica against every detection in one call, on the frame at the resolution the
-    detections need (:func:`~pgm.observation.appearance.resolution.working_frame`)."""
+    replica against every detection in one call, each detection read at the resolution it
+    needs (:func:`pgm.core.resolution.appearance_matrix`)."""
     if factor.appearance is None or frame.image is None or not len(boxes):
         return None
     var = factor.variables[0]

@@ -274,7 +274,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     size = getattr(source, "size", None) if isinstance(source, FrameSource) else None
     check_memory(graph, size, num_particles=num_particles, limit=memory_limit_bytes)
     engine = Engine(graph, rng, num_particles=num_particles, **(engine_kwargs or {}))
-    motion = CameraMotionEstimator(camera_motion)
+    motion = CameraMotionEstimator(camera_motion, fps=fps)
     out = prepare_run_folder(out_dir) if out_dir is not None else None
     run = {"model": graph.name, "source": source_text(source),
            "num_particles": engine.num_particles, "camera_motion": camera_motion,
@@ -298,14 +298,8 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     trail = Trails(trails)
     outputs.bar = progress_bar(progress, total, graph.name)
 
-    motion_secs = 0.0
-
     def context(number, image):
-        nonlocal motion_secs
-        t0 = time.perf_counter()
-        moved = motion(image)
-        motion_secs += time.perf_counter() - t0
-        return FrameContext(number, image, camera_motion=moved), None
+        return FrameContext(number, image, camera_motion=motion(image)), None
 
     def emit(number, image, record, _):
         box, score = output_target(engine.graph, record)
@@ -330,7 +324,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
     _, seconds, _ = run_frames(frames_iter, engine, outputs, max_frames=max_frames,
                                context=context, emit=emit)
     wall = time.perf_counter() - t_start
-    seconds += motion_secs  # the camera's motion is inference too
+    seconds += motion.seconds  # the camera's motion is inference too
     frames_arr = np.asarray(frames_done)
     boxes_arr = np.asarray(boxes_done)
     # score the annotated frames up to the last frame processed (max_frames may stop early)
@@ -355,7 +349,7 @@ def track(source: str | Path | FrameSource | Iterable[tuple[int, np.ndarray]],
                     "inference_seconds": seconds, "fps": result.fps,
                     "wall_seconds": wall, "fps_end_to_end": result.end_to_end_fps,
                     "camera_motion_frames": motion.frames_moved,
-                    "camera_motion_seconds": motion_secs,
+                    "camera_motion_seconds": motion.seconds,
                     "video": outputs.video is not None, **outputs.summary()})
         if metrics is not None:
             write_json(out / "metrics.json", {**metrics, "fps": result.fps})
@@ -463,8 +457,7 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
     if dropped and not engine.predicts_missing_frames:
         raise InputError(f"dropped frames need a plate model (one sub-graph per target), not "
                          f"{graph.name!r}")
-    motion = CameraMotionEstimator(camera_motion)
-    motion_secs = 0.0
+    motion = CameraMotionEstimator(camera_motion, fps=source.fps)
     noise = [v for v in engine.graph.variables.values() if v.role == "noise"]
     out = prepare_run_folder(out_dir) if out_dir is not None else None
     run = {"model": graph.name, "source": source_text(source), "camera_motion": camera_motion,
@@ -486,20 +479,17 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
                                               else min(known, max_frames))
     outputs.bar = progress_bar(progress, total, graph.name)
     rows_f, rows_i, rows_b, rows_c = [], [], [], []
-    det_secs = motion_secs = 0.0
+    det_secs = 0.0
     sigmas: list[float] = []
 
     def context(number, image):
-        nonlocal det_secs, motion_secs
+        nonlocal det_secs
         if number in dropped:  # withheld: the tracker predicts through it
             return FrameContext(number), None
         t0 = time.perf_counter()
         dets = detector(number, image)
         det_secs += time.perf_counter() - t0
-        t0 = time.perf_counter()
-        moved = motion(image)
-        motion_secs += time.perf_counter() - t0
-        return FrameContext(number, image, detections=dets, camera_motion=moved), dets
+        return FrameContext(number, image, detections=dets, camera_motion=motion(image)), dets
 
     def emit(number, image, record, dets):
         if noise:
@@ -542,7 +532,7 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
     n, secs, number = run_frames(source.frames(), engine, outputs, max_frames=max_frames,
                                  context=context, emit=emit)
     wall = time.perf_counter() - t_start
-    secs += motion_secs  # the camera's motion is inference too
+    secs += motion.seconds  # the camera's motion is inference too
     table = MotTable(np.asarray(rows_f, dtype=np.int64), np.asarray(rows_i, dtype=np.int64),
                      np.asarray(rows_b, dtype=float).reshape(-1, 4),
                      np.asarray(rows_c, dtype=float))
@@ -560,7 +550,7 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
                     "detector_seconds": det_secs, "fps": result.fps,
                     "wall_seconds": wall, "fps_end_to_end": result.end_to_end_fps,
                     "camera_motion_frames": motion.frames_moved,
-                    "camera_motion_seconds": motion_secs,
+                    "camera_motion_seconds": motion.seconds,
                     "video": outputs.video is not None, **outputs.summary()})
         if sigmas:
             run["noise_sigma_per_frame"] = sigmas

@@ -102,13 +102,14 @@ def appearance_matrix(models: Sequence[Any], boxes: np.ndarray, ctx: FrameContex
     their ``box_indices`` are the first four) under each of ``K`` models of one cue, each
     box read at its :func:`box_levels` level (see the module's docstring)."""
     b = np.asarray(boxes, dtype=float).reshape(-1, 4)
-    out = np.zeros((len(models), len(b)))
     if not len(models) or not len(b):
-        return out
+        return np.zeros((len(models), len(b)))
     levels = box_levels(b, box_pixels)
     batch = getattr(type(models[0]), "log_likelihood_matrix", None)
     if batch is not None:
-        return np.asarray(batch(models, b, ctx, levels), dtype=float).reshape(out.shape)
+        return np.asarray(batch(models, b, ctx, levels), dtype=float).reshape(len(models),
+                                                                            len(b))
+    out = np.zeros((len(models), len(b)))
     for frame, idx, x in working_frames(ctx, b, levels):
         for i, m in enumerate(models):
             out[i, idx] = np.asarray(m.log_likelihood(x, frame), dtype=float).reshape(len(idx))

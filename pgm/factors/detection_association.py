@@ -177,10 +177,9 @@ class DetectionAssociation(Factor):
     appearance_weight : float
         Its weight (against an IoU in [0, 1]).
     appearance_pixels : float
-        The pixels the frame's smaller boxes keep where the appearance is computed: each
-        frame's detections are scored, and learned from, on the frame halved as many
-        times as keeps the lower quartile of their areas at this many pixels
-        (:func:`pgm.core.resolution.working_frame`; default
+        The fewest pixels a detection is read from where it has them: each detection is
+        scored, and learned from, on the frame shrunk by the largest power of two that
+        leaves it this many pixels (:func:`pgm.core.resolution.box_levels`; default
         :data:`~pgm.core.resolution.BOX_PIXELS`, 0: full resolution).
     terms, gates : list of dict, optional
         The association's extension points, applied in every round (a round's own

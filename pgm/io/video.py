@@ -29,17 +29,14 @@ never all held in memory.
 
 from __future__ import annotations
 
-import collections
 import configparser
 import itertools
 import logging
 import math
-import os
 import re
 from abc import ABC, abstractmethod
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import cv2
 import numpy as np
@@ -288,47 +285,20 @@ class ImageSequenceSource(FrameSource):
         a thread while the caller works on this one (decoding releases the GIL), and a
         file's error is raised when its frame is reached, as without it."""
         start, stop = _check_range(start, stop, self.path)
+        return _read_ahead(self._decode(start, stop), PREFETCH)
+
+    def _decode(self, start: int, stop: int | None) -> Iterator[tuple[int, np.ndarray]]:
         end = len(self.files) if stop is None else min(stop - 1, len(self.files))
-        pool = _decoder() if end > start else None
-        ahead: collections.deque = collections.deque()
         first: tuple[int, int] | None = None
-        k = start
-        try:
-            while True:
-                while pool is not None and k <= end and len(ahead) <= PREFETCH:
-                    ahead.append((k, pool.submit(_read_image, self.files[k - 1])))
-                    k += 1
-                if ahead:
-                    number, job = ahead.popleft()
-                    image = job.result()
-                elif k <= end:
-                    number, image = k, _read_image(self.files[k - 1])
-                    k += 1
-                else:
-                    return
-                first = _check_same_size(first, image,
-                                         f"image {self.files[number - 1]} (frame {number})")
-                yield number, image
-        finally:
-            for _, job in ahead:  # stopped early: what is not started is not decoded
-                job.cancel()
+        for number in range(start, end + 1):
+            image = _read_image(self.files[number - 1])
+            first = _check_same_size(first, image,
+                                     f"image {self.files[number - 1]} (frame {number})")
+            yield number, image
 
 
-#: frames an :class:`ImageSequenceSource` decodes ahead of the one being used
+#: frames a source decodes ahead of the one being used (:func:`_read_ahead`)
 PREFETCH = 2
-_DECODER: tuple[int, Any] | None = None
-
-
-def _decoder():
-    """This process's decoding thread (one per process, made anew in a forked child,
-    where the parent's thread does not exist)."""
-    global _DECODER
-    if _DECODER is None or _DECODER[0] != os.getpid():
-        from concurrent.futures import ThreadPoolExecutor
-
-        _DECODER = (os.getpid(), ThreadPoolExecutor(max_workers=1,
-                                                    thread_name_prefix="pgm-decode"))
-    return _DECODER[1]
 
 
 def _check_same_size(first: tuple[int, int] | None, image: np.ndarray,
@@ -466,14 +436,14 @@ _DONE = object()
 
 
 def _read_ahead(items: Iterator, ahead: int) -> Iterator:
-    """``items`` produced by a thread of their own, at most ``ahead`` (plus one) before
-    the consumer; an exception in the producer is raised to the consumer where it
-    happened, and a consumer that stops early stops the producer (which then closes
-    ``items``, releasing what it holds)."""
+    """``items`` produced by a thread of their own, at most ``ahead`` of them made before
+    the consumer asks (one waiting in the thread, the others queued); an exception in the
+    producer is raised to the consumer where it happened, and a consumer that stops early
+    stops the producer (which then closes ``items``, releasing what it holds)."""
     import queue
     import threading
 
-    q: queue.Queue = queue.Queue(maxsize=max(1, ahead))
+    q: queue.Queue = queue.Queue(maxsize=max(1, ahead - 1))
     stop = threading.Event()
 
     def produce() -> None:

@@ -13,22 +13,24 @@ previous frame to the current one; it is attached to the frame
 move every target's past states through it (:func:`pgm.core.motion.warp_states`).
 
 Frames are analysed halved (``INTER_AREA``) until at most ``max_side`` (480) pixels wide
-— a 1920x1080 frame at 480x270, a 640x480 one at 320x240 — and the motion is rescaled to full resolution. The
-corners a fit explained are followed into the next frame: new ones are found only when
-fewer than half of ``max_corners`` (200) remain or the followed ones give no fit. On
-MOT16-11 (a camera walking with the crowd) that costs 2.0 ms a frame against 13.9 for
+— a 1920x1080 frame at 480x270, a 640x480 one at 320x240 — and the motion is rescaled to
+full resolution. The corners a fit explained are followed into the next frame: new ones
+are found only when fewer than half of ``max_corners`` (200) remain or the followed ones
+give no fit; the Lucas–Kanade pyramid is deep enough to follow a pan of ``MAX_PAN`` (2)
+frame widths a second at the video's frame rate. On
+MOT16-11 (a camera walking with the crowd) that costs 2.7 ms a frame against 14.2 for
 finding 400 corners anew on every frame shrunk to 640 wide, as close to a finer estimate
-(960 wide, 1000 corners) as that was: median corner error 0.47 px against 0.43, 95th
-percentile 1.52 against 1.34, where the camera moves the image's corners by 5.8 px a
+(960 wide, 1000 corners) as that was: median corner error 0.44 px against 0.43, 95th
+percentile 1.46 against 1.34, where the camera moves the image's corners by 5.8 px a
 frame (``python benchmarks/speed.py --sections camera``). ``mode="auto"`` attaches a
 frame's motion only when the camera is
 *moving*: the frame's fit moves some image corner by more than ``min_shift`` pixels
 (default 1 px), and so did at least ``min_fraction`` (80 %) of the last ``window`` (20)
 frames' fits. A still camera's estimates stay below 1 px; a large object crossing a still
 camera (FaceOcc1's face and magazine) can pass the per-frame tests for a few frames, not
-for 16 of 20: 13 of FaceOcc1's 888 frames are compensated, none of Crossing's,
+for 16 of 20: 18 of FaceOcc1's 888 frames are compensated, none of Crossing's,
 PETS09-S2L1's, TUD-Campus's, TUD-Stadtmitte's or Tiger1's, against 284 of MOT16-11's 300 (a
-moving camera) and 241 of David's 462 (a panning camera). A still camera is found
+moving camera) and 243 of David's 462 (a panning camera). A still camera is found
 cheaply: ``auto`` estimates a frame only when its verdict can change what is reported
 (while fewer than 16 of the window's frames could have moved, nothing is reported
 whatever this frame did), and estimates the verdicts it skipped, from the grey images
@@ -50,35 +52,36 @@ say, a still camera's included (a few tenths of a pixel of jitter per frame). Wi
 
 from __future__ import annotations
 
+import time
+
 import cv2
 import numpy as np
 
 __all__ = ["CameraMotionEstimator", "estimate_camera_motion", "estimate_sparse_flow", "MODES",
-           "METHODS", "track_camera_motion"]
+           "METHODS", "MAX_PAN", "track_camera_motion"]
 
 MODES = ("auto", "on", "off")
 #: how a frame's motion is estimated: the toolkit's checked similarity fit, or BoT-SORT's
 #: sparse optical flow (the ``trackers`` package's, every fit taken)
 METHODS = ("checked", "botsort")
+#: the fastest pan the default estimator follows, in frame widths per second (the
+#: Lucas–Kanade pyramid is made deep enough for it at the video's frame rate)
+MAX_PAN = 2.0
 #: BoT-SORT's corners (``trackers`` 2.6.1 ``CMCConfig``: ``sof_*``)
 BOTSORT_CORNERS = {"maxCorners": 1000, "qualityLevel": 0.01, "minDistance": 1, "blockSize": 3,
                    "useHarrisDetector": False, "k": 0.04}
 
 
-def _grey(image: np.ndarray, scale: float) -> np.ndarray:
-    img = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
-    if scale != 1.0:
-        img = cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
-    return img
-
-
-def _halved_grey(image: np.ndarray, halvings: int) -> np.ndarray:
-    """The grey image halved ``halvings`` times, each pixel the mean of the 2x2 below it
-    (``INTER_AREA``; a halving is several times cheaper than one arbitrary shrink)."""
+def _grey(image: np.ndarray, scale: float = 1.0, halvings: int = 0) -> np.ndarray:
+    """The grey image halved ``halvings`` times (each pixel the mean of the 2x2 below it,
+    ``INTER_AREA``: a halving is several times cheaper than one arbitrary shrink), then
+    shrunk by ``scale``."""
     img = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
     for _ in range(halvings):
         h, w = img.shape[:2]
         img = cv2.resize(img, (max(1, w // 2), max(1, h // 2)), interpolation=cv2.INTER_AREA)
+    if scale != 1.0:
+        img = cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
     return img
 
 
@@ -184,9 +187,15 @@ class CameraMotionEstimator:
         they are (a 1920x1080 frame at 480x270, a 1280x720 one at 320x180), or with
         ``halve=False`` shrunk to exactly ``max_side`` (one arbitrary ``INTER_AREA``
         shrink of the grey frame: several times a halving's cost).
-    max_corners, win_size, pyramid_levels : int
-        ``"checked"``: corners followed, the Lucas–Kanade window (analysed pixels) and
-        pyramid levels (:func:`track_camera_motion`).
+    max_corners, win_size : int
+        ``"checked"``: corners followed and the Lucas–Kanade window (analysed pixels).
+    pyramid_levels : int, optional
+        ``"checked"``: the Lucas–Kanade pyramid's levels (:func:`track_camera_motion`). By
+        default the fewest (at least 2) whose reach, about ``win_size // 2 · 2**levels``
+        analysed pixels, follows a pan of :data:`MAX_PAN` frame widths per second at the
+        video's ``fps`` (1080p at 30 frames/s: 3 levels; 1280x720 at 10 frames/s: 4).
+    fps : float, optional
+        The video's frame rate, for the default ``pyramid_levels`` (None: 30).
     track : bool
         ``"checked"``: the corners a fit explained are followed into the next frame, and
         new corners are found only when fewer than half of ``max_corners`` remain or the
@@ -205,7 +214,8 @@ class CameraMotionEstimator:
     def __init__(self, mode: str = "auto", *, min_shift: float = 1.0, window: int = 20,
                  min_fraction: float = 0.8, max_side: int = 480, method: str = "checked",
                  downscale: int = 2, max_corners: int = 200, win_size: int = 11,
-                 pyramid_levels: int = 2, track: bool = True, halve: bool = True):
+                 pyramid_levels: int | None = None, fps: float | None = None,
+                 track: bool = True, halve: bool = True):
         if mode not in MODES:
             raise ValueError(f"camera motion mode must be one of {MODES}, got {mode!r}")
         if method not in METHODS:
@@ -214,11 +224,15 @@ class CameraMotionEstimator:
             raise ValueError(f"downscale must be a positive integer, got {downscale!r}")
         self.method, self.downscale = method, int(downscale)
         for name, v in (("max_corners", max_corners), ("win_size", win_size),
-                        ("pyramid_levels", pyramid_levels + 1)):
+                        ("pyramid_levels", 1 if pyramid_levels is None else pyramid_levels + 1)):
             if isinstance(v, bool) or int(v) != v or v < 1:
                 raise ValueError(f"{name} must be a positive integer, got {v!r}")
+        if fps is not None and not (np.isfinite(fps) and fps > 0):
+            raise ValueError(f"fps must be a positive number, got {fps!r}")
         self.max_corners, self.win_size = int(max_corners), int(win_size)
-        self.pyramid_levels, self.track = int(pyramid_levels), bool(track)
+        self.levels_given = None if pyramid_levels is None else int(pyramid_levels)
+        self.pyramid_levels, self.track = self.levels_given or 2, bool(track)
+        self.fps = 30.0 if fps is None else float(fps)
         self.halve = bool(halve)
         #: ``"checked"`` with ``track``: the analysed image of the last fit and the corners
         #: it explained, in that image (followed when the next estimate starts from it)
@@ -244,6 +258,8 @@ class CameraMotionEstimator:
         self.frames_moved = 0
         #: frames whose motion was estimated (``auto`` skips those that cannot matter)
         self.frames_estimated = 0
+        #: seconds spent in the calls so far (inference time, as the runners report it)
+        self.seconds = 0.0
 
     def _estimate(self, prev: np.ndarray, grey: np.ndarray) -> np.ndarray | None:
         """The motion ``prev → grey`` in full-resolution pixels (None: not the camera's)."""
@@ -285,8 +301,8 @@ class CameraMotionEstimator:
     def _grey(self, image: np.ndarray) -> np.ndarray:
         """The analysed grey image of ``image`` (``"botsort"``: shrunk as the package)."""
         if self.method != "botsort":
-            return (_halved_grey(image, self._halvings) if self.halve
-                    else _grey(image, self._scale))
+            return _grey(image, halvings=self._halvings) if self.halve else \
+                _grey(image, self._scale)
         img = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
         if self.downscale > 1:
             h, w = img.shape[:2]
@@ -299,7 +315,15 @@ class CameraMotionEstimator:
 
     def __call__(self, image: np.ndarray) -> np.ndarray | None:
         """The motion from the previous image to ``image`` (``None`` for the first frame,
-        when off, when not significant under ``auto``, or when it cannot be estimated)."""
+        when off, when not significant under ``auto``, or when it cannot be estimated);
+        the time it took is added to :attr:`seconds`."""
+        t0 = time.perf_counter()
+        try:
+            return self._motion(image)
+        finally:
+            self.seconds += time.perf_counter() - t0
+
+    def _motion(self, image: np.ndarray) -> np.ndarray | None:
         if self.mode == "off" or image is None:
             return None
         h, w = image.shape[:2]
@@ -312,6 +336,9 @@ class CameraMotionEstimator:
                 self._halvings += 1
             self._scale = (max(1, w >> self._halvings) / w if self.halve
                            else min(1.0, self.max_side / max(w, h)))
+            if self.levels_given is None:  # follow a pan of MAX_PAN widths a second
+                reach = MAX_PAN * w * self._scale / self.fps / max(self.win_size // 2, 1)
+                self.pyramid_levels = max(2, int(np.ceil(np.log2(max(reach, 1.0)))))
         else:
             grey = self._grey(image)
         if grey is None:

@@ -130,6 +130,23 @@ class BoxAppearanceLikelihood(LikelihoodFactor):
         cache lives (a frame may be stepped by several engines in turn)."""
         return ctx.cached((id(self),) + key, lambda: (self, make()))[1]
 
+    #: parameters that set how the model scores, not how a box is read
+    _NOT_READING = frozenset({"lam", "adapt_rate", "adapt_threshold"})
+
+    def reading_key(self) -> tuple:
+        """What reading a box depends on: the class and its parameters less the model and
+        the likelihood's sharpness (models with equal keys read boxes alike, so one pass
+        over the boxes serves them all)."""
+        return (type(self).__name__,) + tuple(
+            (k, repr(v)) for k, v in sorted(self.params().items())
+            if k != self.model_attr and k not in self._NOT_READING)
+
+    @classmethod
+    def read_alike(cls, models) -> bool:
+        """Whether ``models`` all read boxes as the first does (:meth:`reading_key`)."""
+        key = models[0].reading_key()
+        return all(m.reading_key() == key for m in models[1:])
+
     @abstractmethod
     def learn(self, ctx: FrameContext, value: np.ndarray) -> None:
         """Set the appearance model from frame ``ctx`` at the state ``value`` ``(d,)``."""
@@ -154,20 +171,11 @@ class FeatureDotCue:
     boxes, and learn from boxes, with one feature pass over the boxes per level
     (:func:`pgm.core.resolution.appearance_matrix`, :func:`~pgm.core.resolution.learn_all`),
     each level's frame halved by averaging, the boxes ``(cx, cy, w, h)`` given as the
-    states (``box_indices`` (0, 1, 2, 3)). Models whose features differ (another
-    ``feature_key``) are asked one by one on the same frames."""
+    states (``box_indices`` (0, 1, 2, 3)). Models that read boxes otherwise (another
+    :meth:`BoxAppearanceLikelihood.reading_key`) are asked one by one on the same frames."""
 
     #: the method ``(x, ctx) -> (N, D)`` giving the features
     feature_method: ClassVar[str] = ""
-
-    def feature_key(self) -> tuple:
-        """What the features depend on (models with equal keys share one pass)."""
-        raise NotImplementedError
-
-    @classmethod
-    def _shared(cls, models) -> bool:
-        key = models[0].feature_key()
-        return all(type(m) is type(models[0]) and m.feature_key() == key for m in models)
 
     @classmethod
     def log_likelihood_matrix(cls, models, x, ctx, levels=None) -> np.ndarray:
@@ -176,7 +184,7 @@ class FeatureDotCue:
         x = np.asarray(x, dtype=float).reshape(-1, 4)
         lv = np.zeros(len(x), dtype=np.intp) if levels is None else np.asarray(levels)
         out = np.zeros((len(models), len(x)))
-        shared = cls._shared(models)
+        shared = cls.read_alike(models)
         if shared:
             for m in models:
                 m.require_model()
@@ -198,7 +206,7 @@ class FeatureDotCue:
         level."""
         values = np.asarray(values, dtype=float).reshape(len(models), 4)
         lv = np.zeros(len(values), dtype=np.intp) if levels is None else np.asarray(levels)
-        shared = cls._shared(models)
+        shared = cls.read_alike(models)
         for frame, idx, xb in working_frames(ctx, values, lv):
             if shared:
                 f = np.asarray(getattr(models[0], cls.feature_method)(xb, frame), dtype=float)

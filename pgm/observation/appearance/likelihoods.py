@@ -153,11 +153,17 @@ class ColourHistogramLikelihood(BoxAppearanceLikelihood):
         return ("colour", self.layout, self.n_h, self.n_s, self.n_v, self.kernel)
 
     @classmethod
-    def _one_pass(cls, models) -> bool:
-        """Whether ``models`` read their boxes alike (one histogram pass serves them all)."""
-        first = models[0]
-        return all(type(m) is type(first) and m.batch_key == first.batch_key
-                   and m.box_indices == first.box_indices for m in models)
+    def log_likelihood_batch(cls, factors, xs, ctx):
+        """All the factors' boxes scored in one :meth:`ColourHistogramScorer.rho_many`."""
+        if any(f.template is None for f in factors):
+            raise ValueError("a colour factor has no template: run it from the first frame")
+        boxes = np.concatenate([f.boxes(x) for f, x in zip(factors, xs, strict=True)])
+        owner = np.repeat(np.arange(len(factors)), [len(x) for x in xs])
+        rho = factors[0].scorer.rho_many(ctx, boxes, np.array([f.template for f in factors]),
+                                         owner)
+        lam = np.repeat([f.lam for f in factors], [len(x) for x in xs])
+        out = -lam * (1.0 - rho)
+        return np.split(out, np.cumsum([len(x) for x in xs])[:-1])
 
     def _frame_histograms(self, ctx, boxes: np.ndarray, levels: np.ndarray | None
                           ) -> tuple[np.ndarray, np.ndarray]:
@@ -195,7 +201,7 @@ class ColourHistogramLikelihood(BoxAppearanceLikelihood):
         :mod:`pgm.core.resolution`): the boxes' histograms computed once, then one matrix
         product with the templates (at full resolution equal to scoring model by
         model)."""
-        if not cls._one_pass(models):
+        if not cls.read_alike(models):
             return np.array([m.log_likelihood(x, ctx) for m in models])
         for m in models:
             m.require_model()
@@ -214,7 +220,7 @@ class ColourHistogramLikelihood(BoxAppearanceLikelihood):
         :meth:`log_likelihood_matrix` reads it, the boxes' histograms computed in one pass
         (at full resolution equal to :meth:`learn` model by model)."""
         values = np.asarray(values, dtype=float).reshape(len(models), -1)
-        if not cls._one_pass(models):
+        if not cls.read_alike(models):
             for m, v in zip(models, values, strict=True):
                 m.learn(ctx, v)
             return

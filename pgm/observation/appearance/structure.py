@@ -62,9 +62,6 @@ class GradientLikelihood(FeatureDotCue, BoxAppearanceLikelihood):
             p["template"] = self.template
         return p
 
-    def feature_key(self) -> tuple:
-        return ("gradient", self.n_orient, self.cells, self.box_indices)
-
     def descriptors(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         """``(N, n_orient · cells)`` L2-normalised gradient descriptors of particles ``x``."""
         return self._features.gradients(ctx, self.boxes(x))
@@ -312,9 +309,6 @@ class TemplateLikelihood(FeatureDotCue, BoxAppearanceLikelihood):
         if self.template is not None:
             p["template"] = self.template
         return p
-
-    def feature_key(self) -> tuple:
-        return ("template", self.grid, self.box_indices)
 
     @staticmethod
     def _normalise(v: np.ndarray) -> np.ndarray:

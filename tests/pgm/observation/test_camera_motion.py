@@ -124,3 +124,24 @@ def test_a_1080p_camera_is_estimated_on_a_halved_frame_with_followed_corners(mon
         A_prev = A_true
     assert found[0] == (270, 480) and len(found) < 5  # halved twice; corners followed
     assert max(errs) < 0.5, errs
+
+
+def test_the_pyramid_follows_a_pan_stated_in_frame_widths_per_second():
+    """The default pyramid's reach, ``win_size // 2 · 2**levels`` analysed pixels, covers
+    ``MAX_PAN`` frame widths a second at the video's frame rate: deeper at 10 frames/s
+    than at 30; a given depth is kept; the estimator counts its own time."""
+    from pgm.observation.camera_motion import MAX_PAN
+
+    def levels(w, h, fps, **kw):
+        est = CameraMotionEstimator("on", fps=fps, **kw)
+        est(np.zeros((h, w, 3), np.uint8))
+        reach = (est.win_size // 2) * 2 ** est.pyramid_levels / est._scale  # full-res px
+        return est, reach
+
+    for w, h, fps in ((1920, 1080, 30.0), (1280, 720, 10.0), (640, 480, 25.0)):
+        est, reach = levels(w, h, fps)
+        assert reach >= MAX_PAN * w / fps and est.seconds > 0
+    assert levels(1280, 720, 10.0)[0].pyramid_levels > levels(1280, 720, 30.0)[0].pyramid_levels
+    assert levels(1920, 1080, 30.0, pyramid_levels=2)[0].pyramid_levels == 2
+    with pytest.raises(ValueError, match="fps"):
+        CameraMotionEstimator("on", fps=0.0)

@@ -213,3 +213,31 @@ def test_a_cue_without_a_matrix_is_asked_per_model_on_the_shrunk_frame():
     small = pyramid_level(ctx, 2)
     np.testing.assert_allclose(appearance_matrix(models, b, ctx)[:, 0],
                                [m.log_likelihood(b[:1] / 4.0, small)[0] for m in models])
+
+
+def test_part_colour_factors_are_scored_in_one_histogram_pass(monkeypatch):
+    """Several colour factors of one frame (a part graph's) are scored by one
+    ``rho_many`` call, equal to scoring them one by one."""
+    rng = np.random.default_rng(8)
+    img = _image(rng)
+    fs = _colour_models(rng, img, 3)
+    xs = [_boxes(rng, 20) for _ in fs]
+    calls = []
+    real = ColourHistogramScorer.rho_many
+    monkeypatch.setattr(ColourHistogramScorer, "rho_many",
+                        lambda self, *a, **k: calls.append(1) or real(self, *a, **k))
+    joint = ColourHistogramLikelihood.log_likelihood_batch(fs, xs, FrameContext(3, img))
+    assert len(calls) == 1
+    for f, x, ll in zip(fs, xs, joint, strict=True):
+        np.testing.assert_allclose(ll, f.log_likelihood(x, FrameContext(3, img)), atol=1e-12)
+
+
+def test_models_read_alike_unless_their_reading_differs():
+    """Copies of one cue read boxes alike whatever their templates and sharpness; another
+    bin layout or grid reads them otherwise (and is scored model by model)."""
+    a, b = ColourHistogramLikelihood("box", lam=5.0), ColourHistogramLikelihood("box")
+    b.template = np.ones(80)
+    assert ColourHistogramLikelihood.read_alike([a, b])
+    assert not ColourHistogramLikelihood.read_alike([a, ColourHistogramLikelihood("box", n_h=8)])
+    assert not TemplateLikelihood.read_alike([TemplateLikelihood("box"),
+                                              TemplateLikelihood("box", grid=(6, 12))])
