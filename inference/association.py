@@ -59,6 +59,7 @@ from .association_terms import (
 )
 from .batched import per_replica
 from .context import RuleContext
+from .info import AssociationInfo, DetectionInfo
 from .kalman import kalman_update_batch, vb_akf_batch
 from .rules import RuleTable
 from .vb import _vb_gaussian
@@ -273,7 +274,7 @@ def _means(belief) -> np.ndarray:
 
 @RULES.register(DetectionAssociation, BatchedParticles)
 @RULES.register(DetectionAssociation, BatchedGaussian)
-def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> dict[str, Any]:
+def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> AssociationInfo:
     """The ``assign`` stage: ``ctx.assignment`` for this frame (and, for momentum and
     recovery rounds, each replica's observation history, :class:`TrackState`). The
     replicas' predicted boxes are their means: a Kalman replica's, or a particle
@@ -328,7 +329,7 @@ def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> dict[str
     # later in the frame read NaN too
     matched = np.full(len(pred), np.nan)
     matched[a.rows] = a.cols
-    return {"matched": matched}
+    return AssociationInfo(matched=matched)
 
 
 def _appearance(ctx: RuleContext, factor, frame: FrameContext, boxes: np.ndarray
@@ -443,7 +444,8 @@ def update_assigned(ctx: RuleContext, factor, frame: FrameContext) -> None:
     if factor.occlusion_gate is not None:  # hidden edges carry no information
         R, hidden = _hide_edges(m0, P0, R, z, factor.occlusion_gate)
         if hidden.any():
-            info = dict(info or {}, hidden_edges=int(hidden.sum()))
+            info = info or DetectionInfo()
+            info.hidden_edges = int(hidden.sum())
     m, P = kalman_update_batch(m0, P0, factor.H, R, z, factor.selects)
     mean, cov = b.m.copy(), b.P.copy()
     mean[rows], cov[rows] = m, P
@@ -543,11 +545,11 @@ def _reupdate(ctx: RuleContext, factor, rows: np.ndarray, m0: np.ndarray, P0: np
                 m, P = (a[0] for a in _predict(trans[0], labels, m[None], P[None]))
         m0[i], P0[i] = m, P
         redone.append(k)
-    return m0, P0, ({"reupdated": np.array(redone)} if redone else None)
+    return m0, P0, (DetectionInfo(reupdated=np.array(redone)) if redone else None)
 
 
 @RULES.register(VBNoise, BatchedGaussian)
-def vb_assigned(ctx: RuleContext, factor, frame: FrameContext) -> dict[str, Any] | None:
+def vb_assigned(ctx: RuleContext, factor, frame: FrameContext) -> AssociationInfo | None:
     """Feng et al.'s (2015) VB adaptive measurement noise per replica, batched: for each assigned
     replica the fixed point of ``q(x) q(R)`` (:func:`pgm.inference.vb.vb_akf_update`, all
     replicas at once; ``R = diag(β / α)``)."""
@@ -583,7 +585,7 @@ def vb_assigned(ctx: RuleContext, factor, frame: FrameContext) -> dict[str, Any]
     a_all, b_all = q.alpha.copy(), q.beta.copy()
     a_all[rows], b_all[rows] = alpha, beta
     ctx.beliefs[noise] = BatchedInverseGamma(a_all, b_all)
-    return {"iterations": it}
+    return AssociationInfo(iterations=it)
 
 
 @RULES.register("estimate", BatchedGaussian)

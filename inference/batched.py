@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -41,6 +41,7 @@ from pgm.factors import CouplingFactor, LikelihoodFactor, TransitionFactor
 from pgm.factors.plates import InteractionFactor
 
 from .context import RuleContext
+from .info import Info, VariableInfo
 from .particles import _predict_particles
 from .pbp import MixtureMessage, coupling_message, fuse
 from .resampling import ess_triggered
@@ -152,12 +153,17 @@ class RowMessages:
 
 def _merge(outs: list[Any]) -> Any:
     """The replicas' returns of one rule as one value: arrays stacked ``(K, ...)``, dicts
-    merged key by key, ``None`` where every replica returned ``None``."""
+    and info objects (:mod:`pgm.inference.info`) merged key by key, ``None`` where every
+    replica returned ``None``."""
     if all(o is None for o in outs):
         return None
-    if all(isinstance(o, dict) for o in outs):
+    if all(isinstance(o, Mapping) for o in outs):
         keys = list(dict.fromkeys(k for o in outs for k in o))
-        return {k: _merge([o.get(k) for o in outs]) for k in keys}
+        merged = {k: _merge([o.get(k) for o in outs]) for k in keys}
+        kind = type(outs[0])
+        if issubclass(kind, Info) and all(type(o) is kind for o in outs):
+            return kind().merge(merged)  # the replicas' typed diagnostics, one per field
+        return merged
     if all(isinstance(o, (np.ndarray, float, int, bool, np.number, np.bool_)) for o in outs):
         try:
             return np.stack([np.asarray(o) for o in outs])
@@ -170,7 +176,7 @@ def _merge(outs: list[Any]) -> Any:
 def per_replica(rule: Callable, key: type | str) -> Callable:
     """``rule`` (a single-graph rule for the replica's belief type) run once per replica:
     on each replica's view of the engine (its rows of the batched beliefs, its generator,
-    its factor copies), writing the rows it changes back into the batched beliefs. Its
+    its views of the factors that learn), writing the rows it changes back into the batched beliefs. Its
     returns are merged (likelihood increments stacked to ``(K, N)``)."""
     operation = isinstance(key, str)
 
@@ -373,7 +379,7 @@ def _row_log_normalize(lw: np.ndarray) -> np.ndarray:
 
 
 @RULES.register("fuse", BatchedParticles)
-def fuse_batched(ctx: RuleContext, variable: str, frame: FrameContext) -> dict:
+def fuse_batched(ctx: RuleContext, variable: str, frame: FrameContext) -> VariableInfo | None:
     """Every replica's own weighted particles joined with its incoming mixture messages
     (product fusion: per replica, :func:`pgm.inference.pbp.fuse`)."""
     if not _batched_mixture(ctx):
@@ -387,7 +393,7 @@ def fuse_batched(ctx: RuleContext, variable: str, frame: FrameContext) -> dict:
     hist = tuple(np.concatenate([h] + [m.history[i] for m in incoming], axis=1)
                  for i, h in enumerate(b.history))
     ctx.beliefs[variable] = BatchedParticles._trusted(x, lw, hist, log_mass=np.zeros(b.K))
-    return {"own_mass": np.array([float(np.exp(row[:b.num]).sum()) for row in lw])}
+    return VariableInfo(own_mass=np.array([float(np.exp(row[:b.num]).sum()) for row in lw]))
 
 
 @RULES.register("estimate", BatchedParticles)
@@ -397,7 +403,7 @@ def estimate_batched(ctx: RuleContext, variable: str, frame: FrameContext) -> np
 
 
 @RULES.register("resample", BatchedParticles)
-def resample_batched(ctx: RuleContext, variable: str, frame: FrameContext) -> dict[str, Any]:
+def resample_batched(ctx: RuleContext, variable: str, frame: FrameContext) -> VariableInfo:
     """ESS-triggered resampling per replica, each with its own generator (a fused
     mixture: every replica back to the variable's particle count)."""
     b: BatchedParticles = ctx.beliefs[variable]
@@ -410,7 +416,7 @@ def resample_batched(ctx: RuleContext, variable: str, frame: FrameContext) -> di
                          if ess_triggered(float(ess[k]), b.num, ctx.ess_threshold)], int)
     ctx.beliefs[variable] = b.resample_rows(ctx.replicas.generators(), ctx.resampler, n,
                                                rows)
-    return {"resampled": np.isin(np.arange(b.K), rows), "ess": ess}
+    return VariableInfo(resampled=np.isin(np.arange(b.K), rows), ess=ess)
 
 def _clusters(rects: np.ndarray) -> list[list[int]]:
     """Groups of indices of rectangles ``(K, 4)`` (x0, y0, x1, y1) connected by overlap,

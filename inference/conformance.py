@@ -14,8 +14,8 @@ held to them by running any model with ``rules=checked(table)``:
 * **association** rules leave this frame's assignment in ``ctx.assignment``: matched
   replica and detection indices, as many of each, in range, none twice;
 * **resample** rules keep a particle belief's total mass (``log_mass``, to 1e-9);
-* **estimate** rules return a value; every rule returns ``None``, a dict of
-  diagnostics, or (likelihood) the increment.
+* **estimate** rules return a value; every rule returns ``None``, its diagnostics (an
+  info object of :mod:`pgm.inference.info`, or a dict), or (likelihood) the increment.
 
 A broken promise raises :class:`~pgm.core.errors.RuleContractError` naming the rule,
 the factor or variable, and what went wrong. ``calls`` (a ``collections.Counter``)
@@ -25,6 +25,7 @@ Example
 -------
 >>> import numpy as np
 >>> from collections import Counter
+from collections.abc import Mapping
 >>> from pgm.core.frame import FrameContext
 >>> from pgm.inference import DEFAULT_RULES, Engine
 >>> from pgm.inference.conformance import checked
@@ -41,6 +42,7 @@ from __future__ import annotations
 
 import functools
 from collections import Counter
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -116,8 +118,9 @@ def _wrap_factor_rule(key: type, rule):
                 return check_likelihood_increment(out, b.log_weights.shape, rule, what)
         before = ctx.beliefs.get(var)
         out = rule(ctx, factor, frame, *message)
-        if out is not None and not isinstance(out, dict):
-            _fail(rule, what, f"returned {type(out).__name__}; expected None or a dict")
+        if out is not None and not isinstance(out, Mapping):
+            _fail(rule, what, f"returned {type(out).__name__}; expected None, an info "
+                              f"object or a dict")
         after = ctx.beliefs.get(var)
         if getattr(key, "kind", None) == "association":
             _check_assignment(ctx, rule, what, frame)
@@ -161,8 +164,9 @@ def _wrap_belief_rule(operation: str, rule):
             if out is None:
                 _fail(rule, what, "returned no estimate")
             return out
-        if out is not None and not isinstance(out, dict):
-            _fail(rule, what, f"returned {type(out).__name__}; expected None or a dict")
+        if out is not None and not isinstance(out, Mapping):
+            _fail(rule, what, f"returned {type(out).__name__}; expected None, an info "
+                              f"object or a dict")
         after = ctx.beliefs[variable]
         if (operation == "resample" and isinstance(before, _PARTICLES) and before.num
                 and not np.allclose(after.log_mass, before.log_mass, rtol=0, atol=1e-9)):

@@ -35,7 +35,7 @@ class RuleContext:
     Attributes
     ----------
     graph : FactorGraph
-        The factors the rule's beliefs answer to (a replica's: its own copies of the
+        The factors the rule's beliefs answer to (a replica's: its own views of the
         factors that learn).
     beliefs : dict
         Variable name → belief; a rule replaces a variable's entry to update it.

@@ -329,7 +329,8 @@ class Engine:
         return self.runtime.tracks(self)
 
     def factor(self, name: str, replica: int | None = None) -> Factor:
-        """The factor ``name`` (as replica ``replica`` uses it: its own copy if it learns)."""
+        """The factor ``name`` (as replica ``replica`` uses it: bound to the replica's own
+        learned state if it keeps one)."""
         return self.runtime.factor(self, name, replica)
 
     def add(self, boxes: np.ndarray | None, frame: FrameContext, rngs=None,
@@ -463,9 +464,7 @@ class Engine:
 
     def _stage_fuse(self, ctx, items, frame, record) -> None:
         for v in items:
-            info = self.rules.lookup("fuse", type(ctx.beliefs[v]))(ctx, v, frame)
-            if info:
-                record.info.setdefault(v, {}).update(info)
+            record.report(v, self.rules.lookup("fuse", type(ctx.beliefs[v]))(ctx, v, frame))
 
     def _stage_weight(self, ctx, items, frame, record) -> None:
         """Apply the likelihood factors (the weight-stage contract: module docstring;
@@ -476,8 +475,7 @@ class Engine:
         for v in items:
             rule = self.rules.lookup("resample", type(ctx.beliefs[v]))
             info = rule(ctx, v, frame)
-            if info:
-                record.info.setdefault(v, {}).update(info)
+            record.report(v, info)
             res = (info or {}).get("resampled", False)
             record.resampled[v] = res if isinstance(res, np.ndarray) else bool(res)
 

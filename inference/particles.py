@@ -6,8 +6,6 @@ proposal factor's mixture and its importance weights), weight, resample and esti
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from pgm.core.beliefs import Particles
@@ -16,6 +14,7 @@ from pgm.core.numerics import check_finite_param
 from pgm.factors import LikelihoodFactor, PriorFactor, TransitionFactor
 
 from .context import RuleContext
+from .info import ProposalInfo, VariableInfo
 from .resampling import ess_triggered
 from .rules import RuleTable, scores_in_groups
 from .state import ProposalState
@@ -66,7 +65,7 @@ def _predict_particles(ctx: RuleContext, factor, frame) -> None:
 
 
 def _propose_particles(ctx: RuleContext, transition, proposal, frame, b: Particles,
-                       f: float) -> dict:
+                       f: float) -> ProposalInfo:
     """The predict stage with a proposal factor: each particle drawn from the proposal
     with probability ``f`` (from its :meth:`~pgm.factors.ProposalFactor.prepare`; else
     from the transition) and its weight multiplied by
@@ -100,7 +99,7 @@ def _propose_particles(ctx: RuleContext, transition, proposal, frame, b: Particl
     # the evidence of this frame is measured against the mass before the correction
     ctx.state.get(var, ProposalState).prior_log_mass = moved.log_mass
     ctx.beliefs[var] = moved.reweight(log_p - log_mix)
-    return {"proposed": f}
+    return ProposalInfo(proposed=f)
 
 
 @RULES.register(LikelihoodFactor, Particles)
@@ -111,17 +110,17 @@ def _weight_particles(ctx: RuleContext, factor, frame) -> np.ndarray:
 
 
 @RULES.register("resample", Particles)
-def _resample_particles(ctx: RuleContext, variable: str, frame) -> dict[str, Any]:
+def _resample_particles(ctx: RuleContext, variable: str, frame) -> VariableInfo:
     b: Particles = ctx.beliefs[variable]
     n = ctx.num_particles[variable]
     if b.num != n:  # a fused mixture: always back to the variable's particle count
         ctx.beliefs[variable] = b.resample(ctx.rng, ctx.resampler, n)
-        return {"resampled": True}
+        return VariableInfo(resampled=True)
     ess = b.ess
     if ess_triggered(ess, b.num, ctx.ess_threshold):
         ctx.beliefs[variable] = b.resample(ctx.rng, ctx.resampler, n)
-        return {"resampled": True, "ess": ess}
-    return {"resampled": False, "ess": ess}
+        return VariableInfo(resampled=True, ess=ess)
+    return VariableInfo(resampled=False, ess=ess)
 
 
 @RULES.register("estimate", Particles)

@@ -57,6 +57,7 @@ from pgm.core.numerics import log_normalize, logsumexp
 from pgm.factors import CouplingFactor
 
 from .context import RuleContext
+from .info import VariableInfo
 from .rules import RuleTable
 
 __all__ = ["MixtureMessage", "ProductMessage", "coupling_message", "fuse"]
@@ -147,7 +148,7 @@ def coupling_message(ctx: RuleContext, factor, frame, src: str, dst: str) -> dic
 
 
 @RULES.register("fuse", Particles)
-def fuse(ctx: RuleContext, variable: str, frame) -> dict:
+def fuse(ctx: RuleContext, variable: str, frame) -> VariableInfo | None:
     """Combine ``variable``'s own weighted particles with its incoming messages."""
     b: Particles = ctx.beliefs[variable]
     prior_lw, log_lik = _evidence(ctx, variable)
@@ -157,11 +158,11 @@ def fuse(ctx: RuleContext, variable: str, frame) -> dict:
         for msg in incoming:
             lw = lw + msg.log_values
         ctx.beliefs[variable] = b._trusted(b.x, log_normalize(lw), b.history, log_mass=0.0)
-        return {}
+        return None
     lw = np.concatenate([prior_lw + log_lik] + [m.log_weights for m in incoming])
     lw = log_normalize(lw)
     x = np.concatenate([b.x] + [m.x for m in incoming])
     hist = tuple(np.concatenate([h] + [m.history[k] for m in incoming])
                  for k, h in enumerate(b.history))
     ctx.beliefs[variable] = b._trusted(x, lw, hist, log_mass=0.0)
-    return {"own_mass": float(np.exp(lw[:b.num]).sum())}
+    return VariableInfo(own_mass=float(np.exp(lw[:b.num]).sum()))

@@ -56,6 +56,7 @@ from pgm.factors.multitarget import PHDLikelihood
 from pgm.factors.scores import ScoreCalibration, shadowed
 
 from .context import RuleContext
+from .info import VariableInfo
 from .rules import RuleTable
 from .tracks import TrackManager
 
@@ -288,10 +289,10 @@ def _correct_intensity(ctx: RuleContext, factor, frame) -> None:
 
 
 @RULES.register("resample", Intensity)
-def _resample_intensity(ctx: RuleContext, variable: str, frame) -> dict[str, Any]:
+def _resample_intensity(ctx: RuleContext, variable: str, frame) -> VariableInfo:
     b: Intensity = ctx.beliefs[variable]
     if b.num == 0:
-        return {"resampled": False}
+        return VariableInfo(resampled=False)
     mass = b.mass
     budget = max(phd_factor_of(ctx, variable).min_particles,
                  int(round(ctx.num_particles[variable] * mass)))
@@ -300,7 +301,7 @@ def _resample_intensity(ctx: RuleContext, variable: str, frame) -> dict[str, Any
                                  newborn=b.newborn, log_mass=np.log(mass),
                                  labels=None if b.labels is None else b.labels[idx])
     ctx.beliefs[variable] = out
-    return {"resampled": True, "particles": budget}
+    return VariableInfo(resampled=True, particles=budget)
 
 
 def extract(res: dict[str, Any], merge_gate: float, sigma: np.ndarray,

@@ -19,9 +19,12 @@ adds to that engine, and no step loop of its own:
 spawned from the engine's); :mod:`pgm.inference.batched` splits every batched draw over
 them, so ``K = 1`` reproduces a single-graph run bit for bit.
 
-**What is per replica.** A factor that learns, or a likelihood that learns a template
-from the first frame, is copied per replica at its birth (``engine.factor(name, k)``);
-every other factor's parameters are shared. The target's box is the bounding box of the
+**What is per replica.** A factor that keeps a learned state (its ``State``:
+:mod:`pgm.core.learned` — a template learned in the first frame, a filter, an adaptive
+offset) gets a fresh state per replica at its birth, kept in the replica's slots
+(``engine.replicas.state[k]``), and the replica uses a view of the one declared factor
+bound to it (``engine.factor(name, k)``): factors are never copied, and every
+parameter is shared. The target's box is the bounding box of the
 output variables' boxes; new replicas' part boxes are placed relative to the detection as
 the prior means of the declaration are placed relative to ``graph.meta["reference_box"]``
 (default: the bounding box of the output variables' prior means).
@@ -67,6 +70,7 @@ from .association import detection_boxes  # (and the exact Kalman replicas' rule
 from .batched import box_columns, score_group  # noqa: F401  (box_columns: re-exported)
 from .context import RuleContext
 from .engine import Engine, StepRecord
+from .info import Info, realigned
 from .record import register_runtime
 from .single import SingleGraph
 from .state import StateSlots
@@ -97,7 +101,7 @@ def plate_boxes(graph: FactorGraph, estimates: dict[str, np.ndarray]) -> np.ndar
 class Replicas:
     """What a plate keeps per replica besides its beliefs (which live in
     ``engine.beliefs`` as batched beliefs): its generator, its view of the graph (shared
-    factors and its own copies of those that learn), its track record, the state rules
+    factors, those that learn bound to its own learned state), its track record, the state rules
     keep across frames (``state``: :class:`~pgm.inference.state.StateSlots`) and its
     latest estimates ``est`` (variable →
     ``(K, d)``)."""
@@ -141,8 +145,8 @@ class PlateSpec:
     """What an engine derives once from a plate declaration."""
 
     plate: Plate
-    template: FactorGraph  # factors as declared: copied per new replica
-    local: list[str]  # factors copied per replica (they learn per target)
+    template: FactorGraph  # factors as declared (their states: fresh per new replica)
+    local: list[str]  # factors with a learned state (each replica binds its own)
     learners: list[str]
     boxed: bool  # the output variables are boxes (births from detections possible)
     reference_box: np.ndarray | None
@@ -173,9 +177,16 @@ def setup(engine: Engine) -> None:
     ref = g.meta.get("reference_box")
     reference = (np.asarray(ref, dtype=float) if ref is not None else
                  plate_boxes(g, {v: m[None] for v, m in means.items()})[0] if boxed else None)
-    local = [f.name for f in g.factors.values() if f.kind != "prior"
-             and (f.learns or (isinstance(f, LikelihoodFactor) and
-                               type(f).initialize is not LikelihoodFactor.initialize))]
+    for f in g.factors.values():
+        if type(f).State is None and f.kind != "prior" and (
+                f.learns or (isinstance(f, LikelihoodFactor) and
+                             type(f).initialize is not LikelihoodFactor.initialize)):
+            raise ValueError(f"factor {f.name!r} ({type(f).__name__}) learns from the video "
+                             f"but declares no State: in a plate each replica learns into "
+                             f"its own, so declare what it learns as a State dataclass "
+                             f"(pgm.core.learned)")
+    # each replica keeps its own state of the factors that keep one (bound views)
+    local = [f.name for f in g.factors.values() if f.kind != "prior" and f.state is not None]
     engine.plate_spec = PlateSpec(plate, copy.deepcopy(g), local,
                                   [f.name for f in g.factors.values() if f.learns], boxed,
                                   reference, {v: state_boxes(g.variables[v].labels, m)
@@ -207,15 +218,18 @@ def _empty_beliefs(engine: Engine) -> dict[str, Any]:
     return out
 
 
-def _replica_graph(engine: Engine, values: dict[str, dict[str, float]] | None) -> FactorGraph:
-    """A replica's view of the graph: the shared factors, its own copies of those that
-    learn, and its priors re-centred on its birth box (``values``)."""
+def _replica_graph(engine: Engine, values: dict[str, dict[str, float]] | None,
+                   slots: StateSlots) -> FactorGraph:
+    """A replica's view of the graph: the shared factors, those that learn bound to the
+    replica's own learned state (made here, fresh, in its ``slots``: the factors are not
+    copied), and its priors re-centred on its birth box (``values``)."""
     spec = engine.plate_spec
     g = object.__new__(type(engine.graph))  # a shallow copy (copy.copy, without its overhead)
     g.__dict__.update(engine.graph.__dict__)
     factors = dict(engine.graph.factors)
     for name in spec.local:
-        factors[name] = copy.deepcopy(spec.template.factors[name])
+        declared = spec.template.factors[name]
+        factors[name] = declared.bind(slots.hold(name, declared.fresh_state()))
     if values is not None:
         for f in engine.graph.factors_by_kind("prior"):
             v = f.variables[0]
@@ -274,8 +288,10 @@ def add(engine: Engine, boxes: np.ndarray | None, frame: FrameContext,
         for t in tracks:
             t.track_id = spec.next_id
             spec.next_id += 1
-    newborn = Replicas(rngs, [_replica_graph(engine, v) for v in values], tracks,
-                       [StateSlots() for _ in range(m)], parent=engine.rng)
+    slots = [StateSlots() for _ in range(m)]
+    newborn = Replicas(rngs, [_replica_graph(engine, v, s) for v, s in zip(values, slots,
+                                                                          strict=True)],
+                       tracks, slots, parent=engine.rng)
     # newborns: their own first frame, on a context of their own (no detection was
     # assigned to them)
     ctx = engine.ctx.newborn(newborn)
@@ -290,33 +306,6 @@ def add(engine: Engine, boxes: np.ndarray | None, frame: FrameContext,
     engine.replicas = engine.replicas.join(newborn)
     return list(range(first, first + m))
 
-
-#: what the plate itself reports in ``record.info[plate.name]`` (one entry per replica
-#: after the step, or per frame)
-PLATE_KEYS = frozenset({"ids", "boxes", "reported", "existence", "births", "deaths",
-                        "missing"})
-
-
-def _realigned(values: dict, keep: np.ndarray, births: int) -> dict:
-    """Per-replica diagnostics (arrays with a leading replica axis) after the replicas
-    ``keep`` survived and ``births`` were added: survivors' rows, then empty rows (NaN,
-    False or 0); replica indices (``degenerate``) renumbered; anything else as it was."""
-    if not values:
-        return {}
-    new_index = np.cumsum(keep) - 1
-    out = {}
-    for key, a in values.items():
-        if isinstance(a, dict):
-            out[key] = _realigned(a, keep, births)
-        elif key == "degenerate" and isinstance(a, np.ndarray):
-            out[key] = np.array([new_index[i] for i in a if keep[i]], dtype=int)
-        elif isinstance(a, np.ndarray) and a.ndim >= 1 and a.shape[0] == keep.shape[0]:
-            fill = False if a.dtype == bool else (np.nan if a.dtype.kind == "f" else 0)
-            pad = np.full((births,) + a.shape[1:], fill, dtype=a.dtype)
-            out[key] = np.concatenate([a[keep], pad])
-        else:
-            out[key] = a
-    return out
 
 
 def remove(engine: Engine, indices: Sequence[int]) -> None:
@@ -362,10 +351,10 @@ def step_stages(engine: Engine, frame: FrameContext, record: StepRecord, lifecyc
         # (a score model learned on the video sees every frame; births read mapped scores)
         engine._run([p for p in engine.schedule.phases if p[0] == "assign"], frame, record,
                     hooks=False)
-    info = record.info.setdefault(engine.plate.name, {})
+    info = record.plate_info()
     if lifecycle and not missing:
         yield from engine._run_stages([("associate", [engine.plate.name])], frame, record)
-    info["missing"] = missing
+    info.missing = missing
     reps = engine.replicas
     record.estimates = {v: reps.est.get(v, np.zeros((0, engine.graph.variables[v].dim)))
                         for v in engine.graph.variables}
@@ -379,9 +368,8 @@ def step_stages(engine: Engine, frame: FrameContext, record: StepRecord, lifecyc
         if lc.report == "detection" and matched.any():
             boxes = boxes.copy()
             boxes[matched] = [t.state for t in reps.tracks if t.matched]
-    info.update(
-        ids=np.array([t.track_id or 0 for t in reps.tracks], dtype=np.int64),
-        boxes=boxes, reported=shown, existence=existences(reps.tracks))
+    info.ids = np.array([t.track_id or 0 for t in reps.tracks], dtype=np.int64)
+    info.boxes, info.reported, info.existence = boxes, shown, existences(reps.tracks)
 
 
 def learn(ctx: RuleContext, items: list[str], frame: FrameContext, record: StepRecord) -> None:
@@ -415,7 +403,7 @@ def associate(engine: Engine, frame: FrameContext, record: StepRecord) -> None:
     likelihoods), the track life cycle of the plate's :class:`~pgm.core.plate.Lifecycle`,
     births from the detections no replica explains."""
     spec = engine.plate_spec
-    info = record.info.setdefault(engine.plate.name, {})
+    info = record.plate_info()
     reps = engine.replicas
     lc = engine.plate.lifecycle
     assignment = engine.assignment
@@ -462,19 +450,19 @@ def associate(engine: Engine, frame: FrameContext, record: StepRecord) -> None:
     for j in sorted(free, key=lambda j: -scores[j]):
         if not overlap or all(_iou(det_boxes[j], det_boxes[i]) < lc.birth_iou for i in births):
             births.append(j)
-    info["deaths"] = np.array([reps.tracks[k].track_id or 0 for k in np.flatnonzero(~keep)],
-                              dtype=np.int64)
+    info.deaths = np.array([reps.tracks[k].track_id or 0 for k in np.flatnonzero(~keep)],
+                           dtype=np.int64)
     if births or not keep.all():
         _keep(engine, np.flatnonzero(keep))
         # the frame's per-replica diagnostics follow the replicas (births: none yet)
         for per_variable in (record.ess, record.log_evidence, record.resampled):
-            per_variable.update(_realigned(per_variable, keep, len(births)))
-        for name in dict.fromkeys(list(engine.graph.variables) + list(engine.graph.factors)):
-            values = record.info.get(name)
-            if isinstance(values, dict):  # in place: a variable may share the plate's name
-                values.update(_realigned({k: a for k, a in values.items()
-                                          if k not in PLATE_KEYS}, keep, len(births)))
-    info["births"] = len(births)
+            per_variable.update(realigned(per_variable, keep, len(births)))
+        for name, values in record.info.items():
+            if isinstance(values, Info):
+                realigned(values, keep, len(births))
+            elif isinstance(values, dict):
+                record.info[name] = realigned(values, keep, len(births))
+    info.births = len(births)
     if births:
         first = lc.activate_first and engine.t == 0  # the first frame's births: confirmed
         new = add(engine, det_boxes[sorted(births)], frame, confirmed=first)
@@ -490,10 +478,10 @@ def _iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def plate_targets(graph: FactorGraph, record: StepRecord) -> Targets:
     """The replicas an engine step reports for a plate (confirmed, not lost): identities,
     boxes and existence scores (the ``"plate"`` readout)."""
-    info = record.info[graph.plates[0].name]
-    keep = info["reported"]
-    return Targets(info["ids"][keep], cxcywh_to_xywh(info["boxes"][keep]),
-                   info["existence"][keep], text=f"{int(keep.sum())} targets")
+    info = record.plate
+    keep = info.reported
+    return Targets(info.ids[keep], cxcywh_to_xywh(info.boxes[keep]),
+                   info.existence[keep], text=f"{int(keep.sum())} targets")
 
 
 class PlateRuntime(SingleGraph):
@@ -502,7 +490,7 @@ class PlateRuntime(SingleGraph):
     whose beliefs are batched (the engine's step loop and stages are a single graph's)."""
 
     predicts_missing_frames = True
-    group_scoring = "replicas"  # the replicas' copies of a factor scored together
+    group_scoring = "replicas"  # the replicas' views of a factor scored together
 
     setup = staticmethod(setup)
     step_stages = staticmethod(step_stages)

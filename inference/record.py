@@ -11,6 +11,8 @@ from typing import Any
 
 from pgm.core.frame import FrameContext
 
+from .info import Info, PlateInfo, VariableInfo
+
 __all__ = ["StepRecord", "Hook", "register_runtime", "runtime_for"]
 
 
@@ -36,8 +38,12 @@ class StepRecord:
         ``log p(z_t | z_{1:t-1})`` estimate per weighted variable (the log of the mean
         incremental weight), the particle filter's marginal-likelihood increment.
     info : dict
-        Diagnostics returned by rules (messages, VB iterations, ...), keyed by factor
-        or variable name.
+        Diagnostics the rules report, typed (:mod:`pgm.inference.info`): per variable
+        name a :class:`~pgm.inference.info.VariableInfo`, per factor name what its rule
+        returned (:class:`~pgm.inference.info.VBInfo`, ...; ``{(src, dst): ...}`` for a
+        message rule that reports).
+    plate : PlateInfo or None
+        A plate's own report (identities, boxes, births, deaths): None without a plate.
     """
 
     frame: int
@@ -48,6 +54,26 @@ class StepRecord:
     log_evidence: dict[str, float] = field(default_factory=dict)
     messages: dict[tuple[str, str], Any] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)
+    plate: PlateInfo | None = None
+
+    def variable_info(self, variable: str) -> VariableInfo:
+        """The variable's :class:`~pgm.inference.info.VariableInfo`, made at the first
+        call (the stages that report on a variable add to it)."""
+        info = self.info.get(variable)
+        if info is None:
+            info = self.info[variable] = VariableInfo()
+        return info
+
+    def plate_info(self) -> PlateInfo:
+        """:attr:`plate`, made at the first call."""
+        if self.plate is None:
+            self.plate = PlateInfo()
+        return self.plate
+
+    def report(self, variable: str, info: Info | dict | None) -> None:
+        """Add what a stage returned on ``variable`` to its :meth:`variable_info`."""
+        if info:
+            self.variable_info(variable).merge(info)
 
 
 #: a hook: ``hook(engine, stage, frame, record)`` after each stage of a frame

@@ -39,7 +39,7 @@ def likelihood_reweights(belief_type: type) -> bool:
 
 #: likelihood rules whose factors the engine may score in one pass, by kind: ``"graph"``
 #: (several factors of one graph on one variable, ``log_likelihood_batch``) or
-#: ``"replicas"`` (a plate's copies of factors); a rule wrapped by another function
+#: ``"replicas"`` (a plate's per-replica views of factors); a rule wrapped by another function
 #: (:func:`pgm.inference.conformance.checked`) is scored one factor at a time
 GROUP_SCORING: dict[Rule, str] = {}
 

@@ -39,7 +39,11 @@ class SingleGraph:
     group_scoring = "graph"
 
     def setup(self, engine: Any) -> None:
-        """Check the graph and give the engine its empty state (none for one graph)."""
+        """Keep each learning factor's state in the engine's slots (``engine.state``;
+        the factor, the engine's own, is bound to it)."""
+        for name, f in engine.graph.factors.items():
+            if f.state is not None:
+                engine.state.hold(name, f.state)
 
     def belief_type(self, engine: Any, variable: str, row_type: type) -> type:
         """The belief class the engine keeps for ``variable`` (one replica's: ``row_type``)."""

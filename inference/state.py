@@ -41,6 +41,12 @@ class StateSlots:
             obj = self._slots[key] = cls()
         return obj
 
+    def hold(self, owner: str, obj: T) -> T:
+        """Keep ``obj`` as ``owner``'s state of its class (a factor's learned state, made
+        by the factor: :meth:`pgm.core.factor.Factor.fresh_state`); returns it."""
+        self._slots[(owner, type(obj))] = obj
+        return obj
+
     def find(self, owner: str, cls: type[T]) -> T | None:
         """The ``cls`` state of ``owner`` if there is one."""
         return self._slots.get((owner, cls))

@@ -53,6 +53,7 @@ from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianT
 from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, PHDLikelihood, VBNoise
 
 from .context import RuleContext
+from .info import VBInfo
 from .kalman import kalman_update, vb_akf_batch
 from .phd import PHDState, _finish, _update, phd_factor_of
 from .rules import RuleTable
@@ -83,7 +84,8 @@ def _estimate_noise(ctx: RuleContext, variable: str, frame) -> np.ndarray:
 # -- a plate's noise beliefs, all replicas at once ------------------------------------------
 @RULES.register(InverseGammaPrior, BatchedInverseGamma)
 def _prior_noise_batched(ctx: RuleContext, factor, frame) -> None:
-    """Each replica's prior belief (its own copy of the prior factor's), stacked."""
+    """Each replica's prior belief (from its own prior factor, re-centred at its birth),
+    stacked."""
     ctx.beliefs[factor.variables[0]] = BatchedInverseGamma.stack(
         [g.factors[factor.name].belief() for g in ctx.replicas.graphs])
 
@@ -157,7 +159,7 @@ def gaussian_elbo_terms(g: Gaussian, prior: Gaussian, q: InverseGamma, q_pred: I
 
 
 def vb_akf_update(prior: Gaussian, q_pred: InverseGamma, H: np.ndarray, z: np.ndarray,
-                  tol: float, max_iter: int) -> tuple[Gaussian, InverseGamma, dict[str, Any]]:
+                  tol: float, max_iter: int) -> tuple[Gaussian, InverseGamma, VBInfo]:
     """The VB-AKF fixed point of one Gaussian (:func:`pgm.inference.kalman.vb_akf_batch`),
     with the ELBO of each iteration and of the result."""
     elbo: list[float] = []
@@ -171,7 +173,7 @@ def vb_akf_update(prior: Gaussian, q_pred: InverseGamma, H: np.ndarray, z: np.nd
                                          tol, max_iter, on_iteration=record)
     g, q = Gaussian(m[0], P[0]), InverseGamma(alpha[0], beta[0])
     elbo.append(gaussian_elbo_terms(g, prior, q, q_pred, H, z))
-    return g, q, {"iterations": it, "elbo": elbo, "r_hat": q.r_hat()}
+    return g, q, VBInfo(iterations=it, elbo=elbo, r_hat=q.r_hat())
 
 
 def _vb_likelihood(ctx: RuleContext, factor):
@@ -188,7 +190,7 @@ def _vb_likelihood(ctx: RuleContext, factor):
 
 
 @RULES.register(VBNoise, Gaussian)
-def _vb_gaussian(ctx: RuleContext, factor, frame) -> dict[str, Any] | None:
+def _vb_gaussian(ctx: RuleContext, factor, frame) -> VBInfo | None:
     noise, target = factor.variables
     liks = [_vb_likelihood(ctx, factor)]
     z = _measurement(liks[0], frame)
@@ -217,7 +219,7 @@ def _expected_loglik(r2: np.ndarray, q: InverseGamma) -> np.ndarray:
 
 
 @RULES.register(VBNoise, Particles)
-def _vb_particles(ctx: RuleContext, factor, frame) -> dict[str, Any] | None:
+def _vb_particles(ctx: RuleContext, factor, frame) -> VBInfo | None:
     """Mean-field VB between a particle belief ``q(x)`` and an inverse-Gamma noise belief
     ``q(σ²)`` for a likelihood with the conjugate contract (``noise_residuals(x, frame)``:
     residuals with independent Gaussian noise of variances ``σ²``). Coordinate ascent:
@@ -262,7 +264,7 @@ def _vb_particles(ctx: RuleContext, factor, frame) -> dict[str, Any] | None:
     ctx.beliefs[target] = b0.reweight(ell).normalized()
     ctx.evidence[target] = (b0.log_weights, ell)
     ctx.beliefs[noise] = q
-    return {"iterations": it, "elbo": elbo, "r_hat": q.r_hat()}
+    return VBInfo(iterations=it, elbo=elbo, r_hat=q.r_hat())
 
 
 # -- the VB-PHD filter ------------------------------------------------------------------------
@@ -364,7 +366,7 @@ def _vb_phd_fixed_point(ctx: RuleContext, factor, frame, inv: np.ndarray,
             "res": res, "mass": post}
 
 
-def _vb_phd_per_track(ctx: RuleContext, factor, frame) -> dict[str, Any]:
+def _vb_phd_per_track(ctx: RuleContext, factor, frame) -> VBInfo:
     """VB-PHD with one inverse-Gamma belief per lineage label (``per_track=True``)."""
     noise, target = factor.variables
     phd: PHDLikelihood = phd_factor_of(ctx, target)
@@ -398,13 +400,13 @@ def _vb_phd_per_track(ctx: RuleContext, factor, frame) -> dict[str, Any]:
     _finish(ctx, target, phd, out["res"], prior.r_hat())
     state.r_hat = summary
     ctx.beliefs[noise] = InverseGamma(prior.alpha, prior.alpha * summary)
-    return {"iterations": out["iterations"], "elbo": out["elbo"], "r_hat": summary,
-            "tracks": len(uniq),
-            "r_hat_by_label": {lab: r_hat[g] for g, lab in enumerate(uniq.tolist())}}
+    return VBInfo(iterations=out["iterations"], elbo=out["elbo"], r_hat=summary,
+                  tracks=len(uniq),
+                  r_hat_by_label={lab: r_hat[g] for g, lab in enumerate(uniq.tolist())})
 
 
 @RULES.register(VBNoise, Intensity)
-def _vb_phd(ctx: RuleContext, factor, frame) -> dict[str, Any]:
+def _vb_phd(ctx: RuleContext, factor, frame) -> VBInfo:
     if getattr(factor, "per_track", False):
         return _vb_phd_per_track(ctx, factor, frame)
     noise, target = factor.variables
@@ -415,4 +417,4 @@ def _vb_phd(ctx: RuleContext, factor, frame) -> dict[str, Any]:
     ctx.beliefs[noise] = q
     _finish(ctx, target, phd_factor_of(ctx, target), out["res"], q.r_hat())
     ctx.state.get(target, PHDState).r_hat = q.r_hat()
-    return {"iterations": out["iterations"], "elbo": out["elbo"], "r_hat": q.r_hat()}
+    return VBInfo(iterations=out["iterations"], elbo=out["elbo"], r_hat=q.r_hat())

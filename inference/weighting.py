@@ -8,6 +8,7 @@ imports this module, not the other way).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -85,7 +86,7 @@ def stage_weight(engine: Any, ctx: RuleContext, items, frame, record: StepRecord
         ctx.beliefs[v], bad = engine.runtime.normalize(ctx, v, b, b0)
         if bad is not None and bad.any():
             ctx.evidence[v] = (b0.log_weights, np.where(bad[:, None], 0.0, log_lik[v]))
-            record.info.setdefault(v, {})["degenerate"] = np.flatnonzero(bad)
+            record.variable_info(v).degenerate = np.flatnonzero(bad)
 
 def prior_log_mass(engine: Any, ctx: RuleContext, variable: str, b0) -> Any:
     """The mass the frame's evidence is measured against: the belief's as the weight
@@ -110,7 +111,7 @@ def likelihood_increment(ctx: RuleContext, factor: Factor, rule: Rule, frame: Fr
     b = ctx.beliefs[v]
     out = rule(ctx, factor, frame)
     if not likelihood_reweights(type(b)):
-        if isinstance(out, dict) and out:
+        if isinstance(out, Mapping) and out:  # its diagnostics (pgm.inference.info)
             record.info[factor.name] = out
         return None
     if ctx.beliefs[v] is not b:

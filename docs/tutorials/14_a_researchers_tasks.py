@@ -183,7 +183,7 @@ for label, graph in (("SORT", sort_graph), ("SORT + Mahalanobis gate", gated)):
         box = np.array([x + (8.0 if f in glitch else 0.0), y, w, h])
         rec = engine_c.step(pgm.FrameContext(f, detections=Detections(box[None], np.ones(1))))
         if f in glitch:
-            info = rec.info[graph.plates[0].name]
+            info = rec.plate
             first = int(np.flatnonzero(info["ids"] == 1)[0])  # the first track
             worst = max(worst, abs(info["boxes"][first][0] - (x + w / 2)))
     worst_of[label] = worst

@@ -460,7 +460,8 @@ class Recorder:
             x = np.asarray(b.x, dtype=float)
             w = np.asarray(b.weights, dtype=float) if b.num else np.zeros(0)
             entry = self._cloud(x, w, cols, k)
-            info = record.info.get(name, {}) if isinstance(record.info.get(name), dict) else {}
+            info = record.info.get(name)
+            info = info if isinstance(info, Mapping) else {}
             entry.update(ess=_scalar(record.ess.get(name), 2),
                          resampled=bool(record.resampled.get(name, False)),
                          estimate=_num(record.estimates.get(name, []), 2),
@@ -485,7 +486,7 @@ class Recorder:
         vb = {}
         for f in g.factors_by_kind("conjugate"):
             info = record.info.get(f.name)
-            if not isinstance(info, dict) or "elbo" not in info:
+            if not isinstance(info, Mapping) or "elbo" not in info:
                 continue
             r_hat = np.asarray(info.get("r_hat", []), dtype=float).reshape(-1)
             vb[f.name] = {"elbo": _sig(info.get("elbo", []), 8),
@@ -526,13 +527,13 @@ class Recorder:
                                 "existence": _scalar(e, 3)}
                                for i, s, c, e in zip(ids, states, coast, ex, strict=False)]
         info = record.info.get(name)
-        if isinstance(info, dict) and "particles" in info:
+        if isinstance(info, Mapping) and "particles" in info:
             entry["resampled_to"] = int(info["particles"])
         return entry
 
     def _plate(self, line: dict, engine: Any, record: Any) -> None:
         g = self.graph
-        info = record.info.get(engine.plate.name, {})
+        info = record.plate if record.plate is not None else {}
         ids = np.asarray(info.get("ids", []), dtype=int).reshape(-1)
         reported = np.asarray(info.get("reported", np.zeros(len(ids))), dtype=bool).reshape(-1)
         existence = np.asarray(info.get("existence", np.ones(len(ids))),

@@ -38,6 +38,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from pgm.core.frame import FrameContext
+from pgm.core.learned import LearnedState, install_state_fields
 from pgm.core.variable import Variable
 
 __all__ = ["Factor", "factor_from_dict", "registered_factor_types", "KINDS", "register_finder",
@@ -93,9 +94,19 @@ class Factor(ABC):  # noqa: B024 - kind base classes declare the abstract method
     kind: ClassVar[str] = ""
     #: number of variables in the scope (None: any)
     arity: ClassVar[int | None] = 1
+    #: what the factor learns from the video, typed (:mod:`pgm.core.learned`): None for a
+    #: factor that learns nothing
+    State: ClassVar[type[LearnedState] | None] = None
+
+    def __new__(cls, *args: Any, **kwargs: Any) -> Factor:
+        obj = super().__new__(cls)
+        if cls.State is not None:
+            obj.__dict__["_state"] = cls.State()
+        return obj
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
+        install_state_fields(cls)
         if cls.__dict__.get("abstract", False):
             return
         if cls.kind not in KINDS:
@@ -135,6 +146,31 @@ class Factor(ABC):  # noqa: B024 - kind base classes declare the abstract method
         if variables[var].dim != expected:
             raise ValueError(f"factor {self.name!r}: {what} has dimension {expected} but variable "
                              f"{var!r} has dim {variables[var].dim}")
+
+    # -- learned state -----------------------------------------------------------------
+    @property
+    def state(self) -> LearnedState | None:
+        """The learned state this factor reads and writes (None: it learns nothing)."""
+        return self.__dict__.get("_state")
+
+    def fresh_state(self) -> LearnedState | None:
+        """An independent copy of :attr:`state` (for a new learner: a replica, a track)."""
+        st = self.state
+        return None if st is None else st.fresh()
+
+    def bind(self, state: LearnedState | None) -> Factor:
+        """A view of this factor that learns into ``state``: the declaration (every
+        attribute but the learned state) is shared, not copied. ``state`` must be of the
+        class's ``State`` (a factor without one is returned as it is)."""
+        if type(self).State is None:
+            return self
+        if not isinstance(state, type(self).State):
+            raise ValueError(f"factor {self.name!r}: bind() needs a "
+                             f"{type(self).State.__name__}, got {type(state).__name__}")
+        view = object.__new__(type(self))
+        view.__dict__.update(self.__dict__)
+        view.__dict__["_state"] = state
+        return view
 
     @property
     def learns(self) -> bool:

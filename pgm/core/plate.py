@@ -13,8 +13,10 @@ What is shared and what is per replica:
 * a factor's *parameters* live once, in the declaration (the learned dynamics of a
   GPDM, the noise of a transition): every replica uses the same factor object unless
   the factor learns per target;
-* a factor that *learns* from the image (a colour template, a correlation filter) is
-  copied per replica at its birth, so each target keeps its own appearance;
+* what a factor *learns* from the image (a colour template, a correlation filter) is
+  its typed learned state (:mod:`pgm.core.learned`): each replica gets a fresh one at
+  its birth and uses a view of the one factor bound to it, so each target keeps its own
+  appearance and no factor is copied;
 * the prior of each plate variable is re-centred on the target's birth box
   (``prior.born_at``);
 * factors *between* replicas are of kind ``"interaction"`` (e.g.

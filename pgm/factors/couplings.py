@@ -26,10 +26,12 @@ References
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from pgm.core.learned import LearnedState
 from pgm.core.numerics import check_finite_param
 from pgm.core.variable import Variable
 from pgm.factors.kinds import CouplingFactor
@@ -45,6 +47,14 @@ def _vec(value, dim: int, what: str, *, nonneg: bool = True) -> np.ndarray:
     if arr.shape != (dim,):
         raise ValueError(f"{what} must have {dim} entries, got shape {arr.shape}")
     return arr
+
+
+@dataclass
+class OffsetState(LearnedState):
+    """What an adaptive :class:`AffineCoupling` learns: its offset (the declared one
+    until it adapts)."""
+
+    offset: np.ndarray | None = None
 
 
 class AffineCoupling(CouplingFactor):
@@ -74,6 +84,8 @@ class AffineCoupling(CouplingFactor):
     adapt_min_log_lik : float
         Log-likelihood threshold for "confidently visible".
     """
+
+    State = OffsetState
 
     def __init__(self, a: str, b_var: str, *, offset, A=None, std=None, jitter_std=0.0,
                  forgetting: float | None = None, adapt_min_log_lik: float = -np.inf,

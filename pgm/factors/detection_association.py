@@ -13,7 +13,6 @@ the factor layer imports nothing of the inference layer.
 
 from __future__ import annotations
 
-import copy
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -168,12 +167,12 @@ class DetectionAssociation(Factor):
         Appearance for association and re-identification: appearance likelihood factors
         on a ``(cx, cy, w, h)`` box (the toolkit's cues, e.g. ``cue_factor("colour", ...)``
         of :mod:`pgm.observation.appearance.cues`, or your own with ``learn`` and
-        ``log_likelihood``), copied per replica and learned from each detection it is
-        given; a round with ``"appearance": true`` adds ``appearance_weight`` × the
-        similarity of each replica's model with each detection (``exp(log-likelihood /
-        λ)``, multiplied over the factors: for colour the Bhattacharyya coefficient ρ as
-        ``e^{ρ − 1}``) to what it maximises. Frames without an image have no appearance
-        term. Saved as the factors' declarations.
+        ``log_likelihood`` and a ``State``), each replica learning into a state of
+        its own from each detection it is given; a round with ``"appearance": true``
+        adds ``appearance_weight`` × the similarity of each replica's model with each
+        detection (``exp(log-likelihood / λ)``, multiplied over the factors: for colour
+        the Bhattacharyya coefficient ρ as ``e^{ρ − 1}``) to what it maximises. Frames
+        without an image have no appearance term. Saved as the factors' declarations.
     appearance_weight : float
         Its weight (against an IoU in [0, 1]).
     appearance_pixels : float
@@ -214,10 +213,12 @@ class DetectionAssociation(Factor):
 
             items = [factor_from_dict(a) if isinstance(a, dict) else a for a in appearance]
             for a in items:
-                if not (isinstance(a, LikelihoodFactor) and hasattr(a, "learn")):
+                if not (isinstance(a, LikelihoodFactor) and hasattr(a, "learn")
+                        and type(a).State is not None):
                     raise ValueError(f"factor {self.name!r}: appearance takes likelihood factors "
-                                     f"that learn a model from a box (learn, log_likelihood), "
-                                     f"got {type(a).__name__}")
+                                     f"that learn a model from a box (learn, log_likelihood, "
+                                     f"and a State declaring what they learn: "
+                                     f"pgm.core.learned), got {type(a).__name__}")
             self.appearance = items or None
         self.appearance_weight = float(check_finite_param(f"{self.name}.appearance_weight",
                                                           appearance_weight, nonneg=True))
@@ -393,11 +394,11 @@ class DetectionAssociation(Factor):
         return p
 
     def appearance_model(self) -> list | None:
-        """A new replica's appearance model: copies of the ``appearance`` factors (None
-        without)."""
+        """A new replica's appearance model: the ``appearance`` factors bound to fresh
+        learned states of its own (None without; the factors are not copied)."""
         if self.appearance is None:
             return None
-        return [copy.deepcopy(a) for a in self.appearance]
+        return [a.bind(a.fresh_state()) for a in self.appearance]
 
     def check(self, variables: dict[str, Variable]) -> None:
         require_box_coding(self, variables, self.variables[0])

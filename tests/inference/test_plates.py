@@ -129,14 +129,14 @@ def test_mutual_exclusion_separates_two_replicas_on_one_target(strength):
     iou = []
     for f in range(2, seq.n_frames + 1):
         rec = eng.step(FrameContext(f, seq.frames[f - 1]), lifecycle=False)
-        b = rec.info["person"]["boxes"]
+        b = rec.plate.boxes
         iou.append(float(multi_pf_iou(b[0], b[1])))
     late = np.mean(iou[-10:])
     if strength == 0:
         assert late > 0.6, iou  # without exclusion both stay on the same object
     else:
         assert late < 0.2, iou  # with it, they part
-        b = rec.info["person"]["boxes"]
+        b = rec.plate.boxes
         truth = [seq.box(k, seq.n_frames) for k in range(2)]
         truth = [np.array([t[0] + t[2] / 2, t[1] + t[3] / 2, t[2], t[3]]) for t in truth]
         best = sorted(max(multi_pf_iou(b[i], t) for t in truth) for i in range(2))
@@ -164,7 +164,7 @@ def test_births_and_deaths_from_detections(scene):
         rec = eng.step(FrameContext(f, scene.frames[f - 1],
                                     detections=Detections(boxes, np.ones(len(boxes)))))
         counts.append(eng.num_targets)
-        reported.append(int(rec.info["person"]["reported"].sum()))
+        reported.append(int(rec.plate.reported.sum()))
     assert counts[0] == len(scene.boxes_at(1)[0])
     assert reported[0] == 0 and reported[2] == counts[2]  # confirmed at the 2nd match
     assert counts[-1] == counts[5] - 1  # the target without detections was removed
@@ -224,8 +224,8 @@ def test_per_replica_diagnostics_follow_births_and_deaths(scene):
                                     detections=Detections(boxes, np.ones(len(boxes)))))
         k = eng.num_targets
         sizes.add(k)
-        info = rec.info["person"]
-        assert info["ids"].shape == (k,) and rec.estimates["person"].shape[0] == k
+        info = rec.info.get("person", {})
+        assert rec.plate.ids.shape == (k,) and rec.estimates["person"].shape[0] == k
         for a in (rec.ess.get("person"), info.get("ess"), info.get("resampled"),
                   rec.resampled.get("person")):
             assert a is None or np.shape(a) == (k,), (f, np.shape(a), k)

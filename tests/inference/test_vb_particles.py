@@ -12,6 +12,7 @@ from pgm.factors import GaussianPrior, LikelihoodFactor, LinearGaussianLikelihoo
 from pgm.factors.motion import constant_velocity
 from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, VBNoise
 from pgm.inference import Engine
+from pgm.inference.info import VBInfo
 
 LABELS = ("x", "y", "vx", "vy")
 
@@ -47,7 +48,7 @@ def _run(engine, ys):
 
 
 def _conjugate_info(rec_info):
-    return next(v for k, v in rec_info.items() if isinstance(v, dict) and "elbo" in v)
+    return next(v for k, v in rec_info.items() if isinstance(v, VBInfo))
 
 
 def test_particle_vb_is_the_vb_adaptive_kalman_filter_within_monte_carlo_error():

@@ -90,7 +90,7 @@ def test_vb_sort_one_replica_is_the_vb_adaptive_kalman_filter():
     oracle = Engine(single, 0, belief_types={"x": Gaussian})
     for t, b in enumerate(boxes):
         rec = eng.step(_frame(t + 1, b))
-        assert rec.info["target"]["births"] == (t == 0)  # one track throughout
+        assert rec.plate.births == (t == 0)  # one track throughout
         oracle.step(FrameContext(t + 1, measurements=None if t == 0 else z[t]))
         np.testing.assert_allclose(eng.beliefs["box"].mean()[0], oracle.beliefs["x"].mean(),
                                    rtol=1e-9, atol=1e-8)
@@ -110,7 +110,7 @@ def test_sort_life_cycle_confirms_coasts_and_ends():
     reported = []
     for t in range(1, 4):
         rec = eng.step(_frame(t, [box + [t, 0, 0, 0], other] if t == 1 else box + [t, 0, 0, 0]))
-        info = rec.info["target"]
+        info = rec.plate
         reported.append(int(info["reported"].sum()))
     assert reported == [0, 0, 1]  # confirmed at the third detection
     assert eng.num_targets == 1  # the other, tentative, ended at its first miss
@@ -118,7 +118,7 @@ def test_sort_life_cycle_confirms_coasts_and_ends():
     np.testing.assert_allclose(info["boxes"][0], [123.0, 150.0, 40.0, 100.0])  # centre box
     for t in range(4, 10):  # six frames without a detection: kept five, then removed
         rec = eng.step(_frame(t, np.zeros((0, 4))))
-        assert not rec.info["target"]["reported"].any()
+        assert not rec.plate.reported.any()
         assert eng.num_targets == (1 if t < 9 else 0)
     # found again before the end: reported at once under its identity
     eng = Engine(sort.build_graph(sort.Params(fps=5.0)), 0)
@@ -128,8 +128,8 @@ def test_sort_life_cycle_confirms_coasts_and_ends():
     for t in range(4, 7):
         eng.step(_frame(t, np.zeros((0, 4))))
     rec = eng.step(_frame(7, box))
-    assert rec.info["target"]["reported"].tolist() == [True]
-    assert int(rec.info["target"]["ids"][0]) == first == track_id
+    assert rec.plate.reported.tolist() == [True]
+    assert int(rec.plate.ids[0]) == first == track_id
 
 
 def test_bytetrack_second_round_and_streak():
@@ -145,7 +145,7 @@ def test_bytetrack_second_round_and_streak():
         for t in range(1, 4):
             eng.step(_frame(t, box))
         rec = eng.step(_frame(4, [near_low, far_high], scores=[0.3, 0.9]))
-        info = rec.info["target"]
+        info = rec.plate
         k = int(np.flatnonzero(info["ids"] == eng.tracks[0].track_id)[0])
         out[name] = info["boxes"][k, 0] - box[2] / 2
     assert out["sort"] == pytest.approx(near_low[0])  # one round: the best IoU
@@ -154,9 +154,9 @@ def test_bytetrack_second_round_and_streak():
     eng.step(_frame(1, box, scores=[0.5]))  # below activation (0.7): no track
     assert eng.num_targets == 0
     rec = eng.step(_frame(2, box, scores=[0.8]))
-    assert eng.num_targets == 1 and not rec.info["target"]["reported"].any()
+    assert eng.num_targets == 1 and not rec.plate.reported.any()
     rec = eng.step(_frame(3, box, scores=[0.8]))
-    assert rec.info["target"]["reported"].tolist() == [True]  # two in a row
+    assert rec.plate.reported.tolist() == [True]  # two in a row
 
 
 def test_association_rounds_and_scores():
@@ -300,7 +300,7 @@ def test_ocsort_recovery_reupdate_and_life_cycle():
     step = np.array([6.0, 0.0, 0.0, 0.0])
     for t in range(1, 8):  # warm-up frames then steady: confirmed and reported
         rec = eng.step(_frame(t, box + t * step))
-    assert rec.info["target"]["reported"].tolist() == [True]
+    assert rec.plate.reported.tolist() == [True]
     track_id = eng.tracks[0].track_id
     for t in range(8, 12):  # four frames without a detection
         eng.step(_frame(t, np.zeros((0, 4))))
@@ -310,12 +310,12 @@ def test_ocsort_recovery_reupdate_and_life_cycle():
     rec = eng.step(_frame(12, back))
     assert eng.num_targets == 1 and eng.tracks[0].track_id == track_id
     assert rec.info["detection"]["reupdated"].tolist() == [0]
-    assert rec.info["target"]["reported"].tolist() == [False]  # one match in a row
+    assert rec.plate.reported.tolist() == [False]  # one match in a row
     v_cx = eng.beliefs["box"].mean()[0, 4]
     assert 0.0 < v_cx < 6.0  # re-filtered along the gap: slowed, not reversed
     for t in range(13, 15):
         rec = eng.step(_frame(t, back + (t - 12) * step))
-    assert rec.info["target"]["reported"].tolist() == [True]
+    assert rec.plate.reported.tolist() == [True]
     # a tentative track is kept through a miss (SORT would end it)
     eng = Engine(ocsort.build_graph(ocsort.Params(fps=30.0)), 0)
     for t in range(1, 6):
@@ -372,7 +372,7 @@ def test_particle_motion_models_drive_the_same_core(motion):
     ids = set()
     for t, b in enumerate(boxes):
         rec = eng.step(_frame(t + 1, b))
-        info = rec.info["target"]
+        info = rec.plate
         ids |= set(info["ids"][info["reported"]].tolist())
     assert eng.num_targets == 1 and ids == {eng.tracks[0].track_id}
     est = eng.beliefs["box"].mean()[0]
@@ -399,7 +399,7 @@ def test_occlusion_gate_keeps_the_hidden_edges():
         eng = Engine(sort.build_graph(p), 0)
         for t, b in enumerate(short[:hidden.stop]):
             rec = eng.step(_frame(t + 1, b))
-        heights[gate] = rec.info["target"]["boxes"][0, 3]
+        heights[gate] = rec.plate.boxes[0, 3]
         if gate is not None:
             assert rec.info["detection"]["hidden_edges"] == 1
     true_h = boxes[hidden.stop - 1, 3]
@@ -502,7 +502,7 @@ def test_botsort_rounds_and_life_cycle():
 
     def step(t, boxes, scores):
         rec = eng.step(_frame(t, boxes, scores))
-        info = rec.info["target"]
+        info = rec.plate
         return {int(i) for i in info["ids"][info["reported"]]}
 
     first = step(1, [a, b], [0.9, 0.9])

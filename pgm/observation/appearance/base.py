@@ -5,19 +5,21 @@ indices, the adapt rate, and the bounds of the sizes a cue takes
 from __future__ import annotations
 
 from abc import abstractmethod
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import cv2
 import numpy as np
 
 from pgm.core.frame import FrameContext
+from pgm.core.learned import LearnedState
 from pgm.core.numerics import check_finite_param
 from pgm.core.resolution import working_frames
 from pgm.core.variable import Variable
 from pgm.factors import LikelihoodFactor
 
-__all__ = ["BoxAppearanceLikelihood", "FeatureDotCue", "SIZE_BOUNDS", "bounded_int",
-           "grey_frame"]
+__all__ = ["BoxAppearanceLikelihood", "FeatureDotCue", "SIZE_BOUNDS", "TemplateState",
+           "bounded_int", "grey_frame"]
 
 
 #: bounds of the sizes an appearance cue takes (bins, cells, rings, samples, ...): a
@@ -61,6 +63,14 @@ def _bounded_pair(factor: str, name: str, value: Any) -> tuple[int, int]:
     return bounded_int(factor, name, a), bounded_int(factor, name, b)
 
 
+@dataclass
+class TemplateState(LearnedState):
+    """What a cue with one template learns: the template (None until given or learned
+    in the first frame)."""
+
+    template: Any = None
+
+
 class BoxAppearanceLikelihood(LikelihoodFactor):
     """Base of the appearance factors: a box ``(cx, cy, w, h)`` inside a variable's state
     scored against an appearance model learned in the first frame.
@@ -77,6 +87,8 @@ class BoxAppearanceLikelihood(LikelihoodFactor):
     abstract = True
     #: the attribute holding the appearance model (None until given or learned)
     model_attr: ClassVar[str] = "template"
+    #: what it learns (a subclass with another model declares its own)
+    State = TemplateState
 
     def __init__(self, variable: str, *, lam: float, box_indices=(0, 1, 2, 3),
                  adapt_rate: float = 0.0, name: str | None = None):

@@ -53,12 +53,14 @@ References
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import scipy.fft as sfft
 
 from pgm.core.frame import FrameContext
+from pgm.core.learned import LearnedState
 from pgm.core.numerics import check_finite_param
 from pgm.observation.camera_motion import CameraMotionEstimator
 
@@ -94,6 +96,35 @@ CAMERA_CHECK = {"max_side": CAMERA_CHECK_PX, "max_corners": 400, "win_size": 21,
 #: windows a frame's particles may open (:meth:`CorrelationFilterLikelihood.relative_response`):
 #: the first at the particles' mean, the others at particles outside every window so far
 MAX_WINDOWS = 4
+
+
+@dataclass
+class CorrelationFilterState(LearnedState):
+    """What a :class:`CorrelationFilterLikelihood` learns: the window's geometry (from
+    the first box), the filter, its long-term memory and context, and the last frame's
+    response."""
+
+    shape: tuple[int, int] | None = None  # (tw, th) of the window in template px
+    ref_size: np.ndarray | None = None  # the window (px) at scale 1
+    ref_scale: float | None = None  # sqrt(w h) of the first box
+    hann: np.ndarray | None = None  # (th, tw) cosine window
+    box_cells: np.ndarray | None = None  # (th, tw) cells over the object's box
+    gf: np.ndarray | None = None  # the Gaussian label's spectrum
+    num: np.ndarray | None = None  # (C, th, tw) complex numerator  conj(G) · X_c
+    den: np.ndarray | None = None  # (th, tw) real denominator  Σ_c |X_c|²
+    peak: float | None = None  # running mean of the peak response at the estimates
+    last_response: float | None = None  # relative response at the last estimate
+    last_psr: float | None = None  # peak-to-sidelobe ratio of the map at the last estimate
+    memory: tuple | None = None  # the long-term filter: (num, den, peak)
+    context: np.ndarray | None = None  # (th, tw) probability a cell moves with the object
+    object_peak: float | None = None  # running mean peak of the filter's box cells alone
+    camera_moved_at: int | None = None  # the frame where the camera was found moving
+    _first_frames: Any = None  # the check of each of the first frames (see update)
+    _checked: int = 0  # frames it checked: the context weights the filter from one on
+    _checked_index: int | None = None  # the last frame checked
+    _camera: Any = None  # the still-camera check while the context is learned
+    _mask_cache: Any = None
+    _last_seen: tuple | None = None  # (features, centre, scale, angle) last learned
 
 
 class CorrelationFilterLikelihood(LearnedContext, RedetectionScan, ResponseReading,
@@ -178,6 +209,7 @@ class CorrelationFilterLikelihood(LearnedContext, RedetectionScan, ResponseReadi
     """
 
     model_attr = "num"
+    State = CorrelationFilterState
 
     def __init__(self, variable: str, *, lam: float = 60.0, padding: float = 2.0,
                  target_px: float = 32.0, n_orient: int = 6, sigma: float = 0.1,
@@ -229,21 +261,6 @@ class CorrelationFilterLikelihood(LearnedContext, RedetectionScan, ResponseReadi
                              f"at most {MAX_WINDOW_PX} (target_px · (1 + padding))")
         if self.scale_step <= 1.0 and self.scales > 1:
             raise ValueError(f"factor {n!r}: scale_step must exceed 1")
-        self.num = None  # (C, th, tw) complex numerator  conj(G) · X_c
-        self.den = None  # (th, tw) real denominator  Σ_c |X_c|²
-        self.peak = None  # running mean of the peak response at the estimates
-        self.last_response = None  # relative response at the last estimate
-        self.last_psr = None  # peak-to-sidelobe ratio of the map at the last estimate
-        self.memory = None  # the long-term filter: (num, den, peak)
-        self.context = None  # (th, tw) probability that a cell moves with the object
-        self.object_peak = None  # running mean peak of the filter's box cells alone
-        self.camera_moved_at = None  # the frame where the camera was found moving
-        self._first_frames = None  # the check of each of the first frames (see update)
-        self._checked = 0  # frames it checked: the context weights the filter from one on
-        self._checked_index = None  # the last frame checked
-        self._camera = None  # the still-camera check while the context is learned
-        self._mask_cache = None
-        self._last_seen = None  # (features, centre, scale, angle) of the last learned frame
 
     @property
     def learns(self) -> bool:

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import json
 import zipfile
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +39,7 @@ import numpy as np
 
 from pgm.core.errors import InputError
 from pgm.core.frame import FrameContext
+from pgm.core.learned import LearnedState
 from pgm.core.numerics import check_finite_param
 from pgm.factors import LikelihoodFactor
 from pgm.observation.appearance.features import PatchFeatures
@@ -122,13 +124,20 @@ class DBN:
         return self
 
     def calibrate(self, logits: np.ndarray, labels: np.ndarray, C: float = 1e6) -> DBN:
-        """Platt scaling: fit ``s = sigmoid(a · logit + b)`` to raw ``logits`` and 0/1
-        ``labels`` (logistic regression, inverse regularisation ``C``)."""
+        """Set the network's Platt scaling (:meth:`fit_platt`)."""
+        self.platt_ = self.fit_platt(logits, labels, C)
+        return self
+
+    @staticmethod
+    def fit_platt(logits: np.ndarray, labels: np.ndarray, C: float = 1e6
+                  ) -> tuple[float, float]:
+        """Platt scaling: ``(a, b)`` of ``s = sigmoid(a · logit + b)`` fitted to raw
+        ``logits`` and 0/1 ``labels`` (logistic regression, inverse regularisation
+        ``C``)."""
         from sklearn.linear_model import LogisticRegression
 
         lr = LogisticRegression(C=C).fit(np.asarray(logits, dtype=float)[:, None], labels)
-        self.platt_ = (float(lr.coef_[0, 0]), float(lr.intercept_[0]))
-        return self
+        return float(lr.coef_[0, 0]), float(lr.intercept_[0])
 
     @staticmethod
     def _rbm(v0, n_hidden, gen, epochs, batch, lr):
@@ -316,6 +325,17 @@ def _boxes_from_state(x: np.ndarray, size: np.ndarray, pos: tuple[int, int]) -> 
     return _feet_boxes(x[:, list(pos)], size)
 
 
+@dataclass
+class DBNCalibration(LearnedState):
+    """What a :class:`DBNLikelihood` learns on the video: its calibration (None: the
+    trained network's) and the raw logits gathered for it."""
+
+    calibrated: bool = False
+    platt: tuple[float, float] | None = None
+    prior: float | None = None
+    _calib: tuple[list, list] = field(default_factory=lambda: ([], []))
+
+
 class DBNLikelihood(LikelihoodFactor):
     """Appearance factor: the DBN's log likelihood ratio of the patch at each particle.
 
@@ -366,6 +386,8 @@ class DBNLikelihood(LikelihoodFactor):
         A calibration already fitted (saved with a learned model).
     """
 
+    State = DBNCalibration
+
     def __init__(self, variable: str, *, model: str, box_size=(40.0, 100.0),
                  position_indices=(0, 2), epsilon: float = 0.1, stride: float | None = None,
                  calibrate_with: int = 60, platt=None, prior: float | None = None,
@@ -394,8 +416,7 @@ class DBNLikelihood(LikelihoodFactor):
             pi = float(check_finite_param(f"{self.name}.prior", prior, positive=True))
             if not pi < 1:
                 raise InputError(f"factor {self.name!r}: prior must be in (0, 1)")
-            self.net.platt_, self.net.prior_ = (a, c), pi
-        self._calib: tuple[list, list] = ([], [])
+            self.platt, self.prior = (a, c), pi
 
     def params(self) -> dict[str, Any]:
         p = {"model": self.model, "box_size": self.box_size,
@@ -404,8 +425,15 @@ class DBNLikelihood(LikelihoodFactor):
         if self.stride is not None:
             p["stride"] = self.stride
         if self.calibrated:
-            p.update(platt=list(self.net.platt_), prior=self.net.prior_)
+            platt, prior = self.calibration()
+            p.update(platt=list(platt), prior=prior)
         return p
+
+    def calibration(self) -> tuple[tuple[float, float], float]:
+        """The Platt scaling ``(a, b)`` and class prior ``π`` in use: those learned on
+        the video or given, else the trained network's."""
+        return (self.platt if self.platt is not None else self.net.platt_,
+                self.prior if self.prior is not None else self.net.prior_)
 
     def _collect(self, ctx: FrameContext, size: np.ndarray) -> None:
         """Gather raw logits at this frame's detections and at background foot points;
@@ -427,17 +455,18 @@ class DBNLikelihood(LikelihoodFactor):
         neg.extend(logits[len(feet):].tolist())
         if len(pos) >= self.calibrate_with and len(neg) >= 10:
             y = np.r_[np.ones(len(pos)), np.zeros(len(neg))]
-            self.net.calibrate(np.array(pos + neg), y, C=1.0)
-            self.net.prior_ = float(len(pos) / len(y))
+            self.platt = DBN.fit_platt(np.array(pos + neg), y, C=1.0)
+            self.prior = float(len(pos) / len(y))
             self.calibrated = True
             self._calib = ([], [])
 
     def log_ratio(self, feats: np.ndarray) -> np.ndarray:
         """``log ℓ`` of feature rows, with the ε-contamination."""
+        (a, c), pi = self.calibration()
+        z = a * self.net.logits(feats) + c  # the calibrated log-odds of s(x)
         if self.epsilon <= 0:
-            return self.net.log_ratio(feats)
-        pi = self.net.prior_
-        s = 1.0 / (1.0 + np.exp(-self.net.calibrated_logits(feats)))
+            return z + np.log((1 - pi) / pi)
+        s = 1.0 / (1.0 + np.exp(-z))
         s = (1 - self.epsilon) * s + self.epsilon * pi
         return np.log(s) - np.log1p(-s) + np.log((1 - pi) / pi)
 

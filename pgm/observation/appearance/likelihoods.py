@@ -34,6 +34,7 @@ References
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import cv2
@@ -41,6 +42,7 @@ import numpy as np
 
 from pgm.core.errors import InputError
 from pgm.core.frame import FrameContext
+from pgm.core.learned import LearnedState
 from pgm.core.numerics import check_finite_param
 from pgm.observation.appearance.base import (  # noqa: F401  (names of this module)
     SIZE_BOUNDS,
@@ -234,6 +236,25 @@ class ColourHistogramLikelihood(BoxAppearanceLikelihood):
             m.template = h / h.sum()
 
 
+@dataclass
+class FragmentsState(LearnedState):
+    """What :class:`FragmentsLikelihood` learns: a histogram per fragment."""
+
+    templates: np.ndarray | None = None
+
+
+@dataclass
+class ContrastState(LearnedState):
+    """What :class:`ColourContrastLikelihood` learns: the object's and its ring's
+    histograms, the first box's area and the clipped log-odds read from them."""
+
+    object_hist: np.ndarray | None = None
+    background_hist: np.ndarray | None = None
+    ref_area: float | None = None
+    log_odds: np.ndarray | None = None
+    _key: int | None = None
+
+
 class FragmentsLikelihood(BoxAppearanceLikelihood):
     """Fragment-based colour likelihood ("FragTrack" of Adam, Rivlin & Shimshoni [#adam2006]).
 
@@ -252,6 +273,7 @@ class FragmentsLikelihood(BoxAppearanceLikelihood):
     """
 
     model_attr = "templates"
+    State = FragmentsState
 
     def __init__(self, variable: str, *, lam: float = 20.0, grid=(3, 3), quantile: float = 0.5,
                  layout: str = "perez", n_h: int = 16, n_s: int = 4, n_v: int | None = None,
@@ -335,6 +357,7 @@ class ColourContrastLikelihood(BoxAppearanceLikelihood):
     """
 
     model_attr = "object_hist"
+    State = ContrastState
 
     def __init__(self, variable: str, *, lam: float = 10.0, context: float = 0.5,
                  clip: float = 3.0, delta: float = 1e-3, adapt_rate: float = 0.0,

@@ -22,6 +22,7 @@ and not otherwise.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from statistics import NormalDist
 from typing import Any
 
@@ -29,10 +30,21 @@ import numpy as np
 
 from pgm.core.boxes import mean_box_size
 from pgm.core.frame import FrameContext
+from pgm.core.learned import LearnedState
 from pgm.core.numerics import check_finite_param, logsumexp
 from pgm.factors.kinds import ProposalFactor
 
 __all__ = ["RedetectionProposal"]
+
+
+@dataclass
+class RedetectionState(LearnedState):
+    """What a :class:`RedetectionProposal` keeps between frames: the frames in a row with
+    the confidence below ``below``, and this frame's peaks and spread."""
+
+    _low: int = 0
+    _centres: np.ndarray | None = None
+    _std: float = 1.0
 
 
 class RedetectionProposal(ProposalFactor):
@@ -77,6 +89,8 @@ class RedetectionProposal(ProposalFactor):
         The position components.
     """
 
+    State = RedetectionState
+
     def __init__(self, variable: str, *, cue: str, fraction: float = 0.5, below: float = 0.5,
                  patience: int = 1, peaks: int = 3, spread: float = 0.1,
                  false_alarm: float = 1e-3, min_response: float | None = None,
@@ -94,7 +108,6 @@ class RedetectionProposal(ProposalFactor):
             raise ValueError(f"factor {self.name!r}: patience must be a positive integer, got "
                              f"{patience!r}")
         self.patience = int(patience)
-        self._low = 0  # frames in a row with the confidence below `below`
         self.spread = float(check_finite_param(f"{self.name}.spread", spread, positive=True))
         self.false_alarm = float(check_finite_param(f"{self.name}.false_alarm", false_alarm,
                                                     positive=True))
@@ -106,8 +119,6 @@ class RedetectionProposal(ProposalFactor):
                              f"components, got {list(self.columns)}")
         self.min_response = (None if min_response is None else float(
             check_finite_param(f"{self.name}.min_response", min_response, nonneg=True)))
-        self._centres: np.ndarray | None = None
-        self._std = 1.0
 
     def params(self) -> dict[str, Any]:
         return {"cue": self.cue, "fraction": self.fraction, "below": self.below,

@@ -30,6 +30,7 @@ References
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import cv2
@@ -37,12 +38,24 @@ import numpy as np
 import scipy.fft as sfft
 
 from pgm.core.frame import FrameContext
+from pgm.core.learned import LearnedState
 from pgm.core.numerics import check_finite_param
 
 from .base import BoxAppearanceLikelihood, bounded_int, grey_frame
 from .correlation import filter_of, patch_features, ridge
 
 __all__ = ["ScaleFilterLikelihood"]
+
+
+@dataclass
+class ScaleFilterState(LearnedState):
+    """What :class:`ScaleFilterLikelihood` learns: the filter, its running peak and the
+    size of its resampled patches."""
+
+    num: np.ndarray | None = None  # (D, S) complex numerator  conj(G) · X_d
+    den: np.ndarray | None = None  # (S,) real denominator  Σ_d |X_d|²
+    peak: float | None = None
+    shape: tuple[int, int] | None = None  # (pw, ph) of the resampled patches
 
 
 class ScaleFilterLikelihood(BoxAppearanceLikelihood):
@@ -71,6 +84,7 @@ class ScaleFilterLikelihood(BoxAppearanceLikelihood):
     """
 
     model_attr = "num"
+    State = ScaleFilterState
 
     def __init__(self, variable: str, *, lam: float = 60.0, n_scales: int = 17,
                  scale_step: float = 1.03, patch_px: float = 20.0, n_orient: int = 6,
@@ -98,10 +112,6 @@ class ScaleFilterLikelihood(BoxAppearanceLikelihood):
         label = np.exp(-0.5 * (self.offsets / self.sigma) ** 2)
         self.gf = sfft.fft(np.fft.ifftshift(label))
         self.hann = np.hanning(self.n_scales + 2)[1:-1]  # no zero weight at the ends
-        self.num = None  # (D, S) complex numerator  conj(G) · X_d
-        self.den = None  # (S,) real denominator  Σ_d |X_d|²
-        self.peak = None
-        self.shape = None  # (pw, ph) of the resampled patches
 
     def params(self) -> dict[str, Any]:
         return {"lam": self.lam, "n_scales": self.n_scales, "scale_step": self.scale_step,

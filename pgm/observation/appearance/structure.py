@@ -11,11 +11,13 @@ References
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from pgm.core.frame import FrameContext
+from pgm.core.learned import LearnedState
 from pgm.core.numerics import check_finite_param
 from pgm.observation.appearance.base import (
     BoxAppearanceLikelihood,
@@ -162,6 +164,15 @@ class RotationInvariantLikelihood(BoxAppearanceLikelihood):
         return -self.lam * (self.gamma(x, ctx) - 1.0)
 
 
+@dataclass
+class MixtureState(LearnedState):
+    """What :class:`GMMKLLikelihood` learns: the template mixture and the divergence
+    computed against it."""
+
+    template: MixtureTemplate | None = None
+    _kl: SharedComponentKL | None = None
+
+
 class GMMKLLikelihood(BoxAppearanceLikelihood):
     r"""GMM-KL appearance (Wang et al. [#wang2008], §3.2.6, eq. (6)): a Gaussian mixture over
     RGB fitted to the template's pixels in the first frame (scikit-learn), the
@@ -198,6 +209,8 @@ class GMMKLLikelihood(BoxAppearanceLikelihood):
     weights, means, covariances, samples : array_like, optional
         A fitted template (saved with the model); learned in the first frame if omitted.
     """
+
+    State = MixtureState
 
     def __init__(self, variable: str, *, lam: float = 20.0, n_components: int = 4,
                  symmetric: bool = True, method: str = "shared", outlier_weight: float = 0.01,

@@ -166,7 +166,7 @@ def test_dbn_contamination_bounds_the_ratio_and_zero_is_literal(tiny_dbn):
     eps = 0.2
     robust = DBNLikelihood("t", model=tiny_dbn, epsilon=eps, stride=0.0)
     got = robust.log_likelihood(x, FrameContext(1, img))
-    pi = robust.net.prior_
+    pi = robust.calibration()[1]
     lo, hi = np.log(eps * (1 - pi) / (1 - eps * pi)), np.log((1 - eps * (1 - pi)) / (eps * pi))
     assert np.all(got >= lo - 1e-9) and np.all(got <= hi + 1e-9)
     assert np.all(np.sign(got) == np.sign(want)) or np.allclose(want, 0)  # order kept
@@ -202,22 +202,23 @@ def test_dbn_recalibrates_on_detections_without_labels(tiny_dbn, tmp_path):
     rng = np.random.default_rng(3)
     img = rng.integers(0, 256, (240, 320, 3), dtype=np.uint8)
     f = DBNLikelihood("t", model=tiny_dbn, calibrate_with=12, stride=0.0)
-    before = (f.net.platt_, f.net.prior_)
+    before = f.calibration()
     x = np.column_stack([rng.uniform(0, 320, 20), np.zeros(20), rng.uniform(100, 240, 20),
                          np.zeros(20)])
     boxes = np.array([[30.0, 40, 40, 100], [150, 60, 40, 100], [250, 120, 40, 100]])
     for k in range(3):  # 9 detections: not yet
         f.log_likelihood(x, FrameContext(k + 1, img, detections=Detections(boxes, np.ones(3))))
-    assert not f.calibrated and (f.net.platt_, f.net.prior_) == before
+    assert not f.calibrated and f.calibration() == before
     f.log_likelihood(x, FrameContext(4, img, detections=Detections(boxes, np.ones(3))))
-    assert f.calibrated and (f.net.platt_, f.net.prior_) != before
-    assert 0 < f.net.prior_ < 1
+    assert f.calibrated and f.calibration() != before
+    assert 0 < f.prior < 1 and f.calibration() == (f.platt, f.prior)
+    assert (f.net.platt_, f.net.prior_) == before  # the network itself is not changed
     # the fitted calibration is part of the declaration and comes back on loading
     g = FactorGraph([Variable("t", 4, role="set")],
                     [IntensityPrior("t", mean=np.zeros(4), mass=0.0), f], name="g")
     g.save(tmp_path / "g.json")
     back = FactorGraph.load(tmp_path / "g.json").factors[f.name]
-    assert back.calibrated and back.net.platt_ == pytest.approx(f.net.platt_)
+    assert back.calibrated and back.platt == pytest.approx(f.platt)
     np.testing.assert_allclose(back.log_likelihood(x, FrameContext(5, img)),
                                f.log_likelihood(x, FrameContext(5, img)))
     with pytest.raises(InputError, match="together"):
