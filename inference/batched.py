@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -157,7 +157,7 @@ def _merge(outs: list[Any]) -> Any:
     replica returned ``None``."""
     if all(o is None for o in outs):
         return None
-    if all(isinstance(o, Mapping) for o in outs):
+    if all(isinstance(o, (dict, Info)) for o in outs):
         keys = list(dict.fromkeys(k for o in outs for k in o))
         merged = {k: _merge([o.get(k) for o in outs]) for k in keys}
         kind = type(outs[0])

@@ -31,19 +31,39 @@ __all__ = ["Info", "VariableInfo", "VBInfo", "AssociationInfo", "DetectionInfo",
            "ProposalInfo", "PlateInfo", "realigned"]
 
 
-class Info(Mapping):
+#: each info class's field names, but ``extra`` (computed once per class)
+_FIELDS: dict[type, tuple[str, ...]] = {}
+
+
+def _names(cls: type) -> tuple[str, ...]:
+    names = _FIELDS.get(cls)
+    if names is None:
+        names = _FIELDS[cls] = tuple(f.name for f in dataclasses.fields(cls)
+                                     if f.name != "extra")
+    return names
+
+
+class Info:
     """Base of the typed diagnostics: a dataclass whose fields left ``None`` were not
-    reported, read also as a mapping of those that were (and of ``extra``, where a class
-    has it)."""
+    reported, read also as a read-only mapping of those that were (and of ``extra``,
+    where a class has it; registered as a :class:`collections.abc.Mapping`, not derived
+    from it, so that ``isinstance(x, Info)`` stays a plain class check on the hot path)."""
 
     def _reported(self) -> dict[str, Any]:
-        out = {f.name: v for f in dataclasses.fields(self)
-               if f.name != "extra" and (v := getattr(self, f.name)) is not None}
-        out.update(getattr(self, "extra", None) or {})
+        d = self.__dict__
+        out = {n: d[n] for n in _names(type(self)) if d[n] is not None}
+        if d.get("extra"):
+            out.update(d["extra"])
         return out
 
     def __getitem__(self, key: str) -> Any:
-        return self._reported()[key]
+        d = self.__dict__
+        if key in _names(type(self)) and d[key] is not None:
+            return d[key]
+        extra = d.get("extra")
+        if extra and key in extra:
+            return extra[key]
+        raise KeyError(key)
 
     def __iter__(self) -> Iterator[str]:
         return iter(self._reported())
@@ -51,13 +71,42 @@ class Info(Mapping):
     def __len__(self) -> int:
         return len(self._reported())
 
+    def __bool__(self) -> bool:
+        d = self.__dict__
+        for n in _names(type(self)):
+            if d[n] is not None:
+                return True
+        return bool(d.get("extra"))
+
+    def __contains__(self, key: object) -> bool:
+        try:
+            self[key]  # type: ignore[index]
+        except (KeyError, TypeError):
+            return False
+        return True
+
+    def get(self, key: str, default: Any = None) -> Any:
+        try:
+            return self[key]
+        except KeyError:
+            return default
+
+    def keys(self):
+        return self._reported().keys()
+
+    def items(self):
+        return self._reported().items()
+
+    def values(self):
+        return self._reported().values()
+
     def merge(self, other: Mapping[str, Any] | None) -> Info:
         """Set the fields ``other`` reports (an info object or a dict; keys this class
         does not declare go to ``extra`` where it has one, else a ``ValueError``);
         returns ``self``."""
         if not other:
             return self
-        names = {f.name for f in dataclasses.fields(self)} - {"extra"}
+        names = _names(type(self))
         for key, value in other.items():
             if key in names:
                 setattr(self, key, value)
@@ -67,6 +116,9 @@ class Info(Mapping):
                 raise ValueError(f"{type(self).__name__} has no field {key!r} (fields: "
                                  f"{sorted(names)})")
         return self
+
+
+Mapping.register(Info)
 
 
 @dataclass(eq=False)
@@ -222,7 +274,7 @@ def realigned(values: Any, keep: np.ndarray, births: int) -> Any:
         return a
 
     if isinstance(values, Info):
-        for key, a in list(values.items()):
+        for key, a in values._reported().items():
             new = one(key, a)
             if key in getattr(values, "extra", {}):
                 values.extra[key] = new

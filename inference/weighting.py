@@ -8,7 +8,6 @@ imports this module, not the other way).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -18,6 +17,7 @@ from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 
 from .context import RuleContext
+from .info import Info
 from .record import StepRecord
 from .rules import GROUP_SCORING, Rule, likelihood_reweights
 from .state import ProposalState
@@ -111,7 +111,7 @@ def likelihood_increment(ctx: RuleContext, factor: Factor, rule: Rule, frame: Fr
     b = ctx.beliefs[v]
     out = rule(ctx, factor, frame)
     if not likelihood_reweights(type(b)):
-        if isinstance(out, Mapping) and out:  # its diagnostics (pgm.inference.info)
+        if isinstance(out, (dict, Info)) and out:  # its diagnostics (pgm.inference.info)
             record.info[factor.name] = out
         return None
     if ctx.beliefs[v] is not b:

@@ -211,3 +211,26 @@ def test_the_engine_step_loop_has_no_plate_branch():
         hits = [line.strip() for line in text.splitlines() if pattern.search(line)]
         assert not hits, f"inference/{name} branches on the plate: {hits}"
 
+
+
+def test_files_split_by_concern_stay_small():
+    """No module of the toolkit is over 700 lines, and the three that were split by
+    concern (the engine, the correlation filter, the runner) stay at most 500."""
+    sizes = {p: len(p.read_text().splitlines()) for root in LAYERS.values()
+             for p in root.rglob("*.py")}
+    big = {str(p.relative_to(ROOT)): n for p, n in sizes.items() if n > 700}
+    assert not big, f"modules over 700 lines: {big}"
+    for rel in ("inference/engine.py", "pgm/observation/appearance/correlation.py",
+                "pgm/app/runner.py"):
+        assert sizes[ROOT / rel] <= 500, f"{rel}: {sizes[ROOT / rel]} lines"
+
+
+def test_no_rule_state_under_string_keys_and_no_code_loading_in_the_core():
+    """State between stages is typed (no ``aux[...]``) and the core imports nothing by
+    name (saved graphs name their modules; finders registered above it load them)."""
+    aux = [str(p.relative_to(ROOT)) for root in LAYERS.values() for p in root.rglob("*.py")
+           if "aux[" in p.read_text()]
+    assert not aux, f"string-keyed state in {aux}"
+    core = [str(p.relative_to(ROOT)) for p in (ROOT / "pgm" / "core").rglob("*.py")
+            if re.search(r"\bimportlib\b|\bimport_module\b", p.read_text())]
+    assert not core, f"importlib in the core: {core}"

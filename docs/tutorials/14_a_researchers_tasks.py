@@ -30,12 +30,14 @@ import argparse
 import json
 import os
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 import pgm
 from pgm.core.expfam import Gaussian
+from pgm.core.learned import LearnedState
 from pgm.factors import LikelihoodFactor, LinearGaussianLikelihood
 from pgm.factors.motion import constant_acceleration
 from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, VBNoise
@@ -66,14 +68,22 @@ def truth_centre(f: int) -> np.ndarray:
 
 # %%
 # A. A likelihood of one's own: NCC of a grid of grey levels against a template learned
-#    on the first frame — vectorised over particles (no loop over them).
+#    on the first frame — vectorised over particles (no loop over them). What it learns is
+#    declared as its State: the engine keeps one per learner (each replica of a plate
+#    its own), the factor's parameters are shared.
+@dataclass
+class NCCState(LearnedState):
+    template: np.ndarray | None = None  # (grid², ) learned on the first frame
+
+
 class NCCTemplate(LikelihoodFactor):
     """``lam * NCC(template, patch at the particle's box)`` on a ``grid x grid`` sample."""
+
+    State = NCCState
 
     def __init__(self, variable, *, lam=20.0, grid=12, name=None):
         super().__init__(variable, name=name)
         self.lam, self.grid = float(lam), int(grid)
-        self.template = None
 
     def params(self):
         return {"lam": self.lam, "grid": self.grid}

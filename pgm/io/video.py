@@ -42,7 +42,8 @@ import cv2
 import numpy as np
 
 from pgm.core.errors import InputError
-from pgm.io.annotations import format_numbers
+from pgm.io.prefetch import read_ahead
+from pgm.io.track_files import format_numbers
 
 __all__ = [
     "IMAGE_EXTENSIONS",
@@ -285,7 +286,7 @@ class ImageSequenceSource(FrameSource):
         a thread while the caller works on this one (decoding releases the GIL), and a
         file's error is raised when its frame is reached, as without it."""
         start, stop = _check_range(start, stop, self.path)
-        return _read_ahead(self._decode(start, stop), PREFETCH)
+        return read_ahead(self._decode(start, stop), PREFETCH)
 
     def _decode(self, start: int, stop: int | None) -> Iterator[tuple[int, np.ndarray]]:
         end = len(self.files) if stop is None else min(stop - 1, len(self.files))
@@ -297,7 +298,7 @@ class ImageSequenceSource(FrameSource):
             yield number, image
 
 
-#: frames a source decodes ahead of the one being used (:func:`_read_ahead`)
+#: frames a source decodes ahead of the one being used (:func:`pgm.io.prefetch.read_ahead`)
 PREFETCH = 2
 
 
@@ -405,7 +406,7 @@ class VideoSource(FrameSource):
         up to :data:`PREFETCH` ahead of the one being used (decoding releases the GIL), and
         a decoding error is raised when its frame is reached, as without it."""
         start, stop = _check_range(start, stop, self.path)
-        return _read_ahead(self._decode(start, stop), PREFETCH)
+        return read_ahead(self._decode(start, stop), PREFETCH)
 
     def _decode(self, start: int, stop: int | None) -> Iterator[tuple[int, np.ndarray]]:
         cap = self._open()
@@ -430,57 +431,6 @@ class VideoSource(FrameSource):
                 k += 1
         finally:
             cap.release()
-
-
-_DONE = object()
-
-
-def _read_ahead(items: Iterator, ahead: int) -> Iterator:
-    """``items`` produced by a thread of their own, at most ``ahead`` of them made before
-    the consumer asks (one waiting in the thread, the others queued); an exception in the
-    producer is raised to the consumer where it happened, and a consumer that stops early
-    stops the producer (which then closes ``items``, releasing what it holds)."""
-    import queue
-    import threading
-
-    q: queue.Queue = queue.Queue(maxsize=max(1, ahead - 1))
-    stop = threading.Event()
-
-    def produce() -> None:
-        try:
-            for item in items:
-                while not stop.is_set():
-                    try:
-                        q.put((item, None), timeout=0.1)
-                        break
-                    except queue.Full:
-                        continue
-                if stop.is_set():
-                    return
-            q.put((_DONE, None))
-        except BaseException as exc:  # handed to the consumer, raised there
-            q.put((_DONE, exc))
-        finally:
-            items.close()
-
-    thread = threading.Thread(target=produce, name="pgm-decode-video", daemon=True)
-    thread.start()
-    try:
-        while True:
-            item, exc = q.get()
-            if exc is not None:
-                raise exc
-            if item is _DONE:
-                return
-            yield item
-    finally:
-        stop.set()
-        while thread.is_alive():  # let a producer blocked on a full queue see the stop
-            try:
-                q.get(timeout=0.05)
-            except queue.Empty:
-                pass
-        thread.join()
 
 
 def _read_seqinfo(ini: Path) -> dict[str, str]:

@@ -11,7 +11,7 @@ import numpy as np
 
 from pgm.core.errors import InputError
 from pgm.core.rng import as_generator
-from pgm.io.annotations import MotWriter, write_otb_groundtruth
+from pgm.io.track_files import MotWriter, write_otb_groundtruth
 from pgm.io.video import write_image_sequence, write_seqinfo
 from pgm.synthetic._checks import _nonneg
 

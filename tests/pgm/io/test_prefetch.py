@@ -10,6 +10,7 @@ import pytest
 
 import pgm.io.video as video
 from pgm.core.errors import InputError
+from pgm.io.prefetch import read_ahead
 from pgm.io.video import PREFETCH, open_source
 from pgm.synthetic import demo_scene
 
@@ -73,7 +74,7 @@ def test_read_ahead_gives_the_items_and_the_error_where_it_happened():
 
     got = []
     with pytest.raises(InputError, match="frame 6"):
-        for x in video._read_ahead(items(), 2):
+        for x in read_ahead(items(), 2):
             got.append(x)
     assert got == list(range(5))
 
@@ -92,7 +93,7 @@ def test_read_ahead_stopped_early_stops_and_closes_the_producer():
         finally:
             closed.set()
 
-    it = video._read_ahead(items(), 2)
+    it = read_ahead(items(), 2)
     assert [next(it), next(it)] == [0, 1]
     it.close()
     assert closed.wait(5) and len(made) <= 2 + 2 + 2  # two used, at most a few ahead

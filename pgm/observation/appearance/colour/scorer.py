@@ -11,6 +11,7 @@ References
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from typing import Any
 
 import numpy as np
@@ -40,6 +41,10 @@ from pgm.observation.appearance.colour.quantize import (
 __all__ = ['bhattacharyya', 'ColourHistogramScorer', 'KERNELS']
 
 KERNELS = ("uniform", "epanechnikov", "grid-uniform")
+#: prepared templates a scorer keeps (least recently used dropped first): one per learner
+#: that scores through it in a frame — a plate of many replicas shares one scorer — so
+#: this bounds memory (an entry is a few kB), not the replicas a frame may have
+TEMPLATE_CACHE = 1024
 
 
 def bhattacharyya(p: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -95,7 +100,7 @@ class ColourHistogramScorer:
         self.kernel = kernel
         self.grid = _check_count("grid", grid, 4096)
         self.q: np.ndarray | None = None if q is None else self._check_q(q)
-        self._templates: dict[tuple, _Template] = {}
+        self._templates: OrderedDict[tuple, Any] = OrderedDict()  # least recently used first
         self._requested: list[int] | None = None   # see _FrameBins (hint)
 
     # parameters ----------------------------------------------------------------------
@@ -160,13 +165,28 @@ class ColourHistogramScorer:
         else:
             arr, raw = np.asarray(q, dtype=float), False
         key = (raw, arr.dtype.str, arr.shape, arr.tobytes())
-        t = self._templates.get(key)
+        t = self._cached_template(key)
         if t is None:
-            t = _Template(np.array(arr) if raw else self._check_q(arr), self.n_bins)
-            if len(self._templates) >= 8:
-                self._templates.clear()
-            self._templates[key] = t
+            t = self._keep_template(key, _Template(np.array(arr) if raw else
+                                                   self._check_q(arr), self.n_bins))
         return t
+
+    def _cached_template(self, key: tuple) -> Any:
+        """A prepared template (or set of them) if it is cached, marked as just used."""
+        t = self._templates.get(key)
+        if t is not None:
+            self._templates.move_to_end(key)
+        return t
+
+    def _keep_template(self, key: tuple, prepared: Any) -> Any:
+        """Cache ``prepared``, dropping the least recently used beyond
+        :data:`TEMPLATE_CACHE` (one scorer serves every learner of a factor — each replica
+        of a plate scores against its own template — so the cache holds one entry per
+        learner, not per factor)."""
+        self._templates[key] = prepared
+        while len(self._templates) > TEMPLATE_CACHE:
+            self._templates.popitem(last=False)
+        return prepared
 
     # scoring -------------------------------------------------------------------------
     def histograms(self, image_or_ctx: Any,
@@ -236,15 +256,12 @@ class ColourHistogramScorer:
                                        np.argsort(owner, kind="stable"), kind="stable")]
         T = np.asarray(templates, dtype=float)
         key = ("many", T.shape, T.tobytes())
-        prepared = self._templates.get(key)
+        prepared = self._cached_template(key)
         if prepared is None:
             qs = np.array([self._check_q(q) for q in T])
             t = _Template((qs > 0).any(axis=0).astype(float), self.n_bins)
             support = np.flatnonzero(t.slot_of_bin < t.k)
-            prepared = (t, np.sqrt(qs[:, support]))
-            if len(self._templates) >= 8:
-                self._templates.clear()
-            self._templates[key] = prepared
+            prepared = self._keep_template(key, (t, np.sqrt(qs[:, support])))
         t, sqrt_q = prepared
         b = _check_boxes(boxes)
         frame = self._frame(image_or_ctx)
