@@ -312,13 +312,22 @@ class FragmentsLikelihood(BoxAppearanceLikelihood):
                                 np.repeat(fw, f), np.repeat(fh, f)])
 
     def learn(self, ctx: FrameContext, value: np.ndarray) -> None:
-        """One template histogram per fragment of the first frame's box."""
+        """One template histogram per fragment of the box (the first frame's, or a
+        detection's in an association). A fragment with no pixel in the image (a box at
+        the border) takes the visible fragments' mean histogram: what is not seen is
+        expected to look like the object as a whole. A box with no fragment in the image
+        is a ``ValueError``."""
         box = value[list(self.box_indices)][None]
         hist, in_frac = self.scorer.histograms(ctx, self.fragments(box))
-        if np.any(in_frac <= 0):
-            raise ValueError(f"factor {self.name!r}: a fragment of the initial box lies "
-                             f"outside the image")
-        self.templates = hist / hist.sum(axis=1, keepdims=True)
+        seen = (in_frac > 0) & (hist.sum(axis=1) > 0)
+        if not seen.any():
+            raise ValueError(f"factor {self.name!r}: the box {np.round(box[0], 1).tolist()} "
+                             f"lies outside the image")
+        t = hist[seen] / hist[seen].sum(axis=1, keepdims=True)
+        templates = np.empty((len(hist), t.shape[1]))
+        templates[seen] = t
+        templates[~seen] = t.mean(axis=0)
+        self.templates = templates
 
     def fragment_rho(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         """``(N, F)`` Bhattacharyya coefficient of every fragment of every particle."""

@@ -59,6 +59,26 @@ def test_fragments_peak_at_the_template_and_survive_a_third_covered():
     assert f_ll > w_ll  # the visible fragments still match their templates
 
 
+def test_fragments_learn_a_box_at_the_border_and_refuse_one_outside():
+    """A detection half out of the image (an association learns from it): the fragments
+    with no pixel inside take the visible ones' mean histogram; the visible ones are
+    their own. A box wholly outside is a ValueError naming it."""
+    rng = np.random.default_rng(2)
+    img, _ = textured_scene(rng)
+    box = np.array([5.0, 80.0, 40.0, 60.0])  # the left column of fragments is outside
+    f = FragmentsLikelihood("object", grid=(3, 3))
+    f.learn(FrameContext(1, img), box)
+    hist, in_frac = f.scorer.histograms(FrameContext(1, img), f.fragments(box[None]))
+    seen = in_frac > 0
+    assert 0 < seen.sum() < 9 and np.all(np.isfinite(f.templates))
+    np.testing.assert_allclose(f.templates[seen], hist[seen] / hist[seen].sum(1, keepdims=True))
+    np.testing.assert_allclose(f.templates[~seen],
+                               np.broadcast_to(f.templates[seen].mean(0), f.templates[~seen].shape))
+    assert np.isfinite(f.log_likelihood(box[None], FrameContext(2, img))).all()
+    with pytest.raises(ValueError, match="outside the image"):
+        f.learn(FrameContext(1, img), np.array([-100.0, 80.0, 40.0, 60.0]))
+
+
 def test_fragments_bad_parameters():
     with pytest.raises(ValueError, match="grid"):
         FragmentsLikelihood("object", grid=(0, 3))
