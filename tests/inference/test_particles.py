@@ -1,0 +1,49 @@
+"""The particle rules: resampling when the ESS says so (and reporting it, typed), the
+mass kept; a transition's draw of the wrong shape named."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pgm import FactorGraph, Variable
+from pgm.core.frame import FrameContext
+from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianTransition
+from pgm.inference import Engine
+from pgm.inference.info import VariableInfo
+
+
+def _graph(transition=None):
+    return FactorGraph(
+        [Variable("x", 1, role="state")],
+        [GaussianPrior("x", mean=[0.0], cov=4.0),
+         transition or LinearGaussianTransition("x", F=[[1.0]], Q=[[0.5]]),
+         LinearGaussianLikelihood("x", H=[[1.0]], R=[[0.25]])], name="walk")
+
+
+@pytest.mark.parametrize("threshold, resampled", [(1.0, True), (0.0, False)])
+def test_resampling_follows_the_ess_threshold_and_is_reported(threshold, resampled):
+    eng = Engine(_graph(), np.random.default_rng(0), num_particles=200,
+                 ess_threshold=threshold)
+    for t in range(1, 4):
+        rec = eng.step(FrameContext(t, measurements=np.array([0.3 * t])))
+        info = rec.info["x"]
+        assert isinstance(info, VariableInfo) and info.resampled is resampled
+        assert rec.resampled["x"] is resampled and 0 < info.ess <= 200
+        assert eng.beliefs["x"].log_mass == pytest.approx(0.0, abs=1e-9)
+        if resampled:  # equal weights after resampling
+            np.testing.assert_allclose(eng.beliefs["x"].weights, 1 / 200)
+
+
+def test_a_transition_drawing_the_wrong_shape_is_named():
+    class Bad(LinearGaussianTransition):
+        abstract = True
+
+        def sample(self, rng, x, *past):
+            return x[:, :0]
+
+    eng = Engine(_graph(Bad("x", F=[[1.0]], Q=[[0.5]], name="bad")), np.random.default_rng(0),
+                 num_particles=20)
+    eng.step(FrameContext(1, measurements=np.array([0.0])))
+    with pytest.raises(ValueError, match="factor 'bad': sample"):
+        eng.step(FrameContext(2, measurements=np.array([0.0])))
