@@ -176,8 +176,8 @@ def _merge(outs: list[Any]) -> Any:
 def per_replica(rule: Callable, key: type | str) -> Callable:
     """``rule`` (a single-graph rule for the replica's belief type) run once per replica:
     on each replica's view of the engine (its rows of the batched beliefs, its generator,
-    its views of the factors that learn), writing the rows it changes back into the batched beliefs. Its
-    returns are merged (likelihood increments stacked to ``(K, N)``)."""
+    its views of the factors that learn), writing the rows it changes back into the
+    batched beliefs. Its returns are merged (likelihood increments stacked to ``(K, N)``)."""
     operation = isinstance(key, str)
 
     def run(ctx: RuleContext, item, frame: FrameContext, *args: Any) -> Any:

@@ -21,6 +21,7 @@ variable's fuse or resample stage merges its keys into the variable's
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -31,16 +32,10 @@ __all__ = ["Info", "VariableInfo", "VBInfo", "AssociationInfo", "DetectionInfo",
            "ProposalInfo", "PlateInfo", "realigned"]
 
 
-#: each info class's field names, but ``extra`` (computed once per class)
-_FIELDS: dict[type, tuple[str, ...]] = {}
-
-
+@functools.cache
 def _names(cls: type) -> tuple[str, ...]:
-    names = _FIELDS.get(cls)
-    if names is None:
-        names = _FIELDS[cls] = tuple(f.name for f in dataclasses.fields(cls)
-                                     if f.name != "extra")
-    return names
+    """An info class's field names but ``extra`` (computed once per class)."""
+    return tuple(f.name for f in dataclasses.fields(cls) if f.name != "extra")
 
 
 class Info:

@@ -101,10 +101,9 @@ def plate_boxes(graph: FactorGraph, estimates: dict[str, np.ndarray]) -> np.ndar
 class Replicas:
     """What a plate keeps per replica besides its beliefs (which live in
     ``engine.beliefs`` as batched beliefs): its generator, its view of the graph (shared
-    factors, those that learn bound to its own learned state), its track record, the state rules
-    keep across frames (``state``: :class:`~pgm.inference.state.StateSlots`) and its
-    latest estimates ``est`` (variable →
-    ``(K, d)``)."""
+    factors, those that learn bound to its own learned state), its track record, the
+    state rules keep across frames (``state``: :class:`~pgm.inference.state.StateSlots`)
+    and its latest estimates ``est`` (variable → ``(K, d)``)."""
 
     rngs: list[np.random.Generator | None] = field(default_factory=list)
     graphs: list[FactorGraph] = field(default_factory=list)
@@ -305,7 +304,6 @@ def add(engine: Engine, boxes: np.ndarray | None, frame: FrameContext,
     newborn.est = dict(rec.estimates)
     engine.replicas = engine.replicas.join(newborn)
     return list(range(first, first + m))
-
 
 
 def remove(engine: Engine, indices: Sequence[int]) -> None:
