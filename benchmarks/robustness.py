@@ -103,6 +103,12 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
     "ocsort-colour scale quantile 0.2 hits s30": (
         "ocsort_colour", {"score_map": "quantile", "score_threshold": 0.2, "box_state": "xyxy",
                           "noise": "scale", "reference_fps": 30.0, **HITS}),
+    # the default, no track born on a detection that overlaps a track's predicted box
+    # (or a birth of the same frame) by more than the IoU: a detection another already
+    # explains (a detector's duplicate, a part of a person) starts no second identity
+    **{f"ocsort-colour quantile 0.2 hits s30 birth{b:g}": (
+        "ocsort_colour", {"score_map": "quantile", "score_threshold": 0.2,
+                          "reference_fps": 30.0, "birth_iou": b, **HITS}) for b in (0.3, 0.5)},
     # BoT-SORT's cascade (pooled rounds, IoU x score), its thresholds as quantiles
     "botsort quantile": ("botsort", {"score_map": "quantile"}),
     "botsort-colour quantile": ("botsort", {"score_map": "quantile", **COLOUR}),

@@ -203,6 +203,11 @@ class Params:
         (:class:`~pgm.factors.association.BoxTransition` ``camera``).
     camera_order : {"before", "after"}
         Whether the camera's motion is applied before the predict or after it (BoT-SORT).
+    birth_iou : float
+        No track is born on a detection whose IoU with a track's predicted box (or with
+        another birth of the frame) exceeds this: a detection a track already explains —
+        a detector's second box on a person, a box on part of one — starts no second
+        identity, though it may still match a track (1: off, the package's cores).
     """
 
     box_state: str = "xyxy"
@@ -246,6 +251,7 @@ class Params:
     activate_first: bool = False
     camera_warp: str = "box"
     camera_order: str = "before"
+    birth_iou: float = 1.0
 
 
 def _noise(p: Params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -445,7 +451,8 @@ def _lifecycle(p: Params) -> Lifecycle:
     """The plate's life cycle of ``p`` (SORT's, ByteTrack's or OC-SORT's)."""
     max_lost = lost_frames(int(p.lost_buffer), p.fps)
     return Lifecycle(confirm_hits=int(p.min_hits), max_coast=0, max_lost=max_lost,
-                     birth_counts=bool(p.birth_counts), match_iou=0.0, birth_iou=1.0,
+                     birth_counts=bool(p.birth_counts), match_iou=0.0,
+                     birth_iou=float(p.birth_iou),
                      birth_min_score=float(p.activation), hit_log_odds=1.0, miss_log_odds=1.0,
                      confirm_on="streak" if p.consecutive else "hits",
                      recover_hits=int(p.recover_hits),
@@ -560,6 +567,12 @@ OPTIONS = (
                    help="matches before a new track is reported (ByteTrack and BoT-SORT: in a "
                         "row, the trackers package's minimum consecutive frames; default: the "
                         "model's)"),
+    _config.Option("--birth-iou", "birth_iou", type=_config.finite_float("--birth-iou"),
+                   metavar="T",
+                   help="no track is born on a detection overlapping a track's predicted box "
+                        "(or another birth) by IoU above T: a second box on a person starts no "
+                        "second identity (1: off, the trackers package's cores; default: the "
+                        "model's, ocsort-colour 0.3)"),
     _config.Option("--iou-threshold", None, type=_config.finite_float("--iou-threshold"),
                    metavar="T",
                    help="the IoU a detection needs with a track to be matched to it, in every "

@@ -734,3 +734,30 @@ def test_reference_frame_rate_converts_per_frame_constants_to_seconds():
                                * np.array([1.0] * 4 + [tau] * 4))
     with pytest.raises(ValueError, match="reference_fps"):
         sort.build_graph(sort.Params(reference_fps=float("nan")))
+
+
+def test_no_birth_on_a_detection_a_track_explains():
+    """``birth_iou``: a detector's second, weaker box on a person (IoU 0.43 with the first)
+    starts a second identity in the package's cores (``birth_iou=1``), none with the
+    default's 0.3; a person elsewhere is still born, and of two overlapping free detections
+    in one frame only the higher-scored starts a track."""
+    walk = _walk(n=20)
+    far = np.array([400.0, 100.0, 40.0, 100.0])
+
+    def identities(birth_iou):
+        eng = Engine(sort.build_graph(sort.Params(birth_iou=birth_iou)), 0)
+        ids = set()
+        for t, box in enumerate(walk, start=1):
+            dets = [box, box + [10.0, 20.0, 0.0, 0.0]] + ([far] if t > 5 else [])
+            rec = eng.step(_frame(t, dets, [0.9, 0.5] + ([0.9] if t > 5 else [])))
+            ids |= {int(i) for i in rec.plate.ids[rec.plate.reported]}
+        return len(ids), eng.num_targets
+
+    assert identities(1.0) == (3, 3)  # the duplicate is a track of its own
+    assert identities(0.3) == (2, 2)  # the person and the one far away
+    # first frame, no track yet: the two overlapping boxes start one track
+    eng = Engine(sort.build_graph(sort.Params(birth_iou=0.3)), 0)
+    eng.step(_frame(1, [walk[0], walk[0] + [10.0, 20.0, 0.0, 0.0]], [0.5, 0.9]))
+    assert eng.num_targets == 1
+    np.testing.assert_allclose(eng.tracks[0].state[:2], walk[0][:2] + [10.0, 20.0]
+                               + walk[0][2:] / 2)
