@@ -109,6 +109,25 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
     **{f"ocsort-colour quantile 0.2 hits s30 birth{b:g}": (
         "ocsort_colour", {"score_map": "quantile", "score_threshold": 0.2,
                           "reference_fps": 30.0, "birth_iou": b, **HITS}) for b in (0.3, 0.5)},
+    # and the birth rule on every match of a tentative track: its detection explained
+    # by a confirmed track's prediction, or by a stronger detection a confirmed track has
+    **{f"ocsort-colour quantile 0.2 hits s30 birth0.3 tentative-{e}": (
+        "ocsort_colour", {"score_map": "quantile", "score_threshold": 0.2,
+                          "reference_fps": 30.0, "birth_iou": 0.3, "explain_tentative": e,
+                          **HITS}) for e in ("prediction", "detection")},
+    # the same with ByteTrack's low-score round after OC-SORT's: the lowest fifth of the
+    # detections may extend a track (IoU at least 0.5), never start one
+    "ocsort-colour+low quantile 0.2 hits s30 birth0.3": (
+        "ocsort_colour", {"score_map": "quantile", "score_threshold": 0.2, "rounds": OCSORT_LOW,
+                          "reference_fps": 30.0, "birth_iou": 0.3, **HITS}),
+    # the default with the low-score round on the tracks matched in the previous frame
+    # only (BoT-SORT's second round): a box below the threshold may keep a track going,
+    # never make a tentative one
+    "ocsort-colour+low-tracked quantile 0.2 hits s30 birth0.3 tentative-prediction": (
+        "ocsort_colour", {"score_map": "quantile", "score_threshold": 0.2,
+                          "rounds": OCSORT_LOW[:2] + ({**OCSORT_LOW[2], "tracks": "tracked"},),
+                          "reference_fps": 30.0, "birth_iou": 0.3,
+                          "explain_tentative": "prediction", **HITS}),
     # BoT-SORT's cascade (pooled rounds, IoU x score), its thresholds as quantiles
     "botsort quantile": ("botsort", {"score_map": "quantile"}),
     "botsort-colour quantile": ("botsort", {"score_map": "quantile", **COLOUR}),

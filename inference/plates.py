@@ -77,7 +77,7 @@ from .state import StateSlots
 from .tracks import Track, confirm_tracks, existences, match, reported, update_tracks
 
 if TYPE_CHECKING:
-    from pgm.core.plate import Plate
+    from pgm.core.plate import Lifecycle, Plate
 
 __all__ = ["Replicas", "plate_boxes", "add", "remove", "associate", "setup", "step",
            "step_stages", "learn"]
@@ -370,6 +370,31 @@ def step_stages(engine: Engine, frame: FrameContext, record: StepRecord, lifecyc
     info.boxes, info.reported, info.existence = boxes, shown, existences(reps.tracks)
 
 
+def _explained_tentative(tracks: list[Track], rows: np.ndarray, cols: np.ndarray,
+                         iou: np.ndarray, det_boxes: np.ndarray, scores: np.ndarray,
+                         lc: Lifecycle) -> np.ndarray:
+    """Which replicas ``(K,)`` are tentative and matched to a detection a confirmed replica
+    explains (:attr:`~pgm.core.plate.Lifecycle.explain_tentative`): the birth rule
+    applied to every match of a track not yet confirmed."""
+    confirmed = np.array([t.track_id is not None for t in tracks], dtype=bool)
+    out = np.zeros(len(tracks), dtype=bool)
+    if not confirmed.any():
+        return out
+    tentative = [(k, j) for k, j in zip(rows, cols, strict=True) if not confirmed[k]]
+    if not tentative:
+        return out
+    ks, js = np.array(tentative).T
+    if lc.explain_tentative == "prediction":  # its detection overlaps a confirmed prediction
+        out[ks] = (iou[np.ix_(confirmed, js)] > lc.birth_iou).any(axis=0)
+        return out
+    # "detection": its detection overlaps a higher-scored one a confirmed replica was given
+    held = np.array([j for k, j in zip(rows, cols, strict=True) if confirmed[k]], dtype=int)
+    if len(held):
+        over = _iou(det_boxes[js][:, None, :], det_boxes[held][None, :, :]) > lc.birth_iou
+        out[ks] = (over & (scores[held][None, :] > scores[js][:, None])).any(axis=1)
+    return out
+
+
 def learn(ctx: RuleContext, items: list[str], frame: FrameContext, record: StepRecord) -> None:
     """After the estimate stage: every replica's learning factors are updated with its
     estimates and scores (as a single-graph engine updates its own)."""
@@ -429,6 +454,8 @@ def associate(engine: Engine, frame: FrameContext, record: StepRecord) -> None:
                          max_coast=lc.max_coast, max_lost=lc.max_lost,
                          hit_log_odds=lc.hit_log_odds, miss_log_odds=lc.miss_log_odds,
                          recover_hits=lc.recover_hits, tentative_lost=lc.tentative_lost)
+    if lc.explain_tentative != "none" and len(rows):
+        keep &= ~_explained_tentative(reps.tracks, rows, cols, iou, det_boxes, scores, lc)
     if engine.t <= lc.warmup_frames:  # the video's first frames: matched means confirmed
         for k in rows:
             t = reps.tracks[k]

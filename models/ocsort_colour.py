@@ -1,7 +1,7 @@
 """The default multi-target model: OC-SORT's association, its filtered boxes, a colour model
 per track, thresholds on the video's own score quantiles, and SORT's life cycle.
 
-:mod:`pgm.models.ocsort`'s graph with four of the ideas this toolkit adds to the classic
+:mod:`pgm.models.ocsort`'s graph with six of the ideas this toolkit adds to the classic
 cores, each one setting:
 
 * ``report="estimate"`` — a matched track reports its Kalman posterior box (the filtered
@@ -20,31 +20,34 @@ cores, each one setting:
 * ``recover_hits=1``, ``consecutive=False`` — SORT's life cycle: a track found again after
   a miss is reported at once, and confirmation counts matches rather than matches in a
   row (OC-SORT's three in a row after every miss lose most of a track when a detector
-  misses one frame in five).
+  misses one frame in five);
 * ``birth_iou=0.3`` — no track is born on a detection that overlaps a track's predicted
   box (or another birth of the frame) by more than the association's own IoU gate: a
   detection the association could have given to a track is explained by it, so a
   detector's second box on a person or a box on part of one starts no second identity
   (on MOT16-11's DPM detections 24 % of the boxes overlap a higher-scored one by more
   than 0.2, and 90 % of those are on no person; the package's cores, ``birth_iou=1``,
-  start a track on each).
+  start a track on each);
+* ``explain_tentative="prediction"`` — the same rule on every match of a track not yet
+  confirmed (a birth in progress): it is removed when its detection overlaps a confirmed
+  track's predicted box by more than 0.3, so a box born beside a person that drifts onto
+  them never becomes a second identity.
 
 Chosen **leave one sequence out** over the five shared MOT sequences and the toolkit's
 synthetic crossing scene, each under 11 kinds of perturbation (score maps, frame rate,
-dropped, jittered, extra and shifted detections), among 19 candidates of every core
+dropped, jittered, extra and shifted detections), among 22 candidates of every core
 (``python benchmarks/robustness.py``; numbers in ``docs/results.md``): all six folds
-pick it. It needs the frames
-(for the colour models) and, where the camera moves, compensates its motion as ``pgm
-track`` does by default. ``pgm track`` runs it on a folder with detections when no
-``--model`` is given.
+pick it. It needs the frames (for the colour models) and, where the camera moves,
+compensates its motion as ``pgm track`` does by default. ``pgm track`` runs it on a
+folder with detections when no ``--model`` is given.
 
 >>> g = build_graph(Params())
 >>> [type(a).__name__ for a in g.factors["association"].appearance]
 ['ColourHistogramLikelihood']
 >>> g.plates[0].lifecycle.report, g.plates[0].lifecycle.recover_hits
 ('matched', 1)
->>> g.plates[0].lifecycle.birth_iou
-0.3
+>>> g.plates[0].lifecycle.birth_iou, g.plates[0].lifecycle.explain_tentative
+(0.3, 'prediction')
 >>> build_graph(Params(fps=7.0)).plates[0].lifecycle.confirm_hits
 1
 >>> g.factors["association"].score_map, [r["min_score"] for r in g.factors["association"].rounds]
@@ -68,7 +71,8 @@ __all__ = ["CONFIG", "Params", "build_graph"]
 class Params(ocsort.Params):
     """:class:`pgm.models.ocsort.Params` reporting the filtered boxes, with colour
     appearance in the association, score quantiles, SORT's life cycle, its per-frame
-    constants read at 30 frames/s and no birth on a detection a track explains."""
+    constants read at 30 frames/s and no birth, nor tentative track, on a detection a
+    track explains."""
 
     report: str = "estimate"
     appearance: str | None = "colour"
@@ -79,6 +83,7 @@ class Params(ocsort.Params):
     consecutive: bool = False
     reference_fps: float | None = 30.0
     birth_iou: float = 0.3
+    explain_tentative: str = "prediction"
 
 
 def build_graph(params: Params | None = None, name: str = "ocsort-colour") -> FactorGraph:

@@ -208,6 +208,12 @@ class Params:
         another birth of the frame) exceeds this: a detection a track already explains —
         a detector's second box on a person, a box on part of one — starts no second
         identity, though it may still match a track (1: off, the package's cores).
+    explain_tentative : {"none", "prediction", "detection"}
+        The same rule for every match of a track not yet confirmed (a birth in
+        progress): removed when its detection overlaps a confirmed track's predicted box
+        (``"prediction"``), or a higher-scored detection a confirmed track was given
+        (``"detection"``), by more than ``birth_iou``
+        (:attr:`~pgm.core.plate.Lifecycle.explain_tentative`; ``"none"``: births only).
     """
 
     box_state: str = "xyxy"
@@ -252,6 +258,7 @@ class Params:
     camera_warp: str = "box"
     camera_order: str = "before"
     birth_iou: float = 1.0
+    explain_tentative: str = "none"
 
 
 def _noise(p: Params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -459,7 +466,8 @@ def _lifecycle(p: Params) -> Lifecycle:
                      report="matched" if p.report == "estimate" else "detection",
                      tentative_lost=max_lost if p.keep_tentative else 0,
                      warmup_frames=int(p.min_hits) if p.warmup else 0,
-                     activate_first=bool(p.activate_first))
+                     activate_first=bool(p.activate_first),
+                     explain_tentative=str(p.explain_tentative))
 
 
 def _association(p: Params) -> DetectionAssociation:
@@ -573,6 +581,12 @@ OPTIONS = (
                         "(or another birth) by IoU above T: a second box on a person starts no "
                         "second identity (1: off, the trackers package's cores; default: the "
                         "model's, ocsort-colour 0.3)"),
+    _config.Option("--explain-tentative", "explain_tentative",
+                   choices=("none", "prediction", "detection"),
+                   help="remove a track not yet confirmed when its detection is one a confirmed "
+                        "track explains: overlapping its predicted box, or a higher-scored "
+                        "detection it was given, by more than --birth-iou (default: the "
+                        "model's)"),
     _config.Option("--iou-threshold", None, type=_config.finite_float("--iou-threshold"),
                    metavar="T",
                    help="the IoU a detection needs with a track to be matched to it, in every "

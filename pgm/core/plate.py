@@ -37,7 +37,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
-__all__ = ["Plate", "Lifecycle"]
+__all__ = ["Plate", "Lifecycle", "EXPLAIN_TENTATIVE"]
 
 
 def _check_number(name: str, value: Any, low: float, high: float = float("inf"),
@@ -48,6 +48,10 @@ def _check_number(name: str, value: Any, low: float, high: float = float("inf"),
         raise ValueError(f"plate lifecycle: {name} must be an integer, got {value!r}")
     if not (low <= value <= high):  # also false for NaN
         raise ValueError(f"plate lifecycle: {name} must be in [{low}, {high}], got {value!r}")
+
+
+#: what may explain a tentative replica's detection (:attr:`Lifecycle.explain_tentative`)
+EXPLAIN_TENTATIVE = ("none", "prediction", "detection")
 
 
 @dataclass(frozen=True)
@@ -102,6 +106,13 @@ class Lifecycle:
         identities) and reported in that frame with their birth boxes (BoT-SORT's and
         C-BIoU's first-frame activation; ``warmup_frames`` confirms matched replicas
         only, and a replica is matched from its second frame on).
+    explain_tentative : {"none", "prediction", "detection"}
+        The birth rule applied to every match of a tentative replica, which is a birth
+        not yet confirmed: it is removed when its detection is one a confirmed replica
+        explains — ``"prediction"``: the detection overlaps a confirmed replica's
+        predicted box by more than ``birth_iou``; ``"detection"``: it overlaps, by more
+        than ``birth_iou``, a higher-scored detection matched to a confirmed replica
+        (a weaker second box on a tracked person). ``"none"``: only births are checked.
     """
 
     confirm_hits: int = 3
@@ -119,6 +130,7 @@ class Lifecycle:
     warmup_frames: int = 0
     birth_counts: bool = True
     activate_first: bool = False
+    explain_tentative: str = "none"
 
     def __post_init__(self) -> None:
         _check_number("confirm_hits", self.confirm_hits, 1, integer=True)
@@ -143,6 +155,9 @@ class Lifecycle:
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"plate lifecycle: {name} must be a bool, got "
                                  f"{getattr(self, name)!r}")
+        if self.explain_tentative not in EXPLAIN_TENTATIVE:
+            raise ValueError(f"plate lifecycle: explain_tentative must be one of "
+                             f"{EXPLAIN_TENTATIVE}, got {self.explain_tentative!r}")
         if self.report not in ("estimate", "detection", "matched"):
             raise ValueError(f"plate lifecycle: report must be 'estimate', 'detection' or "
                              f"'matched', got {self.report!r}")

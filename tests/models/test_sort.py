@@ -761,3 +761,30 @@ def test_no_birth_on_a_detection_a_track_explains():
     assert eng.num_targets == 1
     np.testing.assert_allclose(eng.tracks[0].state[:2], walk[0][:2] + [10.0, 20.0]
                                + walk[0][2:] / 2)
+
+
+@pytest.mark.parametrize("explain, b_score, kept", [
+    ("none", 0.5, True), ("prediction", 0.5, False), ("prediction", 0.95, False),
+    ("detection", 0.5, False), ("detection", 0.95, True)])
+def test_a_tentative_track_on_a_detection_a_confirmed_one_explains(explain, b_score, kept):
+    """``explain_tentative``: a box born beside a confirmed person (IoU 0.18, so born)
+    moves onto it (IoU 0.33 with the person's box and prediction): removed while
+    tentative under ``"prediction"``; under ``"detection"`` only if it is the weaker of
+    the two boxes; confirmed under ``"none"``."""
+    a = np.array([100.0, 100.0, 40.0, 100.0])
+    eng = Engine(sort.build_graph(sort.Params(birth_iou=0.3, explain_tentative=explain)), 0)
+    for t in range(1, 4):
+        eng.step(_frame(t, [a]))
+    for t, x in ((4, 128.0), (5, 120.0), (6, 120.0)):
+        rec = eng.step(_frame(t, [a, [x, 100.0, 40.0, 100.0]], [0.9, b_score]))
+    assert eng.num_targets == (2 if kept else 1)
+    assert int(rec.plate.reported.sum()) == (2 if kept else 1)
+
+
+def test_explain_tentative_is_checked_and_saved():
+    from pgm.core.plate import Lifecycle
+
+    with pytest.raises(ValueError, match="explain_tentative must be one of"):
+        Lifecycle(explain_tentative="both")
+    lc = Lifecycle(explain_tentative="detection")
+    assert Lifecycle.from_dict(lc.to_dict()) == lc
