@@ -35,11 +35,12 @@ cores, each one setting:
 
 Chosen **leave one sequence out** over the five shared MOT sequences and the toolkit's
 synthetic crossing scene, each under 11 kinds of perturbation (score maps, frame rate,
-dropped, jittered, extra and shifted detections), among 22 candidates of every core
-(``python benchmarks/robustness.py``; numbers in ``docs/results.md``): all six folds
-pick it. It needs the frames (for the colour models) and, where the camera moves,
-compensates its motion as ``pgm track`` does by default. ``pgm track`` runs it on a
-folder with detections when no ``--model`` is given.
+dropped, jittered, extra and shifted detections), among 23 candidates of every core
+(``python benchmarks/robustness.py``; numbers in ``docs/results.md``): five folds of six
+pick it (the sixth, the same with ByteTrack's low-score round added). It needs the
+frames (for the colour models) and, where the camera moves, compensates its motion as
+``pgm track`` does by default. ``pgm track`` runs it on a folder with detections when no
+``--model`` is given.
 
 >>> g = build_graph(Params())
 >>> [type(a).__name__ for a in g.factors["association"].appearance]
