@@ -392,7 +392,8 @@ def main() -> None:
     if args.motions:
         print_table(["sequence", "core", "kalman", "cv", "cv3", "gpdm"], motions(seqs),
                     title="MOTA / IDF1 (frames per second) with the learned or averaged motion "
-                          "models of Wang, Yin & Man (2008) in place of the Kalman filter's constant velocity")
+                          "models of Wang, Yin & Man (2008) in place of the Kalman filter's "
+                          "constant velocity")
     if args.vb_choose:
         print_table(["held out", "picked (rho, alpha0)", "MOTA / IDF1", "shipped MOTA / IDF1"],
                     vb_choose(seqs),

@@ -121,6 +121,7 @@ import matplotlib  # noqa: E402
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+
 def the_filter(engine):
     return next(f for f in engine.graph.factors.values()
                 if isinstance(f, CorrelationFilterLikelihood))

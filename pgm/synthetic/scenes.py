@@ -3,10 +3,9 @@ multi-target scene with births, deaths and crossings."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import NamedTuple
-
-import math
 
 import cv2
 import numpy as np
@@ -314,7 +313,7 @@ def desk_scene(seed: int | np.random.Generator = 0, n_frames: int = 1344, *,
                                     / (2 * 120.0 ** 2)))
         img = desk.copy()
         seen = []
-        for tex, (idx, normal) in zip(textures, _FACES):
+        for tex, (idx, normal) in zip(textures, _FACES, strict=True):
             nw = rot @ np.array(normal, float)
             if nw @ corners[list(idx)].mean(axis=0) >= 0:  # facing away
                 continue

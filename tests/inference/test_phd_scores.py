@@ -150,8 +150,8 @@ def test_score_model_off_is_the_score_blind_filter_bit_for_bit():
 @pytest.mark.parametrize("module", [phd, vb_phd])
 def test_video_default_keeps_a_tracked_target_through_low_scores(module):
     """The video default (the learned score model, γ = 0.5, no birth gate, persisting
-    targets scored by the marginal score density, shadow rule at IoU 0.4): walker A keeps one identity through its 40
-    low-score frames."""
+    targets scored by the marginal score density, shadow rule at IoU 0.4): walker A keeps
+    one identity through its 40 low-score frames."""
     frames = _walkers(n=60)
     params = phd.video_params(module.Params, 640, 480, 25.0, typical_height=80.0,
                               score_min_samples=20)

@@ -13,7 +13,6 @@ variable.
 from __future__ import annotations
 
 from pgm.observation.appearance.correlation import CorrelationFilterLikelihood
-from pgm.observation.appearance.scale_filter import ScaleFilterLikelihood
 from pgm.observation.appearance.likelihoods import (
     ColourContrastLikelihood,
     ColourHistogramLikelihood,
@@ -23,6 +22,7 @@ from pgm.observation.appearance.likelihoods import (
     RotationInvariantLikelihood,
     TemplateLikelihood,
 )
+from pgm.observation.appearance.scale_filter import ScaleFilterLikelihood
 
 __all__ = ["CUES", "appearance_cues", "cue_factor"]
 

@@ -5,14 +5,13 @@ constant-size object the size it holds does not drift."""
 import cv2
 import numpy as np
 import pytest
-
-from pgm.core.frame import FrameContext
-from pgm.observation.appearance.scale_filter import ScaleFilterLikelihood
-
 from test_correlation import (  # same folder: on sys.path
     check_unlearned_refuses_and_saved_settings_load,
     scene,
 )
+
+from pgm.core.frame import FrameContext
+from pgm.observation.appearance.scale_filter import ScaleFilterLikelihood
 
 
 @pytest.mark.parametrize("factor", [0.91, 1.0, 1.06, 1.12])

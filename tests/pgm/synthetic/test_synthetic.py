@@ -282,18 +282,18 @@ def test_desk_scene_box_bounds_the_cube_and_the_video_is_reproducible():
     from pgm.synthetic.scenes import desk_scene
 
     a, b = desk_scene(3, 40), desk_scene(3, 40)
-    assert all(np.array_equal(x, y) for x, y in zip(a.frames, b.frames))
+    assert all(np.array_equal(x, y) for x, y in zip(a.frames, b.frames, strict=True))
     np.testing.assert_array_equal(a.boxes, b.boxes)
     assert not np.array_equal(desk_scene(4, 40).frames[0], a.frames[0])
     longer = desk_scene(3, 90)  # a shorter video is the start of a longer one
     np.testing.assert_array_equal(longer.boxes[:40], a.boxes)
-    assert all(np.array_equal(x, y) for x, y in zip(longer.frames, a.frames))
+    assert all(np.array_equal(x, y) for x, y in zip(longer.frames, a.frames, strict=False))
     boxes = desk_scene(0, 600).boxes
     assert np.all(boxes[:, :2] >= 0) and np.all(boxes[:, 0] + boxes[:, 2] <= 320)
     assert np.all(boxes[:, 1] + boxes[:, 3] <= 240)
     # a plain desk (no texture): the cube is what differs from the desk's lit grey
     plain = desk_scene(5, 30, background=0.0)
-    for img, (x, y, w, h) in zip(plain.frames[::7], plain.boxes[::7]):
+    for img, (x, y, w, h) in zip(plain.frames[::7], plain.boxes[::7], strict=True):
         g = img[..., 0].astype(float)
         x0, y0, x1, y1 = int(np.floor(x)), int(np.floor(y)), int(np.ceil(x + w)), int(np.ceil(y + h))
         inside = g[y0:y1, x0:x1]
