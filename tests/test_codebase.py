@@ -234,3 +234,19 @@ def test_no_rule_state_under_string_keys_and_no_code_loading_in_the_core():
     core = [str(p.relative_to(ROOT)) for p in (ROOT / "pgm" / "core").rglob("*.py")
             if re.search(r"\bimportlib\b|\bimport_module\b", p.read_text())]
     assert not core, f"importlib in the core: {core}"
+
+
+def test_the_tree_passes_the_linter():
+    """``ruff check`` with the project's rules (``pyproject.toml``: pyflakes, pycodestyle,
+    import order, bugbear, numpy) finds nothing in the package, tests, docs or
+    benchmarks."""
+    import importlib.util
+    import subprocess
+    import sys
+
+    if importlib.util.find_spec("ruff") is None:
+        pytest.skip("ruff is not installed (the test extra installs it: pip install -e '.[test]')")
+    res = subprocess.run([sys.executable, "-m", "ruff", "check", ".", "--output-format",
+                          "concise", "--no-cache"], cwd=ROOT, capture_output=True, text=True,
+                         timeout=300)
+    assert res.returncode == 0, res.stdout[-4000:] + res.stderr[-2000:]
