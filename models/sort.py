@@ -56,7 +56,7 @@ import numpy as np
 from pgm.core.boxes import encode_boxes
 from pgm.core.graph import FactorGraph
 from pgm.core.numerics import check_finite_param
-from pgm.core.plate import Lifecycle, Plate
+from pgm.core.plate import EXPLAIN_TENTATIVE, Lifecycle, Plate
 from pgm.core.variable import Variable
 from pgm.factors.association import (
     LEARNED_SCORE_MAPS,
@@ -582,7 +582,7 @@ OPTIONS = (
                         "second identity (1: off, the trackers package's cores; default: the "
                         "model's, ocsort-colour 0.3)"),
     _config.Option("--explain-tentative", "explain_tentative",
-                   choices=("none", "prediction", "detection"),
+                   choices=EXPLAIN_TENTATIVE,
                    help="remove a track not yet confirmed when its detection is one a confirmed "
                         "track explains: overlapping its predicted box, or a higher-scored "
                         "detection it was given, by more than --birth-iou (default: the "
