@@ -108,6 +108,11 @@ def run_graph(graph, det, num_frames: int, seed: int = 0, trace: bool = False,
         rows_i += t.ids.tolist()
         rows_b += t.boxes.tolist()
         rows_c += t.scores.tolist()
+        if t.filled is not None:  # rows of earlier frames (a gap filled)
+            rows_f += t.filled.frames.tolist()
+            rows_i += t.filled.ids.tolist()
+            rows_b += t.filled.boxes.tolist()
+            rows_c += t.filled.scores.tolist()
     peak = tracemalloc.get_traced_memory()[1] if trace else None
     if trace:
         tracemalloc.stop()

@@ -128,6 +128,13 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                           "rounds": OCSORT_LOW[:2] + ({**OCSORT_LOW[2], "tracks": "tracked"},),
                           "reference_fps": 30.0, "birth_iou": 0.3,
                           "explain_tentative": "prediction", **HITS}),
+    # the default, a track found again after a gap of at most 0.25 or 0.5 s reporting
+    # the gap's frames too (boxes interpolated between the two it reported)
+    **{f"ocsort-colour quantile 0.2 hits s30 birth0.3 tentative-prediction fill{g:g}": (
+        "ocsort_colour", {"score_map": "quantile", "score_threshold": 0.2,
+                          "reference_fps": 30.0, "birth_iou": 0.3,
+                          "explain_tentative": "prediction", "fill_gaps": g, **HITS})
+       for g in (0.25, 0.5)},
     # BoT-SORT's cascade (pooled rounds, IoU x score), its thresholds as quantiles
     "botsort quantile": ("botsort", {"score_map": "quantile"}),
     "botsort-colour quantile": ("botsort", {"score_map": "quantile", **COLOUR}),

@@ -237,6 +237,10 @@ class PlateInfo(Info):
         Identities of the replicas removed this frame (0: never confirmed).
     missing : bool
         The frame had no image, detections or measurements (the replicas coast).
+    filled : tuple of arrays, optional
+        Rows for earlier frames, reported now (:attr:`~pgm.core.plate.Lifecycle.
+        fill_gaps`): frame numbers ``(n,)``, identities ``(n,)``, boxes ``(n, 4)``
+        ``(cx, cy, w, h)`` and scores ``(n,)``.
     """
 
     ids: np.ndarray | None = None
@@ -246,6 +250,7 @@ class PlateInfo(Info):
     births: int | None = None
     deaths: np.ndarray | None = None
     missing: bool | None = None
+    filled: tuple | None = None
 
 
 def realigned(values: Any, keep: np.ndarray, births: int) -> Any:

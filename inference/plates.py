@@ -368,6 +368,34 @@ def step_stages(engine: Engine, frame: FrameContext, record: StepRecord, lifecyc
             boxes[matched] = [t.state for t in reps.tracks if t.matched]
     info.ids = np.array([t.track_id or 0 for t in reps.tracks], dtype=np.int64)
     info.boxes, info.reported, info.existence = boxes, shown, existences(reps.tracks)
+    if lc.fill_gaps:
+        info.filled = _filled_gaps(reps.tracks, frame.index, boxes, shown, info.existence,
+                                   lc.fill_gaps)
+
+
+def _filled_gaps(tracks: list[Track], index: int, boxes: np.ndarray, shown: np.ndarray,
+                 existence: np.ndarray, longest: int) -> tuple | None:
+    """The rows of earlier frames that the replicas reported in frame ``index`` after a gap
+    of at most ``longest`` frames fill (:attr:`~pgm.core.plate.Lifecycle.fill_gaps`): each
+    gap frame's box on the line between the two reported boxes, with the replica's
+    existence now; None when there are none. Every reported replica remembers its frame
+    and box."""
+    frames, ids, filled, scores = [], [], [], []
+    for k in np.flatnonzero(shown):
+        t = tracks[k]
+        if t.last_reported is not None and 1 < index - t.last_reported[0] <= longest + 1:
+            start, before = t.last_reported
+            gap = index - start
+            w = (np.arange(1, gap) / gap)[:, None]
+            frames.append(np.arange(start + 1, index))
+            ids.append(np.full(gap - 1, t.track_id, dtype=np.int64))
+            filled.append((1.0 - w) * before + w * boxes[k])
+            scores.append(np.full(gap - 1, existence[k]))
+        t.last_reported = (index, np.array(boxes[k], dtype=float))
+    if not frames:
+        return None
+    return (np.concatenate(frames).astype(np.int64), np.concatenate(ids),
+            np.concatenate(filled), np.concatenate(scores))
 
 
 def _explained_tentative(tracks: list[Track], rows: np.ndarray, cols: np.ndarray,
@@ -505,8 +533,12 @@ def plate_targets(graph: FactorGraph, record: StepRecord) -> Targets:
     boxes and existence scores (the ``"plate"`` readout)."""
     info = record.plate
     keep = info.reported
+    filled = None
+    if info.filled is not None:
+        f, i, b, c = info.filled
+        filled = Targets(i, cxcywh_to_xywh(b), c, frames=f)
     return Targets(info.ids[keep], cxcywh_to_xywh(info.boxes[keep]),
-                   info.existence[keep], text=f"{int(keep.sum())} targets")
+                   info.existence[keep], text=f"{int(keep.sum())} targets", filled=filled)
 
 
 class PlateRuntime(SingleGraph):

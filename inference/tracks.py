@@ -53,6 +53,8 @@ class Track:
     history: list = field(default_factory=list)
     #: whether a detection was matched to it in the latest frame (``state`` is its box)
     matched: bool = False
+    #: the frame number and box ``(cx, cy, w, h)`` it was last reported with (gap filling)
+    last_reported: tuple[int, np.ndarray] | None = None
 
     @property
     def existence(self) -> float:

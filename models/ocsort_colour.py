@@ -1,7 +1,7 @@
 """The default multi-target model: OC-SORT's association, its filtered boxes, a colour model
 per track, thresholds on the video's own score quantiles, and SORT's life cycle.
 
-:mod:`pgm.models.ocsort`'s graph with six of the ideas this toolkit adds to the classic
+:mod:`pgm.models.ocsort`'s graph with seven of the ideas this toolkit adds to the classic
 cores, each one setting:
 
 * ``report="estimate"`` — a matched track reports its Kalman posterior box (the filtered
@@ -31,13 +31,17 @@ cores, each one setting:
 * ``explain_tentative="prediction"`` — the same rule on every match of a track not yet
   confirmed (a birth in progress): it is removed when its detection overlaps a confirmed
   track's predicted box by more than 0.3, so a box born beside a person that drifts onto
-  them never becomes a second identity.
+  them never becomes a second identity;
+* ``fill_gaps=0.5`` — a track found again after at most half a second without a match
+  also reports the frames between, its box interpolated between the two it reported,
+  written to the track file when it is found (the annotated video shows what was known
+  at each frame).
 
 Chosen **leave one sequence out** over the five shared MOT sequences and the toolkit's
 synthetic crossing scene, each under 11 kinds of perturbation (score maps, frame rate,
-dropped, jittered, extra and shifted detections), among 23 candidates of every core
-(``python benchmarks/robustness.py``; numbers in ``docs/results.md``): five folds of six
-pick it (the sixth, the same with ByteTrack's low-score round added). It needs the
+dropped, jittered, extra and shifted detections), among 25 candidates of every core
+(``python benchmarks/robustness.py``; numbers in ``docs/results.md``): four folds of six
+pick it (the two PETS09-S2L1 folds, the same filling gaps up to 0.25 s). It needs the
 frames (for the colour models) and, where the camera moves, compensates its motion as
 ``pgm track`` does by default. ``pgm track`` runs it on a folder with detections when no
 ``--model`` is given.
@@ -49,6 +53,8 @@ frames (for the colour models) and, where the camera moves, compensates its moti
 ('matched', 1)
 >>> g.plates[0].lifecycle.birth_iou, g.plates[0].lifecycle.explain_tentative
 (0.3, 'prediction')
+>>> g.plates[0].lifecycle.fill_gaps  # 0.5 s at 30 frames/s
+15
 >>> build_graph(Params(fps=7.0)).plates[0].lifecycle.confirm_hits
 1
 >>> g.factors["association"].score_map, [r["min_score"] for r in g.factors["association"].rounds]
@@ -72,8 +78,8 @@ __all__ = ["CONFIG", "Params", "build_graph"]
 class Params(ocsort.Params):
     """:class:`pgm.models.ocsort.Params` reporting the filtered boxes, with colour
     appearance in the association, score quantiles, SORT's life cycle, its per-frame
-    constants read at 30 frames/s and no birth, nor tentative track, on a detection a
-    track explains."""
+    constants read at 30 frames/s, no birth, nor tentative track, on a detection a track
+    explains, and gaps of up to 0.5 s filled."""
 
     report: str = "estimate"
     appearance: str | None = "colour"
@@ -85,6 +91,7 @@ class Params(ocsort.Params):
     reference_fps: float | None = 30.0
     birth_iou: float = 0.3
     explain_tentative: str = "prediction"
+    fill_gaps: float = 0.5
 
 
 def build_graph(params: Params | None = None, name: str = "ocsort-colour") -> FactorGraph:

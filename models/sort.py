@@ -214,6 +214,11 @@ class Params:
         (``"prediction"``), or a higher-scored detection a confirmed track was given
         (``"detection"``), by more than ``birth_iou``
         (:attr:`~pgm.core.plate.Lifecycle.explain_tentative`; ``"none"``: births only).
+    fill_gaps : float
+        Seconds: a track found again after at most this long without a match also
+        reports the frames between, its box interpolated between the two it reported,
+        written when it is found (:attr:`~pgm.core.plate.Lifecycle.fill_gaps`, in the
+        video's frames; 0: never, the package's cores).
     """
 
     box_state: str = "xyxy"
@@ -259,6 +264,7 @@ class Params:
     camera_order: str = "before"
     birth_iou: float = 1.0
     explain_tentative: str = "none"
+    fill_gaps: float = 0.0
 
 
 def _noise(p: Params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -393,6 +399,9 @@ def _check(p: Params) -> None:
         raise ValueError(f"score_map must be one of {SCORE_MAPS}, got {p.score_map!r}")
     check_finite_param("fps", p.fps, positive=True)
     check_finite_param("activation", p.activation)
+    check_finite_param("fill_gaps", p.fill_gaps)
+    if p.fill_gaps < 0:
+        raise ValueError(f"fill_gaps must be at least 0 seconds, got {p.fill_gaps}")
     if p.score_threshold is not None:
         check_finite_param("score_threshold", p.score_threshold)
         if p.score_map in LEARNED_SCORE_MAPS and not 0.0 <= p.score_threshold <= 1.0:
@@ -467,7 +476,8 @@ def _lifecycle(p: Params) -> Lifecycle:
                      tentative_lost=max_lost if p.keep_tentative else 0,
                      warmup_frames=int(p.min_hits) if p.warmup else 0,
                      activate_first=bool(p.activate_first),
-                     explain_tentative=str(p.explain_tentative))
+                     explain_tentative=str(p.explain_tentative),
+                     fill_gaps=int(math.floor(float(p.fill_gaps) * float(p.fps) + 1e-9)))
 
 
 def _association(p: Params) -> DetectionAssociation:
@@ -587,6 +597,11 @@ OPTIONS = (
                         "track explains: overlapping its predicted box, or a higher-scored "
                         "detection it was given, by more than --birth-iou (default: the "
                         "model's)"),
+    _config.Option("--fill-gaps", "fill_gaps", type=_config.finite_float("--fill-gaps"),
+                   metavar="SECONDS",
+                   help="a track found again after at most SECONDS without a match also "
+                        "reports the frames between (boxes interpolated), written to the track "
+                        "file when it is found (0: never; default: the model's)"),
     _config.Option("--iou-threshold", None, type=_config.finite_float("--iou-threshold"),
                    metavar="T",
                    help="the IoU a detection needs with a track to be matched to it, in every "

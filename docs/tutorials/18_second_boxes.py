@@ -24,8 +24,9 @@ The tutorial
    box, 1.3 times as tall, raised by 0.5 to 0.8 of its height, scoring lower (IoU 0.28
    to 0.53 with the first: a few are born beside the person, then match boxes on them);
 2. tracks them with the default's association (without its colour models, to run on the
-   detections alone) three ways: births everywhere (``birth_iou=1``, the classic cores),
-   births a track explains refused, and tentative tracks too;
+   detections alone, and without its gap filling) three ways: births everywhere
+   (``birth_iou=1``, the classic cores), births a track explains refused, and tentative
+   tracks too;
 3. prints MOTA, IDF1, false positives and identities against the scene's true count,
    and plots how many tracks each reports per frame.
 
@@ -107,7 +108,8 @@ def track(params) -> tuple[dict, np.ndarray, int]:
 
 # %%
 # 2. Three ways to start tracks, on the same detections.
-base = replace(ocsort_colour.Params(), appearance=None, fps=scene.fps)
+# (no gap filling either, so that what differs is how tracks start)
+base = replace(ocsort_colour.Params(), appearance=None, fill_gaps=0.0, fps=scene.fps)
 runs = {
     "births everywhere (birth_iou=1)": replace(base, birth_iou=1.0, explain_tentative="none"),
     "births a track explains refused": replace(base, explain_tentative="none"),

@@ -400,6 +400,16 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
         rows_c.extend(conf.tolist())
         if outputs.writer is not None and len(ids):
             outputs.writer.write(number, ids, boxes, conf)
+        late = targets.filled  # rows of earlier frames, reported now (a gap filled)
+        if late is not None and len(late):
+            rows_f.extend(late.frames.tolist())
+            rows_i.extend(late.ids.tolist())
+            rows_b.extend(late.boxes.tolist())
+            rows_c.extend(late.scores.tolist())
+            if outputs.writer is not None:
+                for f in np.unique(late.frames):
+                    at = late.frames == f
+                    outputs.writer.write(int(f), late.ids[at], late.boxes[at], late.scores[at])
         if outputs.video is not None:
             particles = None
             if show_particles:  # every replica's particles, for a plate

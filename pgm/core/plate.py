@@ -113,6 +113,11 @@ class Lifecycle:
         predicted box by more than ``birth_iou``; ``"detection"``: it overlaps, by more
         than ``birth_iou``, a higher-scored detection matched to a confirmed replica
         (a weaker second box on a tracked person). ``"none"``: only births are checked.
+    fill_gaps : int
+        A reported replica found again after at most this many frames without being
+        reported also reports the frames between, its box interpolated linearly between
+        the two it reported (:attr:`~pgm.inference.info.PlateInfo.filled`; written when it
+        is found, as rows of the earlier frames); 0: never.
     """
 
     confirm_hits: int = 3
@@ -131,6 +136,7 @@ class Lifecycle:
     birth_counts: bool = True
     activate_first: bool = False
     explain_tentative: str = "none"
+    fill_gaps: int = 0
 
     def __post_init__(self) -> None:
         _check_number("confirm_hits", self.confirm_hits, 1, integer=True)
@@ -151,6 +157,7 @@ class Lifecycle:
             _check_number("recover_hits", self.recover_hits, 1, integer=True)
         _check_number("tentative_lost", self.tentative_lost, 0, integer=True)
         _check_number("warmup_frames", self.warmup_frames, 0, integer=True)
+        _check_number("fill_gaps", self.fill_gaps, 0, integer=True)
         for name in ("birth_counts", "activate_first"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"plate lifecycle: {name} must be a bool, got "

@@ -55,12 +55,20 @@ class Targets:
         Confidence of each target (1 for a single-object tracker).
     text : str
         A short summary for annotated frames (e.g. the expected target count).
+    frames : ndarray, shape (K,), optional
+        The frame of each row, for rows of earlier frames (``filled``); None: this frame.
+    filled : Targets, optional
+        Rows of earlier frames the tracker reports now, each with its ``frames`` (a track
+        found again after a short gap, :attr:`~pgm.core.plate.Lifecycle.fill_gaps`): a
+        track file gets them as rows of those frames; what was drawn stays as it was.
     """
 
     ids: np.ndarray
     boxes: np.ndarray
     scores: np.ndarray
     text: str = ""
+    frames: np.ndarray | None = None
+    filled: Targets | None = None
 
     def __post_init__(self) -> None:
         ids = np.asarray(self.ids, dtype=np.int64).reshape(-1)
@@ -72,6 +80,11 @@ class Targets:
         object.__setattr__(self, "ids", ids)
         object.__setattr__(self, "boxes", boxes)
         object.__setattr__(self, "scores", scores)
+        if self.frames is not None:
+            frames = np.asarray(self.frames, dtype=np.int64).reshape(-1)
+            if frames.shape[0] != ids.shape[0]:
+                raise ValueError(f"Targets: {ids.shape[0]} ids and {frames.shape[0]} frames")
+            object.__setattr__(self, "frames", frames)
 
     def __len__(self) -> int:
         return int(self.ids.shape[0])

@@ -788,3 +788,29 @@ def test_explain_tentative_is_checked_and_saved():
         Lifecycle(explain_tentative="both")
     lc = Lifecycle(explain_tentative="detection")
     assert Lifecycle.from_dict(lc.to_dict()) == lc
+
+
+def test_a_gap_filled_when_the_track_is_found_again():
+    """``fill_gaps``: a confirmed track missed for two frames and found in the third reports
+    the two missed frames then (``Targets.filled``), their boxes on the line between the
+    boxes it reported before and after; a longer gap than ``fill_gaps`` frames, and a
+    track that is never found again, fill nothing."""
+    from pgm.core.readout import readout
+
+    box = np.array([100.0, 100.0, 40.0, 100.0])
+    step = np.array([6.0, 3.0, 0.0, 0.0])
+    eng = Engine(sort.build_graph(sort.Params(fps=10.0, fill_gaps=0.2, report="detection")), 0)
+    assert eng.graph.plates[0].lifecycle.fill_gaps == 2  # 0.2 s at 10 frames/s
+    filled = {}
+    seen = [1, 2, 3, 4, 7, 8, 12]  # gaps of 2 frames (filled) and of 3 (not)
+    for t in range(1, 13):
+        dets = [box + t * step] if t in seen else np.zeros((0, 4))
+        out = readout(eng.graph, eng.step(_frame(t, dets)))
+        if out.filled is not None:
+            filled[t] = out.filled
+    assert list(filled) == [7]
+    late = filled[7]
+    assert late.frames.tolist() == [5, 6] and len(set(late.ids.tolist())) == 1
+    np.testing.assert_allclose(late.boxes, [box + 5 * step, box + 6 * step])
+    with pytest.raises(ValueError, match="fill_gaps"):
+        sort.build_graph(sort.Params(fill_gaps=-1.0))

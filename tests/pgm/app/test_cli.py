@@ -341,3 +341,24 @@ def test_a_saved_part_graph_reruns_on_a_folder_with_ground_truth(tmp_path, capsy
     lo = min(m[1] - m[3] / 2 for m in tops)
     hi = max(m[1] + m[3] / 2 for m in tops)
     assert lo == pytest.approx(90 - 1, abs=1e-6) and hi == pytest.approx(90 - 1 + 100, abs=1e-6)
+
+
+def test_filled_gaps_reach_the_track_file_and_the_metrics(mot_dir, tmp_path, capsys):
+    """``--fill-gaps``: the rows of a filled gap are written to tracks.txt when the track is
+    found again (after the rows of that frame), and the file scores as metrics.json does;
+    without it the file has fewer rows, all in frame order."""
+    outs = {}
+    for name, extra in (("none", ["--fill-gaps", "0"]), ("fill", ["--fill-gaps", "0.5"])):
+        out = outs[name] = tmp_path / name
+        code, _, err = run_cli(capsys, "track", mot_dir, "--model", "sort", "--no-video",
+                               "--out", out, *extra)
+        assert code == 0, err
+    rows = {k: np.loadtxt(o / "tracks.txt", delimiter=",") for k, o in outs.items()}
+    assert np.all(np.diff(rows["none"][:, 0]) >= 0)
+    assert len(rows["fill"]) > len(rows["none"])
+    assert np.any(np.diff(rows["fill"][:, 0]) < 0)  # gap rows come when the track is found
+    for out in outs.values():
+        m = json.loads((out / "metrics.json").read_text())
+        code, stdout, _ = run_cli(capsys, "eval", "--gt", mot_dir / "gt" / "gt.txt", "--pred",
+                                  out / "tracks.txt", "--json")
+        assert code == 0 and json.loads(stdout)["mota"] == pytest.approx(m["mota"])
