@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 __all__ = ["Option", "VideoInfo", "ModelConfig", "KINDS", "int_in", "finite_float", "default_build",
-           "APPEARANCE", "SCALE_NOISE", "PARTS"]
+           "given", "APPEARANCE", "SCALE_NOISE", "PARTS"]
 
 #: what a model tracks: one object given by a box, many targets from detections, or no
 #: video at all (a state-space model fed measurements through the Python API)
@@ -105,6 +105,13 @@ class Option:
         return kw
 
 
+def given(value: Any) -> bool:
+    """Whether an option's parsed value was given on the command line: not None (an option
+    left out) nor False (a flag left out). A number is given even when it is 0
+    (``--fill-gaps 0`` turns gap filling off, it does not fall back to the model's)."""
+    return value is not None and value is not False
+
+
 @dataclass(frozen=True)
 class VideoInfo:
     """What the application knows of a video when it builds a model's graph.
@@ -169,7 +176,7 @@ def default_build(config: ModelConfig, values: dict[str, Any], video: VideoInfo)
     declared = {f.name: f for f in dataclasses.fields(params_cls)}
     fields = set(declared)
     kwargs = {o.field: values[o.dest] for o in config.options
-              if o.field is not None and values.get(o.dest) not in (None, False)}
+              if o.field is not None and given(values.get(o.dest))}
     if "init_box" in fields and video.init_box is not None:
         kwargs["init_box"] = tuple(float(v) for v in video.init_box)
     if "fps" in fields and (video.fps_declared or declared["fps"].default is not None):

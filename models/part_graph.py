@@ -456,7 +456,7 @@ def _build(config, values, video):
     if name is None:
         return _config.default_build(config, values, video)
     fields = {o.field: values[o.dest] for o in config.options
-              if o.field is not None and values.get(o.dest) not in (None, False)}
+              if o.field is not None and _config.given(values.get(o.dest))}
     if video.particles is not None:
         fields["num_particles"] = int(video.particles)
     box = None if video.init_box is None else tuple(float(v) for v in video.init_box)

@@ -616,7 +616,7 @@ def video_build(config: _config.ModelConfig, values: dict[str, Any],
     map (:func:`score_map_for`)."""
     params = config.module.Params()
     kw: dict[str, Any] = {o.field: values[o.dest] for o in config.options
-                          if o.field is not None and values.get(o.dest) not in (None, False)}
+                          if o.field is not None and _config.given(values.get(o.dest))}
     kw["fps"] = float(video.fps)
     if video.particles is not None:
         kw["num_particles"] = int(video.particles)

@@ -66,7 +66,7 @@ def graph_from_config(config, args: argparse.Namespace, video):
         raise
     except (ValueError, TypeError) as exc:
         given = [f"{o.flag} {values[o.dest]!r}" for o in config.options
-                 if values[o.dest] not in (None, False)]
+                 if values[o.dest] is not None and values[o.dest] is not False]
         msg = one_line(exc)
         if not given or any(o.flag in msg for o in config.options):
             raise InputError(f"model {config.name!r}: {msg}") from None

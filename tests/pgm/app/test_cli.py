@@ -349,10 +349,12 @@ def test_filled_gaps_reach_the_track_file_and_the_metrics(mot_dir, tmp_path, cap
     without it the file has fewer rows, all in frame order."""
     outs = {}
     for name, extra in (("none", ["--fill-gaps", "0"]), ("fill", ["--fill-gaps", "0.5"])):
-        out = outs[name] = tmp_path / name
-        code, _, err = run_cli(capsys, "track", mot_dir, "--model", "sort", "--no-video",
-                               "--out", out, *extra)
+        out = outs[name] = tmp_path / name  # the default fills 0.5 s: 0 must turn it off
+        code, _, err = run_cli(capsys, "track", mot_dir, "--model", "ocsort-colour",
+                               "--no-video", "--out", out, *extra)
         assert code == 0, err
+        saved = json.loads((out / "model.json").read_text())["plates"][0]["lifecycle"]
+        assert saved["fill_gaps"] == (0 if name == "none" else 15)  # 0.5 s at 30 frames/s
     rows = {k: np.loadtxt(o / "tracks.txt", delimiter=",") for k, o in outs.items()}
     assert np.all(np.diff(rows["none"][:, 0]) >= 0)
     assert len(rows["fill"]) > len(rows["none"])
