@@ -103,16 +103,11 @@ def run_graph(graph, det, num_frames: int, seed: int = 0, trace: bool = False,
         t0 = time.perf_counter()
         record = engine.step(ctx)
         secs += time.perf_counter() - t0
-        t = readout(engine.graph, record)
-        rows_f += [ctx.index] * len(t.ids)
-        rows_i += t.ids.tolist()
-        rows_b += t.boxes.tolist()
-        rows_c += t.scores.tolist()
-        if t.filled is not None:  # rows of earlier frames (a gap filled)
-            rows_f += t.filled.frames.tolist()
-            rows_i += t.filled.ids.tolist()
-            rows_b += t.filled.boxes.tolist()
-            rows_c += t.filled.scores.tolist()
+        f, i, b, c = readout(engine.graph, record).rows(ctx.index)  # (and filled gaps)
+        rows_f += f.tolist()
+        rows_i += i.tolist()
+        rows_b += b.tolist()
+        rows_c += c.tolist()
     peak = tracemalloc.get_traced_memory()[1] if trace else None
     if trace:
         tracemalloc.stop()

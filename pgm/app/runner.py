@@ -394,22 +394,16 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
             sigmas.append(float(np.sqrt(np.mean(record.estimates[noise[0].name]))))
         targets = readout(engine.graph, record)
         ids, boxes, conf = targets.ids, targets.boxes, targets.scores
-        rows_f.extend([number] * len(ids))
-        rows_i.extend(ids.tolist())
-        rows_b.extend(boxes.tolist())
-        rows_c.extend(conf.tolist())
-        if outputs.writer is not None and len(ids):
-            outputs.writer.write(number, ids, boxes, conf)
-        late = targets.filled  # rows of earlier frames, reported now (a gap filled)
-        if late is not None and len(late):
-            rows_f.extend(late.frames.tolist())
-            rows_i.extend(late.ids.tolist())
-            rows_b.extend(late.boxes.tolist())
-            rows_c.extend(late.scores.tolist())
-            if outputs.writer is not None:
-                for f in np.unique(late.frames):
-                    at = late.frames == f
-                    outputs.writer.write(int(f), late.ids[at], late.boxes[at], late.scores[at])
+        # this frame's rows, then any of earlier frames reported now (a gap filled)
+        f, i, b, c = targets.rows(number)
+        rows_f.extend(f.tolist())
+        rows_i.extend(i.tolist())
+        rows_b.extend(b.tolist())
+        rows_c.extend(c.tolist())
+        if outputs.writer is not None:
+            for g in dict.fromkeys([int(number), *np.unique(f).tolist()]):  # then by frame
+                at = f == g
+                outputs.writer.write(int(g), i[at], b[at], c[at])
         if outputs.video is not None:
             particles = None
             if show_particles:  # every replica's particles, for a plate

@@ -89,6 +89,18 @@ class Targets:
     def __len__(self) -> int:
         return int(self.ids.shape[0])
 
+    def rows(self, frame: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Every row this report gives a track file, as arrays ``(frames, ids, boxes,
+        scores)``: the targets of ``frame``, then the :attr:`filled` rows of earlier
+        frames."""
+        own = np.full(len(self), int(frame), dtype=np.int64)
+        if self.filled is None or not len(self.filled):
+            return own, self.ids, self.boxes, self.scores
+        late = self.filled
+        return (np.concatenate([own, late.frames]), np.concatenate([self.ids, late.ids]),
+                np.concatenate([self.boxes, late.boxes]),
+                np.concatenate([self.scores, late.scores]))
+
 
 Readout = Callable[[Any, Any], Targets]
 _READOUTS: dict[str, Readout] = {}
