@@ -55,6 +55,7 @@ from pgm.core.boxes import (
     bounding_box,
     box_coding,
     cxcywh_to_xywh,
+    iou_matrix,
     iou_xywh,
     place_parts,
     state_boxes,
@@ -62,6 +63,7 @@ from pgm.core.boxes import (
 from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 from pgm.core.graph import FactorGraph
+from pgm.core.motion import warp_states
 from pgm.core.readout import Targets, register_readout
 from pgm.factors import LikelihoodFactor
 
@@ -370,32 +372,106 @@ def step_stages(engine: Engine, frame: FrameContext, record: StepRecord, lifecyc
     info.boxes, info.reported, info.existence = boxes, shown, existences(reps.tracks)
     if lc.fill_gaps:
         info.filled = _filled_gaps(reps.tracks, frame.index, boxes, shown, info.existence,
-                                   lc.fill_gaps)
+                                   lc, frame.camera_motion)
 
 
 def _filled_gaps(tracks: list[Track], index: int, boxes: np.ndarray, shown: np.ndarray,
-                 existence: np.ndarray, longest: int) -> tuple | None:
-    """The rows of earlier frames that the replicas reported in frame ``index`` after a gap
-    of at most ``longest`` frames fill (:attr:`~pgm.core.plate.Lifecycle.fill_gaps`): each
-    gap frame's box on the line between the two reported boxes, with the replica's
-    existence now; None when there are none. Every reported replica remembers its frame
-    and box."""
+                 existence: np.ndarray, lc: Lifecycle, camera: np.ndarray | None = None
+                 ) -> tuple | None:
+    """The rows of earlier frames that the replicas reported in frame ``index`` fill
+    (:attr:`~pgm.core.plate.Lifecycle.fill_gaps`), with the replica's existence now.
+
+    A replica reported again after a gap of at most ``lc.fill_gaps`` frames fills it once
+    it has been matched ``lc.fill_after`` frames in a row since (default
+    ``confirm_hits``: a gap closed on a single match may have been closed on a false
+    detection). The gap's boxes lie on the line between the two boxes that bound it in
+    the world the camera sees: both are taken to the coordinates of the frame before the
+    gap through the camera's image motions of the gap's frames (``camera``: this frame's,
+    None: still), interpolated there and moved into each frame's own coordinates. A gap
+    is not filled when another replica's reported boxes overlap the replica's by more
+    than ``lc.birth_iou`` at both of its ends: the two are on one object (a second box
+    on it that survived the birth rule), and what the gap misses, the other reported.
+    None when there are no rows.
+
+    Every replica remembers the frames and boxes it reported lately (the last
+    ``fill_gaps + 1`` of them), the camera's motions since its latest, and a gap waiting
+    to be filled (dropped when it is not reported before it is filled)."""
+    longest = lc.fill_gaps
+    after = lc.confirm_hits if lc.fill_after is None else lc.fill_after
     frames, ids, filled, scores = [], [], [], []
-    for k in np.flatnonzero(shown):
-        t = tracks[k]
+    for k, t in enumerate(tracks):
+        if t.last_reported is not None and len(t.gap_motions) <= longest + 1:
+            t.gap_motions.append(_homogeneous(camera))
+        if not shown[k]:
+            t.pending_gap = None
+            continue
+        found = np.array(boxes[k], dtype=float)
         if t.last_reported is not None and 1 < index - t.last_reported[0] <= longest + 1:
             start, before = t.last_reported
-            gap = index - start
-            w = (np.arange(1, gap) / gap)[:, None]
-            frames.append(np.arange(start + 1, index))
-            ids.append(np.full(gap - 1, t.track_id, dtype=np.int64))
-            filled.append((1.0 - w) * before + w * boxes[k])
-            scores.append(np.full(gap - 1, existence[k]))
-        t.last_reported = (index, np.array(boxes[k], dtype=float))
+            t.pending_gap = (start, before, index, found,
+                             _gap_boxes(before, found, t.gap_motions))
+        t.last_reported, t.gap_motions = (index, found), []
+        t.recent_reports = (t.recent_reports + [t.last_reported])[-(longest + 2):]
+    for k, t in enumerate(tracks):
+        if not shown[k] or t.pending_gap is None or t.streak < after:
+            continue
+        start, before, end, found, gap_boxes = t.pending_gap
+        t.pending_gap = None
+        if _shared(start, before, end, found, [o for o in tracks if o is not t], lc.birth_iou):
+            continue
+        frames.append(np.arange(start + 1, end))
+        ids.append(np.full(end - start - 1, t.track_id, dtype=np.int64))
+        filled.append(gap_boxes)
+        scores.append(np.full(end - start - 1, existence[k]))
     if not frames:
         return None
     return (np.concatenate(frames).astype(np.int64), np.concatenate(ids),
             np.concatenate(filled), np.concatenate(scores))
+
+
+def _shared(start: int, before: np.ndarray, end: int, found: np.ndarray, others: list[Track],
+            most: float) -> bool:
+    """Whether one of ``others`` reported boxes overlapping ``before`` at frame ``start``
+    and ``found`` at frame ``end`` (centre boxes) by IoU above ``most``."""
+    if most >= 1.0:
+        return False
+    for o in others:
+        seen = dict((f, b) for f, b in o.recent_reports if f in (start, end))
+        if len(seen) == 2 and iou_matrix(np.array([before, found]),
+                                         np.array([seen[start], seen[end]])
+                                         ).diagonal().min() > most:
+            return True
+    return False
+
+
+_BOX_LABELS = ("cx", "cy", "w", "h")
+
+
+def _homogeneous(affine: np.ndarray | None) -> np.ndarray:
+    """The image motion ``affine`` ``(2, 3)`` as a ``3 × 3`` matrix (None: the identity)."""
+    out = np.eye(3)
+    if affine is not None:
+        out[:2] = affine
+    return out
+
+
+def _gap_boxes(before: np.ndarray, after: np.ndarray, motions: list[np.ndarray]
+               ) -> np.ndarray:
+    """The boxes ``(cx, cy, w, h)`` of a gap's frames between ``before`` (the frame before
+    the gap) and ``after`` (the frame after it), ``motions`` the camera's image motions
+    ``3 × 3`` of the gap's frames and the one after: linear in the first frame's
+    coordinates, each then moved into its own frame's."""
+    gap = len(motions)
+    # to_frame[j]: the first frame's coordinates to those of the gap's j-th frame (1-based)
+    to_frame = [np.eye(3)]
+    for m in motions:
+        to_frame.append(m @ to_frame[-1])
+    back = np.linalg.inv(to_frame[-1])[:2]
+    found = warp_states(after[None], _BOX_LABELS, back)[0]
+    w = (np.arange(1, gap) / gap)[:, None]
+    line = (1.0 - w) * before + w * found
+    return np.concatenate([warp_states(line[j - 1:j], _BOX_LABELS, to_frame[j][:2])
+                           for j in range(1, gap)]) if gap > 1 else np.zeros((0, 4))
 
 
 def _explained_tentative(tracks: list[Track], rows: np.ndarray, cols: np.ndarray,

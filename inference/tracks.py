@@ -55,6 +55,13 @@ class Track:
     matched: bool = False
     #: the frame number and box ``(cx, cy, w, h)`` it was last reported with (gap filling)
     last_reported: tuple[int, np.ndarray] | None = None
+    #: the frames and boxes it was reported with lately (a gap's frames another fills)
+    recent_reports: list = field(default_factory=list)
+    #: the camera's image motions ``3 × 3`` of the frames since it was last reported
+    gap_motions: list = field(default_factory=list)
+    #: a gap it closed, waiting for matches in a row before it is filled: the gap's frame
+    #: numbers and boxes
+    pending_gap: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def existence(self) -> float:

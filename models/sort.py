@@ -219,6 +219,10 @@ class Params:
         reports the frames between, its box interpolated between the two it reported,
         written when it is found (:attr:`~pgm.core.plate.Lifecycle.fill_gaps`, in the
         video's frames; 0: never, the package's cores).
+    fill_after : int, optional
+        Matches in a row a track found again needs before its gap is filled, in frames at
+        ``reference_fps`` like ``min_hits`` (None: ``min_hits``, the evidence a new
+        track needs; :attr:`~pgm.core.plate.Lifecycle.fill_after`).
     """
 
     box_state: str = "xyxy"
@@ -265,6 +269,7 @@ class Params:
     birth_iou: float = 1.0
     explain_tentative: str = "none"
     fill_gaps: float = 0.0
+    fill_after: int | None = None
 
 
 def _noise(p: Params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -319,6 +324,7 @@ def at_frame_rate(p: Params) -> Params:
     frames = lambda k: max(1, round(int(k) / tau))  # noqa: E731
     return replace(p, reference_fps=None, min_hits=frames(p.min_hits),
                    recover_hits=frames(p.recover_hits), delta_t=frames(p.delta_t),
+                   fill_after=None if p.fill_after is None else frames(p.fill_after),
                    process_noise=tuple(float(v) for v in q),
                    initial_cov=tuple(float(v) for v in p0),
                    pos_std=p.pos_std * math.sqrt(tau), vel_std=p.vel_std * tau ** 1.5,
@@ -407,6 +413,9 @@ def _check(p: Params) -> None:
         if p.score_map in LEARNED_SCORE_MAPS and not 0.0 <= p.score_threshold <= 1.0:
             raise ValueError(f"score_threshold is in [0, 1] with the {p.score_map} score map, "
                              f"got {p.score_threshold}")
+    if p.fill_after is not None and (isinstance(p.fill_after, bool) or not isinstance(
+            p.fill_after, (int, float)) or int(p.fill_after) != p.fill_after or p.fill_after < 1):
+        raise ValueError(f"fill_after must be a positive integer or None, got {p.fill_after!r}")
     for name in ("lost_buffer", "min_hits"):
         v = getattr(p, name)
         if isinstance(v, bool) or int(v) != v or v < (1 if name == "min_hits" else 0):
@@ -477,7 +486,8 @@ def _lifecycle(p: Params) -> Lifecycle:
                      warmup_frames=int(p.min_hits) if p.warmup else 0,
                      activate_first=bool(p.activate_first),
                      explain_tentative=str(p.explain_tentative),
-                     fill_gaps=int(math.floor(float(p.fill_gaps) * float(p.fps) + 1e-9)))
+                     fill_gaps=int(math.floor(float(p.fill_gaps) * float(p.fps) + 1e-9)),
+                     fill_after=None if p.fill_after is None else int(p.fill_after))
 
 
 def _association(p: Params) -> DetectionAssociation:
@@ -602,6 +612,10 @@ OPTIONS = (
                    help="a track found again after at most SECONDS without a match also "
                         "reports the frames between (boxes interpolated), written to the track "
                         "file when it is found (0: never; default: the model's)"),
+    _config.Option("--fill-after", "fill_after",
+                   type=_config.int_in("--fill-after", 1, 100000), metavar="N",
+                   help="matches in a row a track found again needs before its gap is filled "
+                        "(1: at once; default: the matches a new track needs)"),
     _config.Option("--iou-threshold", None, type=_config.finite_float("--iou-threshold"),
                    metavar="T",
                    help="the IoU a detection needs with a track to be matched to it, in every "

@@ -118,6 +118,10 @@ class Lifecycle:
         reported also reports the frames between, its box interpolated linearly between
         the two it reported (:attr:`~pgm.inference.info.PlateInfo.filled`; written when it
         is found, as rows of the earlier frames); 0: never.
+    fill_after : int, optional
+        Matches in a row a replica found again needs before its gap is filled (None:
+        ``confirm_hits``, the evidence a birth needs: a gap closed on one match may
+        have been closed on a false detection; 1: at once).
     """
 
     confirm_hits: int = 3
@@ -137,6 +141,7 @@ class Lifecycle:
     activate_first: bool = False
     explain_tentative: str = "none"
     fill_gaps: int = 0
+    fill_after: int | None = None
 
     def __post_init__(self) -> None:
         _check_number("confirm_hits", self.confirm_hits, 1, integer=True)
@@ -158,6 +163,8 @@ class Lifecycle:
         _check_number("tentative_lost", self.tentative_lost, 0, integer=True)
         _check_number("warmup_frames", self.warmup_frames, 0, integer=True)
         _check_number("fill_gaps", self.fill_gaps, 0, integer=True)
+        if self.fill_after is not None:
+            _check_number("fill_after", self.fill_after, 1, integer=True)
         for name in ("birth_counts", "activate_first"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"plate lifecycle: {name} must be a bool, got "

@@ -84,3 +84,35 @@ def test_one_life_cycle_for_plates_and_phd():
     nxt = confirm_tracks([t for t, k in zip(tracks, keep, strict=True) if k], 2, next_id=8)
     assert tracks[0].track_id == 8 and nxt == 9
     assert reported(tracks, max_coast=1).tolist() == [True, False, False]
+
+
+def test_a_gap_two_tracks_share_at_both_ends_is_not_filled():
+    """Gap filling's birth rule: a track reported at frame 4 and again at 7 fills frames 5
+    and 6, unless another track's boxes overlap its own (IoU above ``birth_iou``) at both
+    frames 4 and 7 — a second track on the same object, which reported it meanwhile; one
+    that overlaps at one end only (a crossing) leaves the gap filled."""
+    from pgm.core.plate import Lifecycle
+    from pgm.inference.plates import _filled_gaps
+    from pgm.inference.tracks import Track
+
+    lc = Lifecycle(fill_gaps=3, fill_after=1, birth_iou=0.3)
+    box_a = {4: [100.0, 100, 40, 100], 7: [130.0, 100, 40, 100]}  # (cx, cy, w, h)
+    twin = {t: [100.0 + 10 * (t - 4) + 4, 100, 40, 100] for t in (4, 5, 6, 7)}
+    crossing = {t: [100.0 + 30 * (t - 4) + 4, 100, 40, 100] for t in (4, 5, 6, 7)}
+
+    def fill(other):
+        a = Track(state=np.zeros(4), track_id=1, streak=3)
+        b = Track(state=np.zeros(4), track_id=2, streak=3)
+        out = None
+        for t in (4, 5, 6, 7):
+            boxes = np.array([box_a.get(t, [0.0] * 4), other.get(t, [0.0] * 4)])
+            out = _filled_gaps([a, b], t, boxes, np.array([t in box_a, t in other]),
+                               np.ones(2), lc)
+            assert t == 7 or out is None
+        return out
+
+    assert fill(twin) is None
+    frames, ids, filled, _ = fill(crossing)
+    assert frames.tolist() == [5, 6] and ids.tolist() == [1, 1]
+    np.testing.assert_allclose(filled, [[110.0, 100, 40, 100], [120.0, 100, 40, 100]])
+    assert fill({})[0].tolist() == [5, 6]

@@ -791,26 +791,70 @@ def test_explain_tentative_is_checked_and_saved():
 
 
 def test_a_gap_filled_when_the_track_is_found_again():
-    """``fill_gaps``: a confirmed track missed for two frames and found in the third reports
-    the two missed frames then (``Targets.filled``), their boxes on the line between the
-    boxes it reported before and after; a longer gap than ``fill_gaps`` frames, and a
-    track that is never found again, fill nothing."""
+    """``fill_gaps``: a confirmed track missed for two frames and found again reports the
+    two missed frames (``Targets.filled``), their boxes on the line between the boxes it
+    reported before and after the gap, once it has been matched ``min_hits`` frames in a
+    row since (``fill_after=1``: at the match that closed the gap); a gap whose track
+    misses again before then, a longer gap than ``fill_gaps`` frames, and a track never
+    found again fill nothing."""
     from pgm.core.readout import readout
 
     box = np.array([100.0, 100.0, 40.0, 100.0])
     step = np.array([6.0, 3.0, 0.0, 0.0])
-    eng = Engine(sort.build_graph(sort.Params(fps=10.0, fill_gaps=0.2, report="detection")), 0)
-    assert eng.graph.plates[0].lifecycle.fill_gaps == 2  # 0.2 s at 10 frames/s
-    filled = {}
-    seen = [1, 2, 3, 4, 7, 8, 12]  # gaps of 2 frames (filled) and of 3 (not)
-    for t in range(1, 13):
-        dets = [box + t * step] if t in seen else np.zeros((0, 4))
-        out = readout(eng.graph, eng.step(_frame(t, dets)))
-        if out.filled is not None:
-            filled[t] = out.filled
-    assert list(filled) == [7]
-    late = filled[7]
-    assert late.frames.tolist() == [5, 6] and len(set(late.ids.tolist())) == 1
-    np.testing.assert_allclose(late.boxes, [box + 5 * step, box + 6 * step])
+    # gaps of 2 frames closed at 7 (missed again at 9) and at 11 (then matched 12, 13),
+    # one of 3 frames closed at 17
+    seen = [1, 2, 3, 4, 7, 8, 11, 12, 13, 17]
+
+    def run(**kw):
+        eng = Engine(sort.build_graph(sort.Params(fps=10.0, fill_gaps=0.2, report="detection",
+                                                  **kw)), 0)
+        assert eng.graph.plates[0].lifecycle.fill_gaps == 2  # 0.2 s at 10 frames/s
+        filled = {}
+        for t in range(1, 19):
+            dets = [box + t * step] if t in seen else np.zeros((0, 4))
+            out = readout(eng.graph, eng.step(_frame(t, dets)))
+            if out.filled is not None:
+                filled[t] = out.filled
+        return filled
+
+    filled = run()  # min_hits = 3 matches in a row since the gap
+    assert list(filled) == [13]
+    late = filled[13]
+    assert late.frames.tolist() == [9, 10] and len(set(late.ids.tolist())) == 1
+    np.testing.assert_allclose(late.boxes, [box + 9 * step, box + 10 * step])
+    at_once = run(fill_after=1)
+    assert list(at_once) == [7, 11]
+    assert at_once[7].frames.tolist() == [5, 6] and at_once[11].frames.tolist() == [9, 10]
+    np.testing.assert_allclose(at_once[7].boxes, [box + 5 * step, box + 6 * step])
+    for bad in (0, 1.5, True):
+        with pytest.raises(ValueError, match="fill_after"):
+            sort.build_graph(sort.Params(fill_gaps=0.2, fill_after=bad))
     with pytest.raises(ValueError, match="fill_gaps"):
         sort.build_graph(sort.Params(fill_gaps=-1.0))
+
+
+def test_a_gap_filled_in_the_camera_s_world():
+    """A still object seen by a camera that pans unevenly (0, then 30 px, then 0 px a frame
+    over a two-frame gap): the filled boxes follow the camera — the box of frame 5 where
+    the object was then, that of frame 6 moved by the pan — not the image's straight
+    line between the two reported boxes."""
+    from pgm.core.readout import readout
+
+    box = np.array([100.0, 100.0, 40.0, 100.0])
+    pans = {t: 10.0 for t in range(2, 13)} | {5: 0.0, 6: 30.0, 7: 0.0}
+    x = {1: 0.0}
+    for t in range(2, 13):
+        x[t] = x[t - 1] + pans[t]
+    eng = Engine(sort.build_graph(sort.Params(fps=10.0, fill_gaps=0.2, report="detection",
+                                              fill_after=1)), 0)
+    filled = {}
+    for t in range(1, 13):
+        dets = np.asarray([box + [x[t], 0, 0, 0]] if t not in (5, 6) else []).reshape(-1, 4)
+        ctx = FrameContext(t, detections=Detections(dets, np.full(len(dets), 0.9)),
+                           camera_motion=np.array([[1.0, 0, pans.get(t, 0.0)], [0, 1, 0]]))
+        out = readout(eng.graph, eng.step(ctx))
+        if out.filled is not None:
+            filled[t] = out.filled
+    assert list(filled) == [7] and filled[7].frames.tolist() == [5, 6]
+    np.testing.assert_allclose(filled[7].boxes, [box + [x[5], 0, 0, 0], box + [x[6], 0, 0, 0]],
+                               atol=1e-9)
