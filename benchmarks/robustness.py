@@ -128,13 +128,22 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                           "rounds": OCSORT_LOW[:2] + ({**OCSORT_LOW[2], "tracks": "tracked"},),
                           "reference_fps": 30.0, "birth_iou": 0.3,
                           "explain_tentative": "prediction", **HITS}),
-    # the default, a track found again after a gap of at most 0.25 or 0.5 s reporting
-    # the gap's frames too (boxes interpolated between the two it reported)
-    **{f"ocsort-colour quantile 0.2 hits s30 birth0.3 tentative-prediction fill{g:g}": (
+    # the default, a track found again after a gap of at most 0.5 s reporting the gap's
+    # frames too (boxes interpolated between the two it reported, in the camera's
+    # world; frames another track explains left out), once it has been matched min_hits
+    # frames in a row since
+    "ocsort-colour quantile 0.2 hits s30 birth0.3 tentative-prediction fill0.5": (
         "ocsort_colour", {"score_map": "quantile", "score_threshold": 0.2,
                           "reference_fps": 30.0, "birth_iou": 0.3,
-                          "explain_tentative": "prediction", "fill_gaps": g, **HITS})
-       for g in (0.25, 0.5)},
+                          "explain_tentative": "prediction", "fill_gaps": 0.5, **HITS}),
+    # the same with a lost track found again reported after min_hits matches in a row
+    # (the evidence a new track needs; the frames it waited are then part of its gap)
+    **{f"ocsort-colour quantile 0.2 s30 birth0.3 tentative-prediction recover3 fill{g:g}": (
+        "ocsort_colour", {"score_map": "quantile", "score_threshold": 0.2,
+                          "reference_fps": 30.0, "birth_iou": 0.3,
+                          "explain_tentative": "prediction", "fill_gaps": g,
+                          "recover_hits": 3, "consecutive": False})
+       for g in (0.0, 0.25, 0.5)},
     # BoT-SORT's cascade (pooled rounds, IoU x score), its thresholds as quantiles
     "botsort quantile": ("botsort", {"score_map": "quantile"}),
     "botsort-colour quantile": ("botsort", {"score_map": "quantile", **COLOUR}),

@@ -1,7 +1,8 @@
 """The default multi-target model: OC-SORT's association, its filtered boxes, a colour model
-per track, thresholds on the video's own score quantiles, and SORT's life cycle.
+per track, thresholds on the video's own score quantiles, a life cycle that asks a track
+found again for the evidence a new one needs, and short gaps filled.
 
-:mod:`pgm.models.ocsort`'s graph with seven of the ideas this toolkit adds to the classic
+:mod:`pgm.models.ocsort`'s graph with eight of the ideas this toolkit adds to the classic
 cores, each one setting:
 
 * ``report="estimate"`` — a matched track reports its Kalman posterior box (the filtered
@@ -17,10 +18,12 @@ cores, each one setting:
   and the lowest fifth of the detections are neither used nor start tracks: a statement
   about the detections, so any strictly increasing map of the scores (a probability, a
   logit, a margin) gives the same tracks;
-* ``recover_hits=1``, ``consecutive=False`` — SORT's life cycle: a track found again after
-  a miss is reported at once, and confirmation counts matches rather than matches in a
-  row (OC-SORT's three in a row after every miss lose most of a track when a detector
-  misses one frame in five);
+* ``consecutive=False`` — confirmation counts matches rather than matches in a row
+  (SORT's count);
+* ``recover_hits=3`` — a track found again after a miss is reported once it has been
+  matched three frames in a row (at 30 frames/s; the evidence a new track needs), so a
+  single false detection near a lost track does not bring it back; the frames it waited
+  are then filled with the rest of its gap (``fill_gaps`` below);
 * ``birth_iou=0.3`` — no track is born on a detection that overlaps a track's predicted
   box (or another birth of the frame) by more than the association's own IoU gate: a
   detection the association could have given to a track is explained by it, so a
@@ -32,16 +35,19 @@ cores, each one setting:
   confirmed (a birth in progress): it is removed when its detection overlaps a confirmed
   track's predicted box by more than 0.3, so a box born beside a person that drifts onto
   them never becomes a second identity;
-* ``fill_gaps=0.5`` — a track found again after at most half a second without a match
-  also reports the frames between, its box interpolated between the two it reported,
-  written to the track file when it is found (the annotated video shows what was known
-  at each frame).
+* ``fill_gaps=0.5`` — a track reported again after at most half a second also reports
+  the frames between, once it has been matched as many frames in a row as a new track
+  needs, its box interpolated between the two it reported in the world the camera sees
+  (through the camera's motion over the gap), written to the track file when it is
+  found (the annotated video shows what was known at each frame); a gap two tracks
+  bound together (overlapping at both its ends: a second box on one person) is left
+  empty.
 
 Chosen **leave one sequence out** over the five shared MOT sequences and the toolkit's
 synthetic crossing scene, each under 11 kinds of perturbation (score maps, frame rate,
 dropped, jittered, extra and shifted detections), among 25 candidates of every core
-(``python benchmarks/robustness.py``; numbers in ``docs/results.md``): four folds of six
-pick it (the two PETS09-S2L1 folds, the same filling gaps up to 0.25 s). It needs the
+(``python benchmarks/robustness.py``; numbers in ``docs/results.md``): every fold picks
+it. It needs the
 frames (for the colour models) and, where the camera moves, compensates its motion as
 ``pgm track`` does by default. ``pgm track`` runs it on a folder with detections when no
 ``--model`` is given.
@@ -50,7 +56,7 @@ frames (for the colour models) and, where the camera moves, compensates its moti
 >>> [type(a).__name__ for a in g.factors["association"].appearance]
 ['ColourHistogramLikelihood']
 >>> g.plates[0].lifecycle.report, g.plates[0].lifecycle.recover_hits
-('matched', 1)
+('matched', 3)
 >>> g.plates[0].lifecycle.birth_iou, g.plates[0].lifecycle.explain_tentative
 (0.3, 'prediction')
 >>> g.plates[0].lifecycle.fill_gaps  # 0.5 s at 30 frames/s
@@ -77,16 +83,17 @@ __all__ = ["CONFIG", "Params", "build_graph"]
 @dataclass(frozen=True)
 class Params(ocsort.Params):
     """:class:`pgm.models.ocsort.Params` reporting the filtered boxes, with colour
-    appearance in the association, score quantiles, SORT's life cycle, its per-frame
-    constants read at 30 frames/s, no birth, nor tentative track, on a detection a track
-    explains, and gaps of up to 0.5 s filled."""
+    appearance in the association, score quantiles, SORT's confirmation count, its per-frame
+    constants read at 30 frames/s, a track found again reported after three matches in
+    a row, no birth, nor tentative track, on a detection a track explains, and gaps of up
+    to 0.5 s filled."""
 
     report: str = "estimate"
     appearance: str | None = "colour"
     appearance_weight: float = 1.0
     score_map: str = "quantile"
     score_threshold: float | None = 0.2
-    recover_hits: int = 1
+    recover_hits: int = 3
     consecutive: bool = False
     reference_fps: float | None = 30.0
     birth_iou: float = 0.3
@@ -103,6 +110,6 @@ def build_graph(params: Params | None = None, name: str = "ocsort-colour") -> Fa
 CONFIG = _config.ModelConfig(
     "ocsort-colour", "multi-target", sys.modules[__name__],
     "the multi-target default: OC-SORT's association reporting its filtered boxes, a colour "
-    "model per track, thresholds on score quantiles, SORT's life cycle, constants per second "
+    "model per track, thresholds on score quantiles, constants per second, short gaps filled "
     "(chosen leave one sequence out over sequences and perturbations)",
     options=sort.OPTIONS, build=sort.video_build)

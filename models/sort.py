@@ -595,6 +595,10 @@ OPTIONS = (
                    help="matches before a new track is reported (ByteTrack and BoT-SORT: in a "
                         "row, the trackers package's minimum consecutive frames; default: the "
                         "model's)"),
+    _config.Option("--recover-hits", "recover_hits",
+                   type=_config.int_in("--recover-hits", 1, 100000), metavar="N",
+                   help="matches in a row before a lost track found again is reported (1: at "
+                        "once, SORT and ByteTrack; default: the model's, ocsort-colour 3)"),
     _config.Option("--birth-iou", "birth_iou", type=_config.finite_float("--birth-iou"),
                    metavar="T",
                    help="no track is born on a detection overlapping a track's predicted box "

@@ -24,7 +24,7 @@ The tutorial
    box, 1.3 times as tall, raised by 0.5 to 0.8 of its height, scoring lower (IoU 0.28
    to 0.53 with the first: a few are born beside the person, then match boxes on them);
 2. tracks them with the default's association (without its colour models, to run on the
-   detections alone, and without its gap filling) three ways: births everywhere
+   detections alone) three ways: births everywhere
    (``birth_iou=1``, the classic cores), births a track explains refused, and tentative
    tracks too;
 3. prints MOTA, IDF1, false positives and identities against the scene's true count,
@@ -97,7 +97,8 @@ def track(params) -> tuple[dict, np.ndarray, int]:
     out_rows, per_frame = [], []
     for t in range(1, T + 1):
         targets = readout(engine.graph, engine.step(FrameContext(t, detections=detections(t))))
-        out_rows += [(t, i, *b) for i, b in zip(targets.ids, targets.boxes, strict=True)]
+        f, i, b, _ = targets.rows(t)  # this frame's rows, and a gap filled now
+        out_rows += [(fr, k, *box) for fr, k, box in zip(f, i, b, strict=True)]
         per_frame.append(len(targets))
     a = np.array(out_rows, dtype=float).reshape(-1, 6)
     table = MotTable(a[:, 0].astype(np.int64), a[:, 1].astype(np.int64), a[:, 2:],
@@ -108,8 +109,7 @@ def track(params) -> tuple[dict, np.ndarray, int]:
 
 # %%
 # 2. Three ways to start tracks, on the same detections.
-# (no gap filling either, so that what differs is how tracks start)
-base = replace(ocsort_colour.Params(), appearance=None, fill_gaps=0.0, fps=scene.fps)
+base = replace(ocsort_colour.Params(), appearance=None, fps=scene.fps)
 runs = {
     "births everywhere (birth_iou=1)": replace(base, birth_iou=1.0, explain_tentative="none"),
     "births a track explains refused": replace(base, explain_tentative="none"),
