@@ -144,6 +144,17 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                           "explain_tentative": "prediction", "fill_gaps": g,
                           "recover_hits": 3, "consecutive": False})
        for g in (0.0, 0.25, 0.5)},
+    # and a track confirmed reporting the frames it was tentative in (its confirmation
+    # evidence asked, not frames lost), the counts of matches then kept as counts of
+    # detections at every frame rate ("counts") or read as time (seconds)
+    **{f"ocsort-colour quantile 0.2 s30 birth0.3 tentative-prediction recover3 fill0.5 "
+       f"births{c}": (
+        "ocsort_colour", {"score_map": "quantile", "score_threshold": 0.2,
+                          "reference_fps": 30.0, "birth_iou": 0.3,
+                          "explain_tentative": "prediction", "fill_gaps": 0.5,
+                          "recover_hits": 3, "consecutive": False, "fill_births": True,
+                          "count_hits": "detections" if c else "seconds"})
+       for c in ("", " counts")},
     # BoT-SORT's cascade (pooled rounds, IoU x score), its thresholds as quantiles
     "botsort quantile": ("botsort", {"score_map": "quantile"}),
     "botsort-colour quantile": ("botsort", {"score_map": "quantile", **COLOUR}),

@@ -370,7 +370,7 @@ def step_stages(engine: Engine, frame: FrameContext, record: StepRecord, lifecyc
             boxes[matched] = [t.state for t in reps.tracks if t.matched]
     info.ids = np.array([t.track_id or 0 for t in reps.tracks], dtype=np.int64)
     info.boxes, info.reported, info.existence = boxes, shown, existences(reps.tracks)
-    if lc.fill_gaps:
+    if lc.fill_gaps or lc.fill_births:
         info.filled = _filled_gaps(reps.tracks, frame.index, boxes, shown, info.existence,
                                    lc, frame.camera_motion)
 
@@ -387,42 +387,58 @@ def _filled_gaps(tracks: list[Track], index: int, boxes: np.ndarray, shown: np.n
     detection). The gap's boxes lie on the line between the two boxes that bound it in
     the world the camera sees: both are taken to the coordinates of the frame before the
     gap through the camera's image motions of the gap's frames (``camera``: this frame's,
-    None: still), interpolated there and moved into each frame's own coordinates. A gap
+    None: still), interpolated there and moved into each frame's own coordinates (also
+    in the frames it had a detection but was not reported, recovering: interpolation
+    between two reported boxes measured better than the estimates of a recovery's first
+    matches). With ``lc.fill_births`` a replica reported for the first time also
+    reports the frames it was tentative in, with the boxes estimated then. A gap
     is not filled when another replica's reported boxes overlap the replica's by more
     than ``lc.birth_iou`` at both of its ends: the two are on one object (a second box
     on it that survived the birth rule), and what the gap misses, the other reported.
     None when there are no rows.
 
     Every replica remembers the frames and boxes it reported lately (the last
-    ``fill_gaps + 1`` of them), the camera's motions since its latest, and a gap waiting
-    to be filled (dropped when it is not reported before it is filled)."""
+    ``fill_gaps + 1`` of them), the camera's motions since its latest, the frames and
+    boxes it had a detection in since, and rows waiting to be reported (dropped when it
+    is not reported before they are)."""
     longest = lc.fill_gaps
     after = lc.confirm_hits if lc.fill_after is None else lc.fill_after
+    held_most = max(lc.confirm_hits, longest + 1)
     frames, ids, filled, scores = [], [], [], []
     for k, t in enumerate(tracks):
         if t.last_reported is not None and len(t.gap_motions) <= longest + 1:
             t.gap_motions.append(_homogeneous(camera))
         if not shown[k]:
             t.pending_gap = None
+            if t.matched or t.age == 1:  # had a detection: born, tentative, recovering
+                t.held = (t.held + [(index, np.array(boxes[k], dtype=float))])[-held_most:]
             continue
         found = np.array(boxes[k], dtype=float)
-        if t.last_reported is not None and 1 < index - t.last_reported[0] <= longest + 1:
+        if t.last_reported is None:
+            if lc.fill_births and t.held:  # confirmed: the frames it was tentative
+                at = np.array([f for f, _ in t.held], dtype=np.int64)
+                t.pending_gap = (at, np.array([b for _, b in t.held]), None)
+        elif 1 < index - t.last_reported[0] <= longest + 1:
             start, before = t.last_reported
-            t.pending_gap = (start, before, index, found,
-                             _gap_boxes(before, found, t.gap_motions))
-        t.last_reported, t.gap_motions = (index, found), []
+            t.pending_gap = (np.arange(start + 1, index, dtype=np.int64),
+                             _gap_boxes(before, found, t.gap_motions),
+                             (start, before, index, found))
+        t.last_reported, t.gap_motions, t.held = (index, found), [], []
         t.recent_reports = (t.recent_reports + [t.last_reported])[-(longest + 2):]
     for k, t in enumerate(tracks):
-        if not shown[k] or t.pending_gap is None or t.streak < after:
+        if not shown[k] or t.pending_gap is None:
             continue
-        start, before, end, found, gap_boxes = t.pending_gap
+        at, gap_boxes, ends = t.pending_gap
+        if ends is not None and t.streak < after:
+            continue
         t.pending_gap = None
-        if _shared(start, before, end, found, [o for o in tracks if o is not t], lc.birth_iou):
+        if ends is not None and _shared(*ends, [o for o in tracks if o is not t],
+                                        lc.birth_iou):
             continue
-        frames.append(np.arange(start + 1, end))
-        ids.append(np.full(end - start - 1, t.track_id, dtype=np.int64))
+        frames.append(at)
+        ids.append(np.full(len(at), t.track_id, dtype=np.int64))
         filled.append(gap_boxes)
-        scores.append(np.full(end - start - 1, existence[k]))
+        scores.append(np.full(len(at), existence[k]))
     if not frames:
         return None
     return (np.concatenate(frames).astype(np.int64), np.concatenate(ids),

@@ -57,11 +57,13 @@ class Track:
     last_reported: tuple[int, np.ndarray] | None = None
     #: the frames and boxes it was reported with lately (a gap's frames another fills)
     recent_reports: list = field(default_factory=list)
+    #: the frames and boxes it had a detection in since it was last reported (or born)
+    held: list = field(default_factory=list)
     #: the camera's image motions ``3 × 3`` of the frames since it was last reported
     gap_motions: list = field(default_factory=list)
-    #: a gap it closed, waiting for matches in a row before it is filled: the gap's frame
-    #: numbers and boxes
-    pending_gap: tuple[np.ndarray, np.ndarray] | None = None
+    #: rows of earlier frames waiting to be reported: frame numbers, boxes, and for a gap
+    #: (filled after matches in a row) its ends ``(start, box, end, box)``
+    pending_gap: tuple | None = None
 
     @property
     def existence(self) -> float:

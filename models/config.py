@@ -31,8 +31,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["Option", "VideoInfo", "ModelConfig", "KINDS", "int_in", "finite_float", "default_build",
-           "given", "APPEARANCE", "SCALE_NOISE", "PARTS"]
+__all__ = ["Option", "VideoInfo", "ModelConfig", "KINDS", "int_in", "on_off", "finite_float",
+           "default_build", "given", "APPEARANCE", "SCALE_NOISE", "PARTS"]
 
 #: what a model tracks: one object given by a box, many targets from detections, or no
 #: video at all (a state-space model fed measurements through the Python API)
@@ -51,6 +51,16 @@ def int_in(flag: str, low: int, high: int) -> Callable[[str], int]:
         return value
 
     parse.__name__ = "integer"
+    return parse
+
+
+def on_off(flag: str) -> Callable[[str], int]:
+    """An option type: ``on`` or ``off`` as 1 or 0 (a number, so that ``off`` is *given*
+    and turns a model's default off; a ``ValueError`` naming ``flag`` otherwise)."""
+    def parse(text: str) -> int:
+        if text not in ("on", "off"):
+            raise ValueError(f"{flag} takes on or off, got {text!r}")
+        return int(text == "on")
     return parse
 
 

@@ -223,6 +223,15 @@ class Params:
         Matches in a row a track found again needs before its gap is filled, in frames at
         ``reference_fps`` like ``min_hits`` (None: ``min_hits``, the evidence a new
         track needs; :attr:`~pgm.core.plate.Lifecycle.fill_after`).
+    fill_births : bool
+        A track confirmed also reports the frames it was tentative in, with the boxes
+        estimated then, written when it is confirmed
+        (:attr:`~pgm.core.plate.Lifecycle.fill_births`).
+    count_hits : {"seconds", "detections"}
+        What ``min_hits``, ``recover_hits`` and ``fill_after`` count with a
+        ``reference_fps``: frames at that rate, a window of time converted to the video's
+        (``"seconds"``), or detections, the same at any rate (``"detections"``: the
+        evidence that tells an object from clutter is a number of detections).
     """
 
     box_state: str = "xyxy"
@@ -270,6 +279,8 @@ class Params:
     explain_tentative: str = "none"
     fill_gaps: float = 0.0
     fill_after: int | None = None
+    fill_births: bool = False
+    count_hits: str = "seconds"
 
 
 def _noise(p: Params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -298,8 +309,9 @@ def at_frame_rate(p: Params) -> Params:
 
     With ``τ = reference_fps / fps`` reference frames per video frame:
 
-    * counts of frames (``min_hits``, ``recover_hits``, ``delta_t``) are windows of time:
-      ``max(1, round(n / τ))``;
+    * counts of frames (``min_hits``, ``recover_hits``, ``fill_after``, ``delta_t``) are
+      windows of time: ``max(1, round(n / τ))`` — but with ``count_hits="detections"``
+      the first three stay counts of detections;
     * the constant-velocity state's noise is a continuous-time random walk sampled every
       ``τ``: a box coordinate's process variance grows as ``τ``; a rate is per video
       frame, ``τ`` times the reference frame's, so its variance grows as ``τ³`` and its
@@ -322,9 +334,10 @@ def at_frame_rate(p: Params) -> Params:
     q[n:] *= tau ** 3
     p0[n:] *= tau ** 2
     frames = lambda k: max(1, round(int(k) / tau))  # noqa: E731
-    return replace(p, reference_fps=None, min_hits=frames(p.min_hits),
-                   recover_hits=frames(p.recover_hits), delta_t=frames(p.delta_t),
-                   fill_after=None if p.fill_after is None else frames(p.fill_after),
+    hits = frames if p.count_hits == "seconds" else int  # noqa: E731
+    return replace(p, reference_fps=None, min_hits=hits(p.min_hits),
+                   recover_hits=hits(p.recover_hits), delta_t=frames(p.delta_t),
+                   fill_after=None if p.fill_after is None else hits(p.fill_after),
                    process_noise=tuple(float(v) for v in q),
                    initial_cov=tuple(float(v) for v in p0),
                    pos_std=p.pos_std * math.sqrt(tau), vel_std=p.vel_std * tau ** 1.5,
@@ -413,6 +426,10 @@ def _check(p: Params) -> None:
         if p.score_map in LEARNED_SCORE_MAPS and not 0.0 <= p.score_threshold <= 1.0:
             raise ValueError(f"score_threshold is in [0, 1] with the {p.score_map} score map, "
                              f"got {p.score_threshold}")
+    if p.count_hits not in ("seconds", "detections"):
+        raise ValueError(f"count_hits must be 'seconds' or 'detections', got {p.count_hits!r}")
+    if p.fill_births not in (True, False):
+        raise ValueError(f"fill_births must be a bool, got {p.fill_births!r}")
     if p.fill_after is not None and (isinstance(p.fill_after, bool) or not isinstance(
             p.fill_after, (int, float)) or int(p.fill_after) != p.fill_after or p.fill_after < 1):
         raise ValueError(f"fill_after must be a positive integer or None, got {p.fill_after!r}")
@@ -487,7 +504,8 @@ def _lifecycle(p: Params) -> Lifecycle:
                      activate_first=bool(p.activate_first),
                      explain_tentative=str(p.explain_tentative),
                      fill_gaps=int(math.floor(float(p.fill_gaps) * float(p.fps) + 1e-9)),
-                     fill_after=None if p.fill_after is None else int(p.fill_after))
+                     fill_after=None if p.fill_after is None else int(p.fill_after),
+                     fill_births=bool(p.fill_births))
 
 
 def _association(p: Params) -> DetectionAssociation:
@@ -620,6 +638,14 @@ OPTIONS = (
                    type=_config.int_in("--fill-after", 1, 100000), metavar="N",
                    help="matches in a row a track found again needs before its gap is filled "
                         "(1: at once; default: the matches a new track needs)"),
+    _config.Option("--fill-births", "fill_births", type=_config.on_off("--fill-births"),
+                   metavar="{on,off}",
+                   help="a track confirmed also reports the frames it was tentative in, written "
+                        "when it is confirmed (default: the model's, ocsort-colour on)"),
+    _config.Option("--count-hits", "count_hits", choices=("seconds", "detections"),
+                   help="what --min-hits and --recover-hits count with --reference-fps: frames "
+                        "at that rate, converted to the video's (seconds), or detections at any "
+                        "rate (default: seconds)"),
     _config.Option("--iou-threshold", None, type=_config.finite_float("--iou-threshold"),
                    metavar="T",
                    help="the IoU a detection needs with a track to be matched to it, in every "

@@ -122,6 +122,11 @@ class Lifecycle:
         Matches in a row a replica found again needs before its gap is filled (None:
         ``confirm_hits``, the evidence a birth needs: a gap closed on one match may
         have been closed on a false detection; 1: at once).
+    fill_births : bool
+        A replica confirmed also reports the frames it was tentative in (matched, not yet
+        reported), with the boxes estimated then, as rows of those frames written when it
+        is confirmed: the confirmation count is then evidence asked before a track is
+        reported, not frames it loses.
     """
 
     confirm_hits: int = 3
@@ -142,6 +147,7 @@ class Lifecycle:
     explain_tentative: str = "none"
     fill_gaps: int = 0
     fill_after: int | None = None
+    fill_births: bool = False
 
     def __post_init__(self) -> None:
         _check_number("confirm_hits", self.confirm_hits, 1, integer=True)
@@ -165,7 +171,7 @@ class Lifecycle:
         _check_number("fill_gaps", self.fill_gaps, 0, integer=True)
         if self.fill_after is not None:
             _check_number("fill_after", self.fill_after, 1, integer=True)
-        for name in ("birth_counts", "activate_first"):
+        for name in ("birth_counts", "activate_first", "fill_births"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"plate lifecycle: {name} must be a bool, got "
                                  f"{getattr(self, name)!r}")

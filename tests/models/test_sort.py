@@ -858,3 +858,36 @@ def test_a_gap_filled_in_the_camera_s_world():
     assert list(filled) == [7] and filled[7].frames.tolist() == [5, 6]
     np.testing.assert_allclose(filled[7].boxes, [box + [x[5], 0, 0, 0], box + [x[6], 0, 0, 0]],
                                atol=1e-9)
+
+
+def test_a_confirmed_track_reports_the_frames_it_was_tentative_in():
+    """``fill_births``: a track confirmed at its third match reports its first two frames
+    then, with the boxes it had (the detections, ``report="detection"``); without it those
+    frames are never reported. ``count_hits="detections"`` keeps the counts of matches
+    at any frame rate while the momentum window is still converted."""
+    from pgm.core.readout import readout
+
+    box = np.array([100.0, 100.0, 40.0, 100.0])
+    step = np.array([6.0, 3.0, 0.0, 0.0])
+
+    def run(**kw):
+        eng = Engine(sort.build_graph(sort.Params(fps=10.0, report="detection", **kw)), 0)
+        rows = []
+        for t in range(1, 7):
+            out = readout(eng.graph, eng.step(_frame(t, [box + t * step])))
+            f, i, b, _ = out.rows(t)
+            rows += [(int(fr), int(k), *bb) for fr, k, bb in zip(f, i, b, strict=True)]
+        return rows
+
+    plain, births = run(), run(fill_births=True)
+    assert [r[0] for r in plain] == [3, 4, 5, 6]
+    assert [r[0] for r in births] == [3, 1, 2, 4, 5, 6]  # frames 1, 2 written at 3
+    np.testing.assert_allclose([r[2:] for r in births[1:3]], [box + step, box + 2 * step])
+    assert len({r[1] for r in births}) == 1
+    from dataclasses import replace
+
+    q = sort.at_frame_rate(replace(sort.Params(), reference_fps=30.0, fps=10.0,
+                                   count_hits="detections", recover_hits=3))
+    assert (q.min_hits, q.recover_hits, q.delta_t) == (3, 3, 1)
+    with pytest.raises(ValueError, match="count_hits"):
+        sort.build_graph(sort.Params(count_hits="frames"))

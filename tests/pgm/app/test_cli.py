@@ -344,12 +344,16 @@ def test_a_saved_part_graph_reruns_on_a_folder_with_ground_truth(tmp_path, capsy
 
 
 def test_filled_gaps_reach_the_track_file_and_the_metrics(mot_dir, tmp_path, capsys):
-    """``--fill-gaps``: the rows of a filled gap are written to tracks.txt when the track is
-    found again (after the rows of that frame), and the file scores as metrics.json does;
-    without it the file has fewer rows, all in frame order."""
+    """``--fill-gaps`` (and ``--fill-births``): the rows of a filled gap (and of a track's
+    tentative frames) are written to tracks.txt when the track is found again (or
+    confirmed), after the rows of that frame, and the file scores as metrics.json does;
+    without them the file has fewer rows, all in frame order. The life cycle's options
+    reach the saved model, and a bad value is a one-line error."""
     outs = {}
-    for name, extra in (("none", ["--fill-gaps", "0"]), ("fill", ["--fill-gaps", "0.5"]),
-                        ("at-once", ["--recover-hits", "1", "--fill-after", "1"])):
+    for name, extra in (("none", ["--fill-gaps", "0", "--fill-births", "off"]),
+                        ("fill", ["--fill-gaps", "0.5"]),
+                        ("at-once", ["--recover-hits", "1", "--fill-after", "1",
+                                     "--fill-births", "off"])):
         out = outs[name] = tmp_path / name  # the default fills 0.5 s: 0 must turn it off
         code, _, err = run_cli(capsys, "track", mot_dir, "--model", "ocsort-colour",
                                "--no-video", "--out", out, *extra)
@@ -357,11 +361,15 @@ def test_filled_gaps_reach_the_track_file_and_the_metrics(mot_dir, tmp_path, cap
         saved = json.loads((out / "model.json").read_text())["plates"][0]["lifecycle"]
         assert saved["fill_gaps"] == (0 if name == "none" else 15)  # 0.5 s at 30 frames/s
         # a lost track found again: reported after 3 matches in a row, its gap filled then
-        assert (saved["recover_hits"], saved["fill_after"]) == (
-            (1, 1) if name == "at-once" else (3, None))
+        # and a track's tentative frames reported when it is confirmed (off: not)
+        assert (saved["recover_hits"], saved["fill_after"], saved["fill_births"]) == (
+            (1, 1, False) if name == "at-once" else (3, None, name == "fill"))
     bad = run_cli(capsys, "track", mot_dir, "--no-video", "--out", tmp_path / "bad",
                   "--fill-after", "0")
     assert bad[0] != 0 and "--fill-after" in bad[2]
+    bad = run_cli(capsys, "track", mot_dir, "--no-video", "--out", tmp_path / "bad",
+                  "--fill-births", "maybe")
+    assert bad[0] != 0 and "--fill-births" in bad[2]
     rows = {k: np.loadtxt(o / "tracks.txt", delimiter=",") for k, o in outs.items()}
     assert np.all(np.diff(rows["none"][:, 0]) >= 0)
     assert len(rows["fill"]) > len(rows["none"])
