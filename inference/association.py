@@ -38,7 +38,7 @@ import numpy as np
 from pgm.core.batched import BatchedGaussian, BatchedInverseGamma, BatchedParticles
 from pgm.core.boxes import box_coding, encode_boxes, iou_matrix, state_boxes
 from pgm.core.frame import FrameContext
-from pgm.core.motion import linear_state_warp
+from pgm.core.motion import linear_state_warp, warp_states
 from pgm.core.resolution import appearance_matrix, learn_all
 from pgm.factors import GaussianPrior, LinearGaussianTransition
 from pgm.factors.association import (
@@ -297,6 +297,8 @@ def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> Associat
         fields.update(mean=b.mean(), cov=b.cov(), labels=tuple(ctx.graph.variables[var].labels),
                       variable=var, graph=ctx.graph, frame=frame)
     histories = None
+    if frame.camera_motion is not None and (factor.keeps_observations or factor.extended):
+        _observations_through_camera(ctx, var, frame.camera_motion)
     if factor.keeps_observations or factor.extended:
         fields["last"] = np.array([t.state for t in ctx.replicas.tracks],
                                   dtype=float).reshape(-1, 4)
@@ -383,6 +385,30 @@ def _learn_appearance(ctx: RuleContext, factor, frame: FrameContext, boxes: np.n
     learned = boxes[[j for _, j in pairs]]
     for c in range(len(models[0])):
         learn_all([m[c] for m in models], frame, learned, factor.appearance_pixels)
+
+
+def _observations_through_camera(ctx: RuleContext, var: str, affine: np.ndarray) -> None:
+    """Each replica's last detection and observation history moved into this frame's image
+    coordinates through the camera's motion, as its state is by the transition (the same
+    mode: the whole box, its centre only, or nothing), so that OC-SORT's recovery round
+    and momentum compare boxes of one frame's coordinates."""
+    camera = next((getattr(f, "camera", "box") for f in ctx.graph.factors.values()
+                   if isinstance(f, LinearGaussianTransition) and var in f.variables), "none")
+    if camera == "none":
+        return
+    labels = ("cx", "cy", "w", "h") if camera == "box" else ("cx", "cy", "width", "height")
+    tracks = ctx.replicas.tracks
+    if tracks:
+        moved = warp_states(np.array([t.state for t in tracks], dtype=float).reshape(-1, 4),
+                            labels, affine)
+        for t, box in zip(tracks, moved, strict=True):
+            t.state = box
+    for slots in ctx.replicas.state:
+        h = slots.get(var, TrackState).observations
+        if h is not None and h.boxes:
+            ages = list(h.boxes)
+            moved = warp_states(np.array([h.boxes[a] for a in ages]), labels, affine)
+            h.boxes = dict(zip(ages, moved, strict=True))
 
 
 class ObservationHistory:

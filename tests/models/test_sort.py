@@ -250,6 +250,30 @@ def test_camera_motion_moves_the_kalman_states(box_state):
     assert np.abs(vel[False]).max() > 1.0
 
 
+@pytest.mark.parametrize("camera_warp", ["box", "centre", "none"])
+def test_camera_motion_moves_the_last_observations(camera_warp):
+    """OC-SORT's recovery round and momentum read each replica's last detection and its
+    observation history: with the camera's motion in the frame they move into the frame's
+    coordinates as the Kalman state does (the whole box, its centre only, or not at all
+    with ``camera_warp="none"``), so a box from before a pan is compared with this frame's
+    detections in one frame's coordinates."""
+    from pgm.models import ocsort
+
+    A = np.array([[1.1, 0.0, -30.0], [0.0, 1.1, 12.0]])  # zoom 10 % and pan
+    box = np.array([300.0, 200.0, 40.0, 100.0])  # centre box
+    eng = Engine(ocsort.build_graph(ocsort.Params(camera_warp=camera_warp)), 0)
+    for t in range(1, 5):
+        eng.step(_frame(t, np.r_[box[:2] - box[2:] / 2, box[2:]]))
+    eng.step(FrameContext(5, detections=Detections(np.zeros((0, 4)), np.zeros(0)),
+                          camera_motion=A))  # missed while the camera moves
+    moved = {"box": np.r_[A[:, :2] @ box[:2] + A[:, 2], box[2:] * 1.1],
+             "centre": np.r_[A[:, :2] @ box[:2] + A[:, 2], box[2:]], "none": box}[camera_warp]
+    (t,) = eng.replicas.tracks
+    np.testing.assert_allclose(t.state, moved)
+    history = eng.replicas.state[0].get("box", TrackState).observations
+    np.testing.assert_allclose(history.boxes[max(history.boxes)], moved)
+
+
 @pytest.mark.slow
 def test_vb_sort_holds_where_the_measurement_noise_is_mis_specified(tmp_path):
     """Feng et al.'s (2015) claim on the SORT core: with the detection noise set ten times too large
