@@ -391,24 +391,24 @@ def _observations_through_camera(ctx: RuleContext, var: str, affine: np.ndarray)
     """Each replica's last detection and observation history moved into this frame's image
     coordinates through the camera's motion, as its state is by the transition (the same
     mode: the whole box, its centre only, or nothing), so that OC-SORT's recovery round
-    and momentum compare boxes of one frame's coordinates."""
+    and momentum compare boxes of one frame's coordinates (one warp for all of them)."""
     camera = next((getattr(f, "camera", "box") for f in ctx.graph.factors.values()
                    if isinstance(f, LinearGaussianTransition) and var in f.variables), "none")
     if camera == "none":
         return
     labels = ("cx", "cy", "w", "h") if camera == "box" else ("cx", "cy", "width", "height")
     tracks = ctx.replicas.tracks
-    if tracks:
-        moved = warp_states(np.array([t.state for t in tracks], dtype=float).reshape(-1, 4),
-                            labels, affine)
-        for t, box in zip(tracks, moved, strict=True):
-            t.state = box
-    for slots in ctx.replicas.state:
-        h = slots.get(var, TrackState).observations
-        if h is not None and h.boxes:
-            ages = list(h.boxes)
-            moved = warp_states(np.array([h.boxes[a] for a in ages]), labels, affine)
-            h.boxes = dict(zip(ages, moved, strict=True))
+    histories = [h for h in (slots.get(var, TrackState).observations
+                             for slots in ctx.replicas.state) if h is not None and h.boxes]
+    parts = [np.array([t.state for t in tracks], dtype=float).reshape(-1, 4)]
+    parts += [np.array(list(h.boxes.values()), dtype=float) for h in histories]
+    moved = warp_states(np.concatenate(parts), labels, affine)
+    for t, box in zip(tracks, moved, strict=False):
+        t.state = box
+    at = len(tracks)
+    for h in histories:
+        h.boxes = dict(zip(h.boxes, moved[at:at + len(h.boxes)], strict=True))
+        at += len(h.boxes)
 
 
 class ObservationHistory:
