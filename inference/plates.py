@@ -405,9 +405,10 @@ def _filled_gaps(tracks: list[Track], index: int, boxes: np.ndarray, shown: np.n
     after = lc.confirm_hits if lc.fill_after is None else lc.fill_after
     held_most = max(lc.confirm_hits, longest + 1)
     frames, ids, filled, scores = [], [], [], []
+    motion = _homogeneous(camera)  # shared, never written to
     for k, t in enumerate(tracks):
         if t.last_reported is not None and len(t.gap_motions) <= longest + 1:
-            t.gap_motions.append(_homogeneous(camera))
+            t.gap_motions.append(motion)
         if not shown[k]:
             t.pending_gap = None
             if t.matched or t.age == 1:  # had a detection: born, tentative, recovering
