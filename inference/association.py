@@ -403,7 +403,7 @@ def _observations_through_camera(ctx: RuleContext, var: str, affine: np.ndarray)
     parts = [np.array([t.state for t in tracks], dtype=float).reshape(-1, 4)]
     parts += [np.array(list(h.boxes.values()), dtype=float) for h in histories]
     moved = warp_states(np.concatenate(parts), labels, affine)
-    for t, box in zip(tracks, moved, strict=False):
+    for t, box in zip(tracks, moved[:len(tracks)], strict=True):
         t.state = box
     at = len(tracks)
     for h in histories:

@@ -48,7 +48,7 @@ cores, each one setting:
 
 Chosen **leave one sequence out** over the five shared MOT sequences and the toolkit's
 synthetic crossing scene, each under 11 kinds of perturbation (score maps, frame rate,
-dropped, jittered, extra and shifted detections), among 25 candidates of every core
+dropped, jittered, extra and shifted detections), among 29 candidates of every core
 (``python benchmarks/robustness.py``; numbers in ``docs/results.md``): every fold picks
 it. It needs the
 frames (for the colour models) and, where the camera moves, compensates its motion as

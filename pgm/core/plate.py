@@ -115,9 +115,12 @@ class Lifecycle:
         (a weaker second box on a tracked person). ``"none"``: only births are checked.
     fill_gaps : int
         A reported replica found again after at most this many frames without being
-        reported also reports the frames between, its box interpolated linearly between
-        the two it reported (:attr:`~pgm.inference.info.PlateInfo.filled`; written when it
-        is found, as rows of the earlier frames); 0: never.
+        reported also reports the frames between, its box interpolated between the two it
+        reported in the world the camera sees (through the frames' camera motions)
+        (:attr:`~pgm.inference.info.PlateInfo.filled`; written when it is found, as rows
+        of the earlier frames; not when another replica's reported boxes overlap it by
+        more than ``birth_iou`` at both ends of the gap: one object, reported twice); 0:
+        never.
     fill_after : int, optional
         Matches in a row a replica found again needs before its gap is filled (None:
         ``confirm_hits``, the evidence a birth needs: a gap closed on one match may
