@@ -392,8 +392,8 @@ def _observations_through_camera(ctx: RuleContext, var: str, affine: np.ndarray)
     coordinates through the camera's motion, as its state is by the transition (the same
     mode: the whole box, its centre only, or nothing), so that OC-SORT's recovery round
     and momentum compare boxes of one frame's coordinates (one warp for all of them)."""
-    camera = next((getattr(f, "camera", "box") for f in ctx.graph.factors.values()
-                   if isinstance(f, LinearGaussianTransition) and var in f.variables), "none")
+    camera = next((getattr(f, "camera", "box") for f in ctx.graph.factors_of(var, "transition")
+                   if isinstance(f, LinearGaussianTransition)), "none")
     if camera == "none":
         return
     labels = ("cx", "cy", "w", "h") if camera == "box" else ("cx", "cy", "width", "height")

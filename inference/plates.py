@@ -398,9 +398,9 @@ def _filled_gaps(tracks: list[Track], index: int, boxes: np.ndarray, shown: np.n
     None when there are no rows.
 
     Every replica remembers the frames and boxes it reported lately (the last
-    ``fill_gaps + 1`` of them), the camera's motions since its latest, the frames and
-    boxes it had a detection in since, and rows waiting to be reported (dropped when it
-    is not reported before they are)."""
+    ``fill_gaps + 2`` of them), the camera's motions since its latest, the frames and
+    boxes of a birth in progress, and rows waiting to be reported (dropped when it is
+    not reported before they are)."""
     longest = lc.fill_gaps
     after = lc.confirm_hits if lc.fill_after is None else lc.fill_after
     held_most = max(lc.confirm_hits, longest + 1)
@@ -409,23 +409,25 @@ def _filled_gaps(tracks: list[Track], index: int, boxes: np.ndarray, shown: np.n
     for k, t in enumerate(tracks):
         if t.last_reported is not None and len(t.gap_motions) <= longest + 1:
             t.gap_motions.append(motion)
+        last = t.last_reported
         if not shown[k]:
             t.pending_gap = None
-            if t.matched or t.age == 1:  # had a detection: born, tentative, recovering
+            if lc.fill_births and last is None and (t.matched or t.age == 1):
+                # a birth in progress: its frames and boxes, reported if it is confirmed
                 t.held = (t.held + [(index, np.array(boxes[k], dtype=float))])[-held_most:]
             continue
         found = np.array(boxes[k], dtype=float)
-        if t.last_reported is None:
-            if lc.fill_births and t.held:  # confirmed: the frames it was tentative
+        if last is None:
+            if t.held:  # confirmed: the frames it was tentative
                 at = np.array([f for f, _ in t.held], dtype=np.int64)
                 t.pending_gap = (at, np.array([b for _, b in t.held]), None)
-        elif 1 < index - t.last_reported[0] <= longest + 1:
-            start, before = t.last_reported
+        elif 1 < index - last[0] <= longest + 1:
+            start, before = last
             t.pending_gap = (np.arange(start + 1, index, dtype=np.int64),
                              _gap_boxes(before, found, t.gap_motions),
                              (start, before, index, found))
-        t.last_reported, t.gap_motions, t.held = (index, found), [], []
-        t.recent_reports = (t.recent_reports + [t.last_reported])[-(longest + 2):]
+        t.gap_motions, t.held = [], []
+        t.recent_reports = (t.recent_reports + [(index, found)])[-(longest + 2):]
     for k, t in enumerate(tracks):
         if not shown[k] or t.pending_gap is None:
             continue

@@ -53,17 +53,22 @@ class Track:
     history: list = field(default_factory=list)
     #: whether a detection was matched to it in the latest frame (``state`` is its box)
     matched: bool = False
-    #: the frame number and box ``(cx, cy, w, h)`` it was last reported with (gap filling)
-    last_reported: tuple[int, np.ndarray] | None = None
-    #: the frames and boxes it was reported with lately (a gap's frames another fills)
+    #: the frames and boxes ``(cx, cy, w, h)`` it was reported with lately, the latest last
+    #: (gap filling)
     recent_reports: list = field(default_factory=list)
-    #: the frames and boxes it had a detection in since it was last reported (or born)
+    #: the frames and boxes it had a detection in before it was first reported (births'
+    #: frames, :attr:`~pgm.core.plate.Lifecycle.fill_births`)
     held: list = field(default_factory=list)
     #: the camera's image motions ``3 × 3`` of the frames since it was last reported
     gap_motions: list = field(default_factory=list)
     #: rows of earlier frames waiting to be reported: frame numbers, boxes, and for a gap
     #: (filled after matches in a row) its ends ``(start, box, end, box)``
     pending_gap: tuple | None = None
+
+    @property
+    def last_reported(self) -> tuple[int, np.ndarray] | None:
+        """The frame number and box it was last reported with (None: never)."""
+        return self.recent_reports[-1] if self.recent_reports else None
 
     @property
     def existence(self) -> float:

@@ -47,6 +47,7 @@ References
 from __future__ import annotations
 
 import math
+import numbers
 import sys
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -430,13 +431,14 @@ def _check(p: Params) -> None:
         raise ValueError(f"count_hits must be 'seconds' or 'detections', got {p.count_hits!r}")
     if p.fill_births not in (True, False):
         raise ValueError(f"fill_births must be a bool, got {p.fill_births!r}")
-    if p.fill_after is not None and (isinstance(p.fill_after, bool) or not isinstance(
-            p.fill_after, (int, float)) or int(p.fill_after) != p.fill_after or p.fill_after < 1):
-        raise ValueError(f"fill_after must be a positive integer or None, got {p.fill_after!r}")
-    for name in ("lost_buffer", "min_hits"):
+    for name in ("lost_buffer", "min_hits", "fill_after"):
         v = getattr(p, name)
-        if isinstance(v, bool) or int(v) != v or v < (1 if name == "min_hits" else 0):
-            raise ValueError(f"{name} must be a {'positive' if name == 'min_hits' else 'non-negative'}"
+        if v is None and name == "fill_after":
+            continue
+        if isinstance(v, bool) or not isinstance(v, numbers.Real) or int(v) != v \
+                or v < (0 if name == "lost_buffer" else 1):
+            raise ValueError(f"{name} must be a "
+                             f"{'non-negative' if name == 'lost_buffer' else 'positive'}"
                              f" integer, got {v!r}")
     check_finite_param("vb_rho", p.vb_rho, positive=True)
     check_finite_param("vb_alpha0", p.vb_alpha0, positive=True)
