@@ -207,6 +207,14 @@ def source_folder(name: str, work: Path) -> Path:
     return out
 
 
+def prepare_source(name: str, work: str) -> None:
+    """Write what every kind of ``name`` reads (the synthetic scene's folder, a video's
+    frames) once."""
+    source_folder(name, Path(work))
+    if name != SYNTHETIC:
+        _frames_of(name, Path(work))
+
+
 def prepare(name: str, kind: str, work: Path) -> Path:
     """The perturbed folder of ``name`` under ``work`` (written once)."""
     from pgm.evaluation.perturb import perturb_sequence
@@ -441,6 +449,11 @@ def main(argv: list[str] | None = None) -> int:
     print(machine_note())
     print(f"{len(todo)} sequence x kind tasks to run ({len(results)} results cached)")
     with ProcessPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+        # the sources two tasks share (the synthetic scene, a video's frames) written once,
+        # before any task reads them (in the workers: OpenCV is never loaded before a fork)
+        for f in [pool.submit(prepare_source, q, str(work))
+                  for q in dict.fromkeys(q for q, *_ in todo)]:
+            f.result()
         futures = [pool.submit(task, q, k, c, p, str(work)) for q, k, c, p in todo]
         for f in futures:
             rows = f.result()

@@ -180,17 +180,18 @@ def test_desk_benchmark_prints_a_row_per_tracker():
 
 @pytest.mark.slow
 def test_robustness_benchmark_prints_a_table_per_kind_and_the_choice(shared_data, tmp_path):
-    """``benchmarks/robustness.py`` on two sequences, three kinds, two candidates, without
-    the peers: a table per kind, a rank-reading candidate's score-map row the same as its
-    unperturbed row (copied, as the script says), the leave-one-out rows; the cache makes
-    a second call run nothing."""
+    """``benchmarks/robustness.py`` on three sequences (the synthetic scene, whose folder
+    every kind's task reads, written once before two workers start), three kinds, two
+    candidates, without the peers: a table per kind, a rank-reading candidate's score-map
+    row the same as its unperturbed row (copied, as the script says), the leave-one-out
+    rows; the cache makes a second call run nothing."""
     import subprocess
 
     root = Path(__file__).resolve().parents[1]
     cmd = [sys.executable, str(root / "benchmarks" / "robustness.py"), "--sequences",
-           "TUD-Campus,TUD-Stadtmitte", "--kinds", "none,rank,drop", "--candidates",
+           "TUD-Campus,TUD-Stadtmitte,synthetic", "--kinds", "none,rank,drop", "--candidates",
            "ocsort-colour (detector scores),ocsort-colour quantile 0.2 hits", "--no-peers",
-           "--jobs", "1", "--cache", str(tmp_path / "cache.jsonl"), "--work", str(tmp_path)]
+           "--jobs", "2", "--cache", str(tmp_path / "cache.jsonl"), "--work", str(tmp_path)]
     out = subprocess.run(cmd, capture_output=True, text=True, timeout=900, check=True).stdout
     assert "kind none: MOTA / IDF1 / HOTA" in out and "kind drop: MOTA / IDF1 / HOTA" in out
     tables = out.split("kind ")
@@ -204,6 +205,9 @@ def test_robustness_benchmark_prints_a_table_per_kind_and_the_choice(shared_data
         assert all(-1.0 <= float(v) <= 1.0 for v in row(t)[1:11] if v != "/")
     assert row(none)[6:11] == row(rank)[6:11]
     assert "leave one sequence out, criterion mean" in out
+    assert " error" not in out and "Error" not in out
+    synthetic = [line for line in none.splitlines() if line.strip().startswith("synthetic")]
+    assert len(synthetic) == 1 and float(synthetic[0].split()[1]) > 0.5
     again = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=True).stdout
     assert "0 sequence x kind tasks to run" in again
 
