@@ -155,6 +155,18 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                           "recover_hits": 3, "consecutive": False, "fill_births": True,
                           "count_hits": "detections" if c else "seconds"})
        for c in ("", " counts")},
+    # the same with the process noise a step per detection at any frame rate (its rates in
+    # the video's units) instead of a random walk in time, and the counts of matches kept
+    # as counts of detections too ("counts")
+    **{f"ocsort-colour quantile 0.2 s30 birth0.3 tentative-prediction recover3 fill0.5 births "
+       f"noise-per-detection{c}": (
+        "ocsort_colour", {"score_map": "quantile", "score_threshold": 0.2,
+                          "reference_fps": 30.0, "birth_iou": 0.3,
+                          "explain_tentative": "prediction", "fill_gaps": 0.5,
+                          "recover_hits": 3, "consecutive": False, "fill_births": True,
+                          "noise_per": "detection",
+                          "count_hits": "detections" if c else "seconds"})
+       for c in ("", " counts")},
     # BoT-SORT's cascade (pooled rounds, IoU x score), its thresholds as quantiles
     "botsort quantile": ("botsort", {"score_map": "quantile"}),
     "botsort-colour quantile": ("botsort", {"score_map": "quantile", **COLOUR}),

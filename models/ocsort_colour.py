@@ -2,7 +2,7 @@
 per track, thresholds on the video's own score quantiles, a life cycle that asks a track
 found again for the evidence a new one needs, and short gaps filled.
 
-:mod:`pgm.models.ocsort`'s graph with nine of the ideas this toolkit adds to the classic
+:mod:`pgm.models.ocsort`'s graph with ten of the ideas this toolkit adds to the classic
 cores, each one setting:
 
 * ``report="estimate"`` — a matched track reports its Kalman posterior box (the filtered
@@ -45,10 +45,16 @@ cores, each one setting:
 * ``fill_births=True`` — a track confirmed also reports the frames it was tentative in,
   with the boxes it had then, written when it is confirmed: the confirmation count is
   evidence asked before a track is reported, not frames lost.
+* ``noise_per="detection"`` — the Kalman process noise, read as at 30 frames/s, is the
+  same step at each detection at any frame rate (its rates put in the video's units)
+  rather than a random walk that grows with the time between frames: what it models is
+  the boxes' irregularity from one detection to the next (a person's box changes with
+  the pose; a walker's velocity varies about its mean, it does not drift), so at 7 or
+  10 frames/s the filter does not chase the detections' jitter.
 
 Chosen **leave one sequence out** over the five shared MOT sequences and the toolkit's
 synthetic crossing scene, each under 11 kinds of perturbation (score maps, frame rate,
-dropped, jittered, extra and shifted detections), among 29 candidates of every core
+dropped, jittered, extra and shifted detections), among 31 candidates of every core
 (``python benchmarks/robustness.py``; numbers in ``docs/results.md``): every fold picks
 it. It needs the
 frames (for the colour models) and, where the camera moves, compensates its motion as
@@ -68,6 +74,10 @@ frames (for the colour models) and, where the camera moves, compensates its moti
 1
 >>> g.factors["association"].score_map, [r["min_score"] for r in g.factors["association"].rounds]
 ('quantile', [0.2, 0.2])
+>>> import numpy as np  # at a third of 30 frames/s: the rates' variance times 9, not 27
+>>> slow = np.diag(build_graph(Params(fps=10.0)).factors["transition:box"].Q)
+>>> np.round(slow / np.diag(g.factors["transition:box"].Q), 6).tolist()
+[1.0, 1.0, 1.0, 1.0, 9.0, 9.0, 9.0]
 """
 
 from __future__ import annotations
@@ -89,7 +99,8 @@ class Params(ocsort.Params):
     appearance in the association, score quantiles, SORT's confirmation count, its per-frame
     constants read at 30 frames/s, a track found again reported after three matches in
     a row, no birth, nor tentative track, on a detection a track explains, gaps of up to
-    0.5 s filled, and a track's tentative frames reported when it is confirmed."""
+    0.5 s filled, a track's tentative frames reported when it is confirmed, and the Kalman
+    noise a step per detection at any frame rate."""
 
     report: str = "estimate"
     appearance: str | None = "colour"
@@ -103,6 +114,7 @@ class Params(ocsort.Params):
     explain_tentative: str = "prediction"
     fill_gaps: float = 0.5
     fill_births: bool = True
+    noise_per: str = "detection"
 
 
 def build_graph(params: Params | None = None, name: str = "ocsort-colour") -> FactorGraph:

@@ -72,6 +72,8 @@ from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, VBNoise
 from pgm.inference.settings import EngineSettings
 
 from . import config as _config
+from .sort_time import at_frame_rate, lost_frames
+from .sort_time import noise_diagonals as _noise
 
 __all__ = ["CONFIG", "Params", "at_frame_rate", "build_graph", "lost_frames", "score_map_for",
            "video_build", "with_score_threshold",
@@ -233,6 +235,12 @@ class Params:
         ``reference_fps``: frames at that rate, a window of time converted to the video's
         (``"seconds"``), or detections, the same at any rate (``"detections"``: the
         evidence that tells an object from clutter is a number of detections).
+    noise_per : {"second", "detection"}
+        How the process noise converts with a ``reference_fps`` (:func:`at_frame_rate`):
+        a continuous-time random walk (``"second"``: more noise between frames further
+        apart), or the same step each detection, only its rates put in the video's units
+        (``"detection"``: the noise models the detections' irregularity, which does not
+        grow with the time between them).
     """
 
     box_state: str = "xyxy"
@@ -282,68 +290,7 @@ class Params:
     fill_after: int | None = None
     fill_births: bool = False
     count_hits: str = "seconds"
-
-
-def _noise(p: Params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``Q, R, P0`` diagonals of ``p`` (the code's defaults where not given)."""
-    if p.box_state == "xyxy":
-        q, r, p0 = [0.01] * 8, [0.1] * 4, [1.0] * 8
-    else:  # the trackers package's XCYCSR settings, i.e. the SORT paper's
-        q, r, p0 = [1.0] * 4 + [0.01, 0.01, 0.0001], [1.0, 1.0, 10.0, 10.0], \
-            [10.0] * 4 + [10000.0] * 3
-    out = []
-    for given, default, what in ((p.process_noise, q, "process_noise"),
-                                 (p.measurement_noise, r, "measurement_noise"),
-                                 (p.initial_cov, p0, "initial_cov")):
-        v = np.asarray(default if given is None else given, dtype=float)
-        if v.shape != (len(default),):
-            raise ValueError(f"{what} needs {len(default)} values for the {p.box_state} state, "
-                             f"got {v.size}")
-        check_finite_param(what, v, positive=True)
-        out.append(v)
-    return out[0], out[1], out[2]
-
-
-def at_frame_rate(p: Params) -> Params:
-    """``p`` with its per-frame constants, given at ``p.reference_fps``, converted to the
-    video's rate ``p.fps`` (``reference_fps`` None: ``p`` as it is).
-
-    With ``τ = reference_fps / fps`` reference frames per video frame:
-
-    * counts of frames (``min_hits``, ``recover_hits``, ``fill_after``, ``delta_t``) are
-      windows of time: ``max(1, round(n / τ))`` — but with ``count_hits="detections"``
-      the first three stay counts of detections;
-    * the constant-velocity state's noise is a continuous-time random walk sampled every
-      ``τ``: a box coordinate's process variance grows as ``τ``; a rate is per video
-      frame, ``τ`` times the reference frame's, so its variance grows as ``τ³`` and its
-      initial variance as ``τ²`` (the scale-aware stds: ``√τ``, ``τ^1.5`` and ``τ``).
-
-    The detector's noise ``R`` is per detection and does not change.
-
-    >>> q = at_frame_rate(replace(Params(), reference_fps=30.0, fps=10.0))
-    >>> q.min_hits, q.process_noise[:4], q.process_noise[4:]
-    (1, (0.03, 0.03, 0.03, 0.03), (0.27, 0.27, 0.27, 0.27))
-    """
-    if p.reference_fps is None:
-        return p
-    check_finite_param("reference_fps", p.reference_fps, positive=True)
-    check_finite_param("fps", p.fps, positive=True)
-    tau = float(p.reference_fps) / float(p.fps)
-    q, _, p0 = _noise(p)
-    n = 4  # the box's columns come first, their rates after them
-    q[:n] *= tau
-    q[n:] *= tau ** 3
-    p0[n:] *= tau ** 2
-    frames = lambda k: max(1, round(int(k) / tau))  # noqa: E731
-    hits = frames if p.count_hits == "seconds" else int  # noqa: E731
-    return replace(p, reference_fps=None, min_hits=hits(p.min_hits),
-                   recover_hits=hits(p.recover_hits), delta_t=frames(p.delta_t),
-                   fill_after=None if p.fill_after is None else hits(p.fill_after),
-                   process_noise=tuple(float(v) for v in q),
-                   initial_cov=tuple(float(v) for v in p0),
-                   pos_std=p.pos_std * math.sqrt(tau), vel_std=p.vel_std * tau ** 1.5,
-                   initial_pos_std=p.initial_pos_std or 2.0 * p.pos_std,
-                   initial_rate_std=(p.initial_rate_std or 10.0 * p.vel_std) * tau)
+    noise_per: str = "second"
 
 
 def appearance_factors(appearance: str | None) -> list | None:
@@ -359,14 +306,6 @@ def appearance_factors(appearance: str | None) -> list | None:
     shared = SimpleNamespace(lam=20.0, layout="perez", kernel="uniform")
     return [cue_factor(cue, "box", shared, name=f"appearance:{cue}:{k}", options=opts)
             for k, (cue, opts) in enumerate(appearance_cues(appearance))]
-
-
-def lost_frames(lost_buffer: int, fps: float) -> int:
-    """Frames a confirmed track survives without a match: ``lost_buffer`` frames at 30
-    frames/s at the video's rate (``max(1, ceil(fps / 30 · lost_buffer))``; 0 stays 0)."""
-    if lost_buffer == 0:
-        return 0
-    return max(1, math.ceil(fps / 30.0 * lost_buffer))
 
 
 def score_map_for(scores: np.ndarray) -> str:
@@ -427,6 +366,8 @@ def _check(p: Params) -> None:
         if p.score_map in LEARNED_SCORE_MAPS and not 0.0 <= p.score_threshold <= 1.0:
             raise ValueError(f"score_threshold is in [0, 1] with the {p.score_map} score map, "
                              f"got {p.score_threshold}")
+    if p.noise_per not in ("second", "detection"):
+        raise ValueError(f"noise_per must be 'second' or 'detection', got {p.noise_per!r}")
     if p.count_hits not in ("seconds", "detections"):
         raise ValueError(f"count_hits must be 'seconds' or 'detections', got {p.count_hits!r}")
     if p.fill_births not in (True, False):
@@ -648,6 +589,11 @@ OPTIONS = (
                    help="what --min-hits and --recover-hits count with --reference-fps: frames "
                         "at that rate, converted to the video's (seconds), or detections at any "
                         "rate (default: seconds)"),
+    _config.Option("--noise-per", "noise_per", choices=("second", "detection"),
+                   help="how the Kalman process noise converts with --reference-fps: a random "
+                        "walk in time (second) or the same step each detection, its rates in "
+                        "the video's units (detection; default: the model's, ocsort-colour "
+                        "detection)"),
     _config.Option("--iou-threshold", None, type=_config.finite_float("--iou-threshold"),
                    metavar="T",
                    help="the IoU a detection needs with a track to be matched to it, in every "

@@ -760,6 +760,38 @@ def test_reference_frame_rate_converts_per_frame_constants_to_seconds():
         sort.build_graph(sort.Params(reference_fps=float("nan")))
 
 
+def test_noise_per_detection_keeps_the_step_and_converts_only_the_rates_units():
+    """``noise_per="detection"``: at a third of the reference rate a box coordinate's
+    process variance is the reference frame's and a rate's (per video frame, ``τ`` times
+    as large) ``τ²`` times it — the same step in the video's units — with the windows of
+    frames converted as with ``"second"``; an unknown value is an error."""
+    from dataclasses import replace
+
+    tau = 3.0
+    for p in (sort.Params(), sort.Params(box_state="xysr")):
+        ref = sort.build_graph(replace(p, fps=30.0))
+        slow = sort.build_graph(replace(p, fps=10.0, reference_fps=30.0,
+                                        noise_per="detection"))
+        per_second = sort.build_graph(replace(p, fps=10.0, reference_fps=30.0))
+        q_ref = np.diag(ref.factors["transition:box"].Q)
+        q_slow = np.diag(slow.factors["transition:box"].Q)
+        d = len(q_ref) // 2 if p.box_state == "xyxy" else 4
+        np.testing.assert_allclose(q_slow[:d], q_ref[:d])
+        np.testing.assert_allclose(q_slow[d:], tau ** 2 * q_ref[d:])
+        np.testing.assert_allclose(np.diag(slow.factors["prior:box"].cov),
+                                   np.diag(per_second.factors["prior:box"].cov))
+        assert slow.plates[0].lifecycle == per_second.plates[0].lifecycle
+        assert slow.factors["association"].delta_t == per_second.factors["association"].delta_t
+    scaled = sort.build_graph(sort.Params(noise="scale", fps=10.0, reference_fps=30.0,
+                                          noise_per="detection"))
+    base = sort.build_graph(sort.Params(noise="scale"))
+    np.testing.assert_allclose(scaled.factors["transition:box"].relative_std,
+                               base.factors["transition:box"].relative_std
+                               * np.array([1.0] * 4 + [tau] * 4))
+    with pytest.raises(ValueError, match="noise_per"):
+        sort.build_graph(sort.Params(noise_per="frame"))
+
+
 def test_no_birth_on_a_detection_a_track_explains():
     """``birth_iou``: a detector's second, weaker box on a person (IoU 0.43 with the first)
     starts a second identity in the package's cores (``birth_iou=1``), none with the

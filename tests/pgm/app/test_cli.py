@@ -343,6 +343,33 @@ def test_a_saved_part_graph_reruns_on_a_folder_with_ground_truth(tmp_path, capsy
     assert lo == pytest.approx(90 - 1, abs=1e-6) and hi == pytest.approx(90 - 1 + 100, abs=1e-6)
 
 
+def test_noise_per_reaches_the_saved_kalman_noise(mot_dir, tmp_path, capsys):
+    """``--noise-per``: at 10 frames/s (``--fps``; the default reads its noise as at 30)
+    the saved transition's rate variances are 9 times the 30 frames/s ones per detection
+    (the default) and 27 times with ``second``; a bad value is a one-line error."""
+    def q(out):
+        facs = json.loads((out / "model.json").read_text())["factors"]
+        fac = next(f for f in (facs if isinstance(facs, list) else facs.values())
+                   if f.get("name") == "transition:box")
+        return np.diag(np.asarray(fac["params"]["Q"], dtype=float))
+
+    qs = {}
+    for name, extra in (("ref", ["--fps", "30"]), ("detection", ["--fps", "10"]),
+                        ("second", ["--fps", "10", "--noise-per", "second"])):
+        out = tmp_path / name
+        code, _, err = run_cli(capsys, "track", mot_dir, "--model", "ocsort-colour",
+                               "--no-video", "--quiet", "--max-frames", "3", "--out", out,
+                               *extra)
+        assert code == 0, err
+        qs[name] = q(out)
+    np.testing.assert_allclose(qs["detection"][4:] / qs["ref"][4:], 9.0)
+    np.testing.assert_allclose(qs["second"][4:] / qs["ref"][4:], 27.0)
+    np.testing.assert_allclose(qs["detection"][:4], qs["ref"][:4])
+    bad = run_cli(capsys, "track", mot_dir, "--no-video", "--out", tmp_path / "bad",
+                  "--noise-per", "minute")
+    assert bad[0] != 0 and "--noise-per" in bad[2]
+
+
 def test_filled_gaps_reach_the_track_file_and_the_metrics(mot_dir, tmp_path, capsys):
     """``--fill-gaps`` (and ``--fill-births``): the rows of a filled gap (and of a track's
     tentative frames) are written to tracks.txt when the track is found again (or
