@@ -11,7 +11,8 @@ when the detections change the way another detector's or camera's would. Each
   (``(s − min + 1)^0.5``): strictly increasing maps, so a tracker whose decisions read
   scores only through what they say about the detections gives the same tracks;
 * ``fps/2``, ``fps/3`` — every second or third frame kept (frames renumbered, the
-  frame rate divided);
+  frame rate divided), starting at frame ``1 + seed mod step``: each seed below the step
+  keeps another share of the frames;
 * ``drop`` — 20 % of the detections removed;
 * ``jitter`` — each box's centre and size moved by a Gaussian of 5 % of its size;
 * ``false-positives`` — 20 % more detections, false: boxes (size and place) and scores
@@ -131,14 +132,16 @@ def perturb_detections(det: np.ndarray, kind: str, rng: np.random.Generator,
     raise ValueError(f"unknown perturbation {kind!r} (choose from {KINDS})")
 
 
-def keep_frames(rows: np.ndarray, step: int, num_frames: int) -> np.ndarray:
-    """MOT rows of the frames ``1, 1 + step, 1 + 2 step, …`` (≤ ``num_frames``),
-    renumbered ``1, 2, …``."""
+def keep_frames(rows: np.ndarray, step: int, num_frames: int, phase: int = 0) -> np.ndarray:
+    """MOT rows of the frames ``1 + phase, 1 + phase + step, …`` (≤ ``num_frames``;
+    ``0 <= phase < step``), renumbered ``1, 2, …``."""
+    if not 0 <= phase < step:
+        raise ValueError(f"keep_frames: phase must be in [0, {step}), got {phase!r}")
     r = np.array(rows, dtype=float, copy=True)
     f = r[:, 0].astype(int)
-    keep = ((f - 1) % step == 0) & (f <= num_frames)
+    keep = ((f - 1 - phase) % step == 0) & (f > phase) & (f <= num_frames)
     r = r[keep]
-    r[:, 0] = (r[:, 0].astype(int) - 1) // step + 1
+    r[:, 0] = (r[:, 0].astype(int) - 1 - phase) // step + 1
     return r
 
 
@@ -165,7 +168,8 @@ def perturb_sequence(source: str | Path, out: str | Path, kind: str, seed: int =
 
     ``frames``: the source's image files in order (default: ``img1/`` as ``seqinfo.ini``
     names it), linked from ``out/img1/`` under their new numbers. The detections are
-    perturbed after the frame rate is changed, with ``numpy.random.default_rng(seed)``.
+    perturbed after the frame rate is changed, with ``numpy.random.default_rng(seed)``; a
+    frame rate keeps the frames from ``1 + seed mod step`` on.
     """
     src, dst = Path(source), Path(out)
     if kind not in KINDS:
@@ -181,13 +185,14 @@ def perturb_sequence(source: str | Path, out: str | Path, kind: str, seed: int =
     if len(frames) < n:
         raise ValueError(f"{src}: {len(frames)} frames for a sequence of {n}")
     step = {"fps/2": 2, "fps/3": 3}.get(kind, 1)
-    det = keep_frames(_read_rows(src / "det" / "det.txt"), step, n)
-    gt = keep_frames(_read_rows(src / "gt" / "gt.txt"), step, n)
+    phase = int(seed) % step
+    det = keep_frames(_read_rows(src / "det" / "det.txt"), step, n, phase)
+    gt = keep_frames(_read_rows(src / "gt" / "gt.txt"), step, n, phase)
     if step == 1:
         size = ((float(info["imWidth"]), float(info["imHeight"]))
                 if "imWidth" in info and "imHeight" in info else None)
         det = perturb_detections(det, kind, np.random.default_rng(seed), image_size=size)
-    kept = frames[:n:step]
+    kept = frames[phase:n:step]
     _write_rows(dst / "det" / "det.txt", det)
     _write_rows(dst / "gt" / "gt.txt", gt)
     info["seqLength"] = str(len(kept))

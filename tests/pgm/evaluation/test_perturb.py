@@ -63,9 +63,18 @@ def test_each_kind_is_seeded_and_does_what_it_says():
 
 
 def test_frame_rate_keeps_every_kth_frame_renumbered():
-    rows = np.array([[f, 1, 0, 0, 1, 1, 1] for f in range(1, 11)], dtype=float)
+    """Every third frame from the first, or from the second or third (the phase): each
+    row keeps its box, renumbered; the three phases share out every frame."""
+    rows = np.array([[f, 1, f, 0, 1, 1, 1] for f in range(1, 11)], dtype=float)
     kept = keep_frames(rows, 3, 10)
     np.testing.assert_array_equal(kept[:, 0], [1, 2, 3, 4])
+    np.testing.assert_array_equal(kept[:, 2], [1, 4, 7, 10])
+    shares = [keep_frames(rows, 3, 10, phase)[:, 2] for phase in range(3)]
+    np.testing.assert_array_equal(shares[1], [2, 5, 8])
+    np.testing.assert_array_equal(keep_frames(rows, 3, 10, 2)[:, 0], [1, 2, 3])
+    np.testing.assert_array_equal(np.sort(np.concatenate(shares)), np.arange(1, 11))
+    with pytest.raises(ValueError, match="phase"):
+        keep_frames(rows, 3, 10, 3)
 
 
 @pytest.mark.data
@@ -87,6 +96,15 @@ def test_a_perturbed_sequence_reads_as_the_original(shared_data, tmp_path):
         assert gt.frames.max() <= len(seq) and det.table.frames.max() <= len(seq)
         first = next(iter(seq.frames()))[1]
         assert first.shape == next(iter(orig.frames()))[1].shape
+    # the seed picks the phase of a frame rate: seed 1 starts at the original's frame 2
+    out = perturb_sequence(src, tmp_path / "fps-3-seed1", "fps/3", seed=1)
+    seq = open_source(out)
+    assert len(seq) == len(range(1, len(orig), 3))
+    second = [image for _, image in orig.frames(2, 3)][0]
+    np.testing.assert_array_equal(next(iter(seq.frames()))[1], second)
+    gt1 = load_mot(out / "gt" / "gt.txt", kind="gt")
+    gt_orig = load_mot(src / "gt" / "gt.txt", kind="gt")
+    np.testing.assert_array_equal(gt1.at(1)[1], gt_orig.at(2)[1])
     same = PublicDetections(tmp_path / "none" / "det" / "det.txt").table
     ref = PublicDetections(src / "det" / "det.txt").table
     np.testing.assert_allclose(same.boxes, ref.boxes)
