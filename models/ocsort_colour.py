@@ -55,8 +55,8 @@ cores, each one setting:
 Chosen **leave one sequence out** over the five shared MOT sequences and the toolkit's
 synthetic crossing scene, each under 11 kinds of perturbation (score maps, frame rate,
 dropped, jittered, extra and shifted detections), among 31 candidates of every core
-(``python benchmarks/robustness.py``; numbers in ``docs/results.md``): every fold picks
-it. It needs the
+(``python benchmarks/robustness.py``; numbers in ``docs/results.md``): five of the six
+folds pick it (the PETS09-S2L1 video's picks it with the noise per second). It needs the
 frames (for the colour models) and, where the camera moves, compensates its motion as
 ``pgm track`` does by default. ``pgm track`` runs it on a folder with detections when no
 ``--model`` is given.

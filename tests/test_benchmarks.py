@@ -1,5 +1,6 @@
 """The benchmarks' shared timing loop reports what the runner reports (same seed)."""
 
+import json
 import sys
 from pathlib import Path
 
@@ -178,22 +179,46 @@ def test_desk_benchmark_prints_a_row_per_tracker():
         assert 0.0 <= auc <= 1.0
 
 
+def test_robustness_candidates_are_their_own_fields_and_one_is_the_default():
+    """Every ``ocsort_colour`` candidate is OC-SORT's core with colour and its own fields
+    (not the module's defaults, which move with each choice), and the candidate named
+    the default builds exactly ``ocsort_colour.Params()``."""
+    from dataclasses import asdict, replace
+
+    root = Path(__file__).resolve().parents[1]
+    sys.path.insert(0, str(root / "benchmarks"))
+    import robustness
+
+    from pgm.models import ocsort, ocsort_colour
+
+    module, fields = robustness.CANDIDATES[robustness.DEFAULT]
+    assert module == "ocsort_colour"
+    assert asdict(replace(robustness.base_params(module), **fields)) == \
+        asdict(ocsort_colour.Params())
+    base = robustness.base_params("ocsort_colour")
+    assert type(base) is ocsort.Params and base.fill_births is False and base.appearance == "colour"
+    module, fields = robustness.CANDIDATES["ocsort-colour quantile 0.2 hits"]
+    got = replace(base, **fields)
+    assert (got.fill_gaps, got.birth_iou, got.noise_per) == (0.0, 1.0, "second")
+
+
 @pytest.mark.slow
 def test_robustness_benchmark_prints_a_table_per_kind_and_the_choice(shared_data, tmp_path):
     """``benchmarks/robustness.py`` on three sequences (the synthetic scene, whose folder
-    every kind's task reads, written once before two workers start), three kinds, two
-    candidates, without the peers: a table per kind, a rank-reading candidate's score-map
-    row the same as its unperturbed row (copied, as the script says), the leave-one-out
-    rows; the cache makes a second call run nothing."""
+    every kind's task reads, written once before two workers start), three kinds (half
+    the frame rate: each cell the mean over both shares of the frames), two candidates,
+    without the peers: a table per kind, a rank-reading candidate's score-map row the same
+    as its unperturbed row (copied, as the script says), the leave-one-out rows; the cache
+    makes a second call run nothing."""
     import subprocess
 
     root = Path(__file__).resolve().parents[1]
     cmd = [sys.executable, str(root / "benchmarks" / "robustness.py"), "--sequences",
-           "TUD-Campus,TUD-Stadtmitte,synthetic", "--kinds", "none,rank,drop", "--candidates",
+           "TUD-Campus,TUD-Stadtmitte,synthetic", "--kinds", "none,rank,fps/2", "--candidates",
            "ocsort-colour (detector scores),ocsort-colour quantile 0.2 hits", "--no-peers",
            "--jobs", "2", "--cache", str(tmp_path / "cache.jsonl"), "--work", str(tmp_path)]
     out = subprocess.run(cmd, capture_output=True, text=True, timeout=900, check=True).stdout
-    assert "kind none: MOTA / IDF1 / HOTA" in out and "kind drop: MOTA / IDF1 / HOTA" in out
+    assert "kind none: MOTA / IDF1 / HOTA" in out and "kind fps/2: MOTA / IDF1 / HOTA" in out
     tables = out.split("kind ")
     none = next(t for t in tables if t.startswith("none:"))
     rank = next(t for t in tables if t.startswith("rank:"))
@@ -206,8 +231,15 @@ def test_robustness_benchmark_prints_a_table_per_kind_and_the_choice(shared_data
     assert row(none)[6:11] == row(rank)[6:11]
     assert "leave one sequence out, criterion mean" in out
     assert " error" not in out and "Error" not in out
+    # half the frame rate: the mean over both shares of the frames, each run
+    cached = [json.loads(line) for line in (tmp_path / "cache.jsonl").read_text().splitlines()]
+    half = [r for r in cached if r["kind"] == "fps/2"]
+    assert len(half) == 6 and all(r["phases"] == 2 for r in half)
+    for q in ("TUD-Campus", "TUD-Stadtmitte", "synthetic"):
+        assert (tmp_path / q / "fps-2" / "seqinfo.ini").is_file()
+        assert (tmp_path / q / "fps-2-p1" / "seqinfo.ini").is_file()
     synthetic = [line for line in none.splitlines() if line.strip().startswith("synthetic")]
-    assert len(synthetic) == 1 and float(synthetic[0].split()[1]) > 0.5
+    assert len(synthetic) == 1 and float(synthetic[0].split()[6]) > 0.5  # quantile: MOTA
     again = subprocess.run(cmd, capture_output=True, text=True, timeout=300, check=True).stdout
     assert "0 sequence x kind tasks to run" in again
 
