@@ -38,7 +38,7 @@ import numpy as np
 from pgm.core.batched import BatchedGaussian, BatchedInverseGamma, BatchedParticles
 from pgm.core.boxes import box_coding, encode_boxes, iou_matrix, state_boxes
 from pgm.core.frame import FrameContext
-from pgm.core.motion import linear_state_warp, warp_states
+from pgm.core.motion import linear_state_warp
 from pgm.core.resolution import appearance_matrix, learn_all
 from pgm.factors import GaussianPrior, LinearGaussianTransition
 from pgm.factors.association import (
@@ -396,13 +396,14 @@ def _observations_through_camera(ctx: RuleContext, var: str, affine: np.ndarray)
                    if isinstance(f, LinearGaussianTransition)), "none")
     if camera == "none":
         return
-    labels = ("cx", "cy", "w", "h") if camera == "box" else ("cx", "cy", "width", "height")
+    T, c = linear_state_warp(("cx", "cy", "w", "h"), affine,  # noqa: N806
+                             sizes="keep" if camera == "centre" else "scale")
     tracks = ctx.replicas.tracks
     histories = [h for h in (slots.get(var, TrackState).observations
                              for slots in ctx.replicas.state) if h is not None and h.boxes]
     parts = [np.array([t.state for t in tracks], dtype=float).reshape(-1, 4)]
     parts += [np.array(list(h.boxes.values()), dtype=float) for h in histories]
-    moved = warp_states(np.concatenate(parts), labels, affine)
+    moved = np.concatenate(parts) @ T.T + c
     for t, box in zip(tracks, moved[:len(tracks)], strict=True):
         t.state = box
     at = len(tracks)

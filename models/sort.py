@@ -89,6 +89,10 @@ NOISES = ("fixed", "scale")
 MOTIONS = ("kalman", "cv", "cv3", "gpdm")
 #: what a matched track reports: its detection's box, or the Kalman posterior mean
 REPORTS = ("detection", "estimate")
+#: what the counts of matches count with a reference frame rate (:func:`at_frame_rate`)
+HIT_COUNTS = ("seconds", "detections")
+#: how the process noise converts with a reference frame rate (:func:`at_frame_rate`)
+NOISE_PERS = ("second", "detection")
 
 
 @dataclass(frozen=True)
@@ -366,10 +370,10 @@ def _check(p: Params) -> None:
         if p.score_map in LEARNED_SCORE_MAPS and not 0.0 <= p.score_threshold <= 1.0:
             raise ValueError(f"score_threshold is in [0, 1] with the {p.score_map} score map, "
                              f"got {p.score_threshold}")
-    if p.noise_per not in ("second", "detection"):
-        raise ValueError(f"noise_per must be 'second' or 'detection', got {p.noise_per!r}")
-    if p.count_hits not in ("seconds", "detections"):
-        raise ValueError(f"count_hits must be 'seconds' or 'detections', got {p.count_hits!r}")
+    if p.noise_per not in NOISE_PERS:
+        raise ValueError(f"noise_per must be one of {NOISE_PERS}, got {p.noise_per!r}")
+    if p.count_hits not in HIT_COUNTS:
+        raise ValueError(f"count_hits must be one of {HIT_COUNTS}, got {p.count_hits!r}")
     if p.fill_births not in (True, False):
         raise ValueError(f"fill_births must be a bool, got {p.fill_births!r}")
     for name in ("lost_buffer", "min_hits", "fill_after"):
@@ -585,11 +589,11 @@ OPTIONS = (
                    metavar="{on,off}",
                    help="a track confirmed also reports the frames it was tentative in, written "
                         "when it is confirmed (default: the model's, ocsort-colour on)"),
-    _config.Option("--count-hits", "count_hits", choices=("seconds", "detections"),
+    _config.Option("--count-hits", "count_hits", choices=HIT_COUNTS,
                    help="what --min-hits and --recover-hits count with --reference-fps: frames "
                         "at that rate, converted to the video's (seconds), or detections at any "
                         "rate (default: seconds)"),
-    _config.Option("--noise-per", "noise_per", choices=("second", "detection"),
+    _config.Option("--noise-per", "noise_per", choices=NOISE_PERS,
                    help="how the Kalman process noise converts with --reference-fps: a random "
                         "walk in time (second) or the same step each detection, its rates in "
                         "the video's units (detection; default: the model's, ocsort-colour "
