@@ -4,8 +4,9 @@ indices, the adapt rate, and the bounds of the sizes a cue takes
 
 from __future__ import annotations
 
+import functools
 from abc import abstractmethod
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, is_dataclass
 from typing import Any, ClassVar
 
 import cv2
@@ -69,6 +70,15 @@ class TemplateState(LearnedState):
     in the first frame)."""
 
     template: Any = None
+
+
+@functools.cache
+def _state_field_names(cls: type) -> frozenset[str]:
+    """The names of a factor class's learned-state fields (set as it learns: they never
+    change how a box is read)."""
+    state = getattr(cls, "State", None)
+    return frozenset(f.name for f in fields(state)) if state is not None \
+        and is_dataclass(state) else frozenset()
 
 
 class BoxAppearanceLikelihood(LikelihoodFactor):
@@ -148,10 +158,21 @@ class BoxAppearanceLikelihood(LikelihoodFactor):
     def reading_key(self) -> tuple:
         """What reading a box depends on: the class and its parameters less the model and
         the likelihood's sharpness (models with equal keys read boxes alike, so one pass
-        over the boxes serves them all)."""
-        return (type(self).__name__,) + tuple(
-            (k, repr(v)) for k, v in sorted(self.params().items())
-            if k != self.model_attr and k not in self._NOT_READING)
+        over the boxes serves them all). Computed once and kept until an attribute that
+        may change it is set (it is asked for every track on every frame)."""
+        key = self.__dict__.get("_reading_key")
+        if key is None:
+            key = (type(self).__name__,) + tuple(
+                (k, repr(v)) for k, v in sorted(self.params().items())
+                if k != self.model_attr and k not in self._NOT_READING)
+            self.__dict__["_reading_key"] = key
+        return key
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name not in self._NOT_READING and name != self.model_attr and \
+                name not in _state_field_names(type(self)):
+            self.__dict__.pop("_reading_key", None)  # a parameter changed: read it afresh
+        super().__setattr__(name, value)
 
     @classmethod
     def read_alike(cls, models) -> bool:

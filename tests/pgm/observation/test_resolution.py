@@ -92,6 +92,9 @@ def test_gathered_histograms_equal_the_integral_histograms(layout):
         np.testing.assert_array_equal(fl[rows], fk)
     grey = cv2.cvtColor(cv2.cvtColor(img, cv2.COLOR_BGR2GRAY), cv2.COLOR_GRAY2BGR)
     np.testing.assert_array_equal(s.box_histograms(grey, b)[0], s.histograms(grey, b)[0])
+    view = img[::-1, 5:]  # a frame that is a strided view reads the same pixels
+    np.testing.assert_array_equal(s.box_histograms(view, b, levels)[0],
+                                  s.box_histograms(np.ascontiguousarray(view), b, levels)[0])
 
 
 def _colour_models(rng, img, k):
@@ -241,3 +244,9 @@ def test_models_read_alike_unless_their_reading_differs():
     assert not ColourHistogramLikelihood.read_alike([a, ColourHistogramLikelihood("box", n_h=8)])
     assert not TemplateLikelihood.read_alike([TemplateLikelihood("box"),
                                               TemplateLikelihood("box", grid=(6, 12))])
+    c = ColourHistogramLikelihood("box")
+    assert ColourHistogramLikelihood.read_alike([a, c])  # its key is kept from now on
+    c.template, c.lam = np.ones(80), 3.0  # what it learns, how sharply it scores: alike
+    assert ColourHistogramLikelihood.read_alike([a, c])
+    c.box_indices = (4, 5, 6, 7)  # a parameter set later: the kept key is dropped
+    assert not ColourHistogramLikelihood.read_alike([a, c])

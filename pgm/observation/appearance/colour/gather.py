@@ -15,6 +15,29 @@ __all__ = []
 _ROW = 8      # gathered pixels are quantised as an image this many pixels wide
 
 
+def _lattice_indices(ints: np.ndarray, inside: np.ndarray, step: np.ndarray, width: int
+                     ) -> np.ndarray:
+    """Flat frame indices ``(inside.sum(),)`` of each box's lattice pixels, box by box,
+    row by row: box ``i`` covers lattice rows ``ints[0, 1, i]:ints[1, 1, i]`` and columns
+    ``ints[0, 0, i]:ints[1, 0, i]`` of the frame's every ``step[i]``-th pixel.
+
+    Built as the running sum of the steps between consecutive pixels (``step`` within a
+    row, a jump at each row's start), so the per-pixel work is one ``repeat`` and one
+    ``cumsum``; the rest is per row (a box has tens of rows, hundreds of pixels)."""
+    w = ints[1, 0] - ints[0, 0]
+    h = np.where(inside > 0, ints[1, 1] - ints[0, 1], 0)
+    row_box = np.repeat(np.arange(len(h)), h)
+    row = np.arange(len(row_box)) - (np.cumsum(h) - h)[row_box]
+    s, wr = step[row_box], w[row_box]
+    first = ((ints[0, 1][row_box] + row) * width + ints[0, 0][row_box]) * s
+    last = first + (wr - 1) * s
+    delta = np.repeat(s, wr)
+    starts = np.cumsum(wr) - wr
+    delta[starts] = first
+    delta[starts[1:]] -= last[:-1]
+    return np.cumsum(delta)
+
+
 def _gathered_histograms(image: np.ndarray, canon: tuple[str, int, int, int], n_bins: int,
                          b: np.ndarray, levels: np.ndarray | None = None
                          ) -> tuple[np.ndarray, np.ndarray]:
@@ -39,17 +62,12 @@ def _gathered_histograms(image: np.ndarray, canon: tuple[str, int, int, int], n_
     total = int(inside.sum())
     if total == 0:
         return hist, in_frac
-    w = ints[1, 0] - ints[0, 0]
-    start = np.cumsum(inside) - inside
+    flat = _lattice_indices(ints, inside, step, width)
     box = np.repeat(np.arange(n), inside)
-    local = np.arange(total) - start[box]
-    wb, sb = w[box], step[box]
-    rows = (ints[0, 1][box] + local // wb) * sb
-    cols = (ints[0, 0][box] + local % wb) * sb
     if image.flags.c_contiguous:
-        pixels = np.take(image.reshape(height * width, -1), rows * width + cols, axis=0)
+        pixels = np.take(image.reshape(height * width, -1), flat, axis=0)
     else:
-        pixels = image[rows, cols]
+        pixels = image[flat // width, flat % width]
     pixels = pixels.reshape(total, -1)
     pad = -total % _ROW
     if pad:
