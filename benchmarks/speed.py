@@ -262,11 +262,11 @@ def _size(name: str) -> str:
 #: how the camera's motion was estimated before issue 39: every frame shrunk to 640 wide,
 #: 400 corners found anew, 21-pixel windows over 3 levels
 CAMERA_BEFORE = {"max_side": 640, "max_corners": 400, "win_size": 21, "pyramid_levels": 3,
-                 "track": False, "halve": False}
+                 "track": False, "halve": False, "flow_epsilon": 0.01}
 #: the reference the two are held against: 960 wide (one halving of 1080p), 1000 corners
 #: found anew, 21-pixel windows over 4 levels
 CAMERA_REFERENCE = {"max_side": 960, "max_corners": 1000, "win_size": 21, "pyramid_levels": 4,
-                    "track": False}
+                    "track": False, "flow_epsilon": 0.01}
 
 
 def camera_section(name: str, frames: int) -> None:

@@ -26,9 +26,12 @@ def _similarity(angle_deg, scale, tx, ty, centre):
     return A
 
 
+@pytest.mark.parametrize("flow_epsilon", [None, 0.01])
 @pytest.mark.parametrize("angle, scale, tx, ty", [(0.0, 1.0, 6.3, -2.7),
                                                   (1.0, 1.02, -4.0, 3.5)])
-def test_estimator_recovers_a_known_camera_motion(angle, scale, tx, ty):
+def test_estimator_recovers_a_known_camera_motion(angle, scale, tx, ty, flow_epsilon):
+    """Within a quarter pixel at the image's corners, with the default Lucas–Kanade
+    stopping rule and with OpenCV's own (0.01 px)."""
     rng = np.random.default_rng(0)
     big = _scene(rng, 480, 640)
     h, w = 360, 480
@@ -37,7 +40,8 @@ def test_estimator_recovers_a_known_camera_motion(angle, scale, tx, ty):
     # the new frame sees the big scene through the motion (so the borders stay filled)
     full = np.hstack([A_true[:, :2], (A_true[:, :2] @ [-80, -60] + A_true[:, 2])[:, None]])
     frame1 = cv2.warpAffine(big, full, (w, h), flags=cv2.INTER_LINEAR)
-    est = CameraMotionEstimator("on")
+    est = CameraMotionEstimator("on", **({} if flow_epsilon is None
+                                         else {"flow_epsilon": flow_epsilon}))
     assert est(frame0) is None
     A = est(frame1)
     corners = np.array([[0, 0], [w, 0], [0, h], [w, h]], dtype=float)
@@ -55,6 +59,9 @@ def test_auto_mode_reports_no_motion_for_a_still_camera():
     assert CameraMotionEstimator("off")(img) is None
     with pytest.raises(ValueError, match="mode"):
         CameraMotionEstimator("sometimes")
+    for bad in (0.0, -0.1, float("nan")):
+        with pytest.raises(ValueError, match="flow_epsilon"):
+            CameraMotionEstimator("on", flow_epsilon=bad)
 
 
 def test_warp_states_moves_positions_velocities_and_sizes():
