@@ -40,6 +40,16 @@ STONE_SOUP = {1000: (9.1, 19.7, 46.5, 1.04), 5000: (24.5, 13.3, 30.4, 0.53),
 BUDGETS = {1000: (195, 195, 8), 5000: (965, 965, 40), 20000: (3860, 3860, 160)}
 
 
+def budget(total: int) -> tuple[int, int, int]:
+    """The split of ``total`` particles: :data:`BUDGETS`' where it has one, otherwise
+    theirs in proportion (per target and minimum 0.193 ``total``, newborns per
+    measurement 0.008 ``total``, at least one)."""
+    if total in BUDGETS:
+        return BUDGETS[total]
+    per_target = max(1, round(0.193 * total))
+    return per_target, per_target, max(1, round(0.008 * total))
+
+
 def load(path: Path):
     d = json.loads(path.read_text())
     p = d["params"]
@@ -54,7 +64,7 @@ def load(path: Path):
 
 
 def run(params_cls, builder, p, meas, truth, total, seed):
-    per_target, n_min, n_birth = BUDGETS[total]
+    per_target, n_min, n_birth = budget(total)
     area = float(np.prod(np.diff(np.array(p["region"]), axis=1)))
     params = params_cls(area=area, sigma=p["sigma_z"], q=p["q"], dt=p["dt"],
                         p_detect=p["p_detect"], p_survive=p["p_survive"],

@@ -36,7 +36,10 @@ Stone Soup 1.9.1's SMC-PHD itself in the same run (the peers' venv,
 ``peers/phd_peers.py``: per-measurement extraction as the bench README's figures), ms per
 step (the filter: median over ``--seeds`` seeds) and OSPA(50, 1) by the toolkit's metric
 for both, and the ratio of the times (to the README's figure where Stone Soup is not
-installed).
+installed); then the filter's speed and accuracy over particle counts from 250 to 2·10^4,
+and, for each Stone Soup row, the cheapest of them at or below its OSPA (the speed ratio at
+equal or better accuracy), with the filter's per-measurement extraction and with its
+confirmed tracks.
 
 Columns: ms per frame, frames per second, peak memory (MiB, maximum resident set of a fresh
 process), and the ratios named in each table's header.
@@ -387,6 +390,16 @@ def phd_section(seeds: int, totals: list[int], peers: bool) -> None:
             rows.append([total, f"{ms:.2f}", f"{ours:.1f}", "-", "-",
                          f"{readme[0] / ms:.1f} (README)" if readme else "-",
                          readme[0] if readme else "-"])
+    if "error" not in ss:
+        points = {n: (float(np.median([r["ms"] for r in ss[n]])),
+                      float(np.mean([ospa_of(r["estimates"]) for r in ss[n]])))
+                  for n in totals if n in ss}
+        equal_accuracy_table(seeds, points, p, truth, meas, path.name, "same run")
+    else:
+        points = {n: phd_scenario.STONE_SOUP[n][:2] for n in totals
+                  if n in phd_scenario.STONE_SOUP}
+        equal_accuracy_table(seeds, points, p, truth, meas, path.name,
+                             "the bench README's figures: Stone Soup not run here")
     note = ("Stone Soup 1.9.1 run in this run (peers' venv)" if "error" not in ss else
             f"Stone Soup not run ({ss['error'][:80]}): the ratio is to the bench README's "
             f"figure")
@@ -395,6 +408,53 @@ def phd_section(seeds: int, totals: list[int], peers: bool) -> None:
                 title=f"PHD filter on {path.name}: ms per step (filter; median over {seeds} "
                       f"seeds), OSPA(50,1) mean over seeds (per-measurement extraction, the "
                       f"toolkit's metric for both); {note}")
+
+
+#: the PHD filter's particle counts for the speed-accuracy curve (the equal-OSPA table)
+PHD_CURVE = (250, 500, 1000, 2000, 3000, 5000, 10000, 20000)
+
+
+def equal_accuracy_table(seeds: int, points: dict[int, tuple[float, float]], p, truth, meas,
+                         scenario: str, source: str) -> None:
+    """The PHD filter's cost at Stone Soup's accuracy: for each of Stone Soup's rows
+    ``points`` (``N -> (ms per step, OSPA(50, 1))``), the cheapest of the filter's particle
+    counts (:data:`PHD_CURVE`) whose mean OSPA(50, 1) is at or below Stone Soup's, and the
+    ratio of the ms per step — with the filter's per-measurement extraction (as Stone
+    Soup's figures) and with its track layer's confirmed tracks (the toolkit's output;
+    Stone Soup's SMC-PHD has no track layer)."""
+    import phd_scenario
+
+    from pgm.models import phd
+
+    curve = []
+    for total in PHD_CURVE:
+        res = [phd_scenario.run(phd.Params, phd.build_graph, p, meas, truth, total, s)
+               for s in range(seeds)]
+        curve.append((total, float(np.median([r["ms"] for r in res])),
+                      float(np.mean([r["ospa_raw"] for r in res])),
+                      float(np.mean([r["ospa_trk"] for r in res]))))
+    print_table(["N", "ms/step", "OSPA(50,1) extraction", "OSPA(50,1) tracks"],
+                [[n, f"{ms:.2f}", f"{o:.1f}", f"{t:.1f}"] for n, ms, o, t in curve],
+                title=f"PHD filter on {scenario}: speed and accuracy by particle count "
+                      f"({seeds} seeds: ms median, OSPA mean)")
+
+    def cheapest(target, k):  # k: 2 the extraction's OSPA, 3 the tracks'
+        ok = [(c[1], c[0], c[k]) for c in curve if c[k] <= target]  # (ms, N, OSPA)
+        return min(ok) if ok else None
+
+    rows = []
+    for total, (ss_ms, ss_ospa) in points.items():
+        row = [total, f"{ss_ms:.2f}", f"{ss_ospa:.1f}"]
+        for k in (2, 3):
+            got = cheapest(ss_ospa, k)
+            row += (["not reached", "-"] if got is None else
+                    [f"N={got[1]}: {got[0]:.2f} ms, {got[2]:.1f}", f"{ss_ms / got[0]:.1f}"])
+        rows.append(row)
+    print_table(["Stone Soup N", "Stone Soup ms/step", "Stone Soup OSPA(50,1)",
+                 "PHD at that OSPA: extraction", "x speed", "PHD at that OSPA: tracks",
+                 "x speed"], rows,
+                title=f"At equal or better accuracy: the cheapest particle count of the PHD "
+                      f"filter whose OSPA(50,1) is at or below Stone Soup's ({source})")
 
 
 def main(argv: list[str] | None = None) -> int:
