@@ -16,6 +16,7 @@ A variable whose labels name no position is left alone.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 
 import numpy as np
@@ -87,8 +88,27 @@ def linear_state_warp(labels: Sequence[str], affine: np.ndarray | None, sizes: s
         raise ValueError(f"sizes must be 'scale' or 'keep', got {sizes!r}")
     if affine is None or not labels:
         return None
-    labels = list(labels)
-    A = np.asarray(affine, dtype=float)
+    A = np.ascontiguousarray(affine, dtype=float)
+    if A.shape != (2, 3):
+        raise ValueError(f"an image motion is a (2, 3) array [M | t], got shape {A.shape}")
+    return _linear_state_warp(tuple(labels), A.tobytes(), sizes)
+
+
+@functools.lru_cache(maxsize=64)
+def _linear_state_warp(labels: tuple[str, ...], affine: bytes, sizes: str
+                       ) -> tuple[np.ndarray, np.ndarray] | None:
+    """:func:`linear_state_warp` of one frame's motion (kept: a frame's motion moves every
+    track's state, its last observations and the recovery round's boxes by the same map;
+    the arrays are read-only)."""
+    out = _state_warp(list(labels), np.frombuffer(affine).reshape(2, 3), sizes)
+    if out is not None:
+        for a in out:
+            a.setflags(write=False)
+    return out
+
+
+def _state_warp(labels: list[str], A: np.ndarray, sizes: str
+                ) -> tuple[np.ndarray, np.ndarray] | None:
     M, t = A[:, :2], A[:, 2]
     d = len(labels)
     T, c = np.eye(d), np.zeros(d)

@@ -544,8 +544,19 @@ class ScoreQuantiles:
     sequence's detections ("the top 40 %"), the same for any strictly increasing map of
     the scores. Online and deterministic; one instance per video."""
 
+    #: the recent scores are merged into the rest once they are more than this many and
+    #: more than four times the square root of the rest's count (each frame's insertion
+    #: then costs the recent scores, not the video's: a long video stays as fast)
+    RECENT = 4096
+
     def __init__(self) -> None:
-        self.history = np.zeros(0)
+        self._older = np.zeros(0)   # sorted
+        self._recent = np.zeros(0)  # sorted, the scores since the last merge
+
+    @property
+    def history(self) -> np.ndarray:
+        """Every finite score so far, sorted."""
+        return np.sort(np.concatenate([self._older, self._recent]))
 
     def update(self, boxes: np.ndarray, scores: np.ndarray) -> np.ndarray:
         """Add a frame's scores; returns their quantiles ``(M,)`` (NaN scores: 0)."""
@@ -553,8 +564,18 @@ class ScoreQuantiles:
         if s.size != np.asarray(boxes).reshape(-1, 4).shape[0]:
             raise ValueError(f"{np.asarray(boxes).reshape(-1, 4).shape[0]} boxes but "
                              f"{s.size} scores")
-        self.history = _with_sorted(self.history, s)
-        return np.where(np.isfinite(s), mid_ranks(self.history, np.nan_to_num(s)), 0.0)
+        self._recent = _with_sorted(self._recent, s)
+        if self._recent.size > max(self.RECENT, 4.0 * np.sqrt(self._older.size)):
+            self._older = _with_sorted(self._older, self._recent)
+            self._recent = np.zeros(0)
+        n = self._older.size + self._recent.size
+        if n == 0:
+            return np.zeros(s.size)
+        lo = (np.searchsorted(self._older, s, side="left")
+              + np.searchsorted(self._recent, s, side="left"))
+        hi = (np.searchsorted(self._older, s, side="right")
+              + np.searchsorted(self._recent, s, side="right"))
+        return np.where(np.isfinite(s), (lo + hi) / (2.0 * n), 0.0)  # mid_ranks, two parts
 
 
 #: how detection scores are brought to [0, 1] before the rounds' thresholds: ``"none"``

@@ -667,6 +667,15 @@ def test_botsort_and_cbiou_settings_save_load_and_check():
         Lifecycle(activate_first=1)
     with pytest.raises(ValueError, match="sizes"):
         linear_state_warp(("cx", "cy", "w", "h"), np.eye(2, 3), sizes="grow")
+    with pytest.raises(ValueError, match=r"\(2, 3\)"):
+        linear_state_warp(("cx", "cy", "w", "h"), np.eye(3))
+    # a frame's map is kept (read-only) and is the same map when asked again
+    B = np.array([[1.01, -0.02, 3.0], [0.02, 1.01, -1.5]])
+    T, c = linear_state_warp(("cx", "cy", "w", "h"), B)
+    assert linear_state_warp(["cx", "cy", "w", "h"], B.copy())[0] is T
+    assert not T.flags.writeable and not c.flags.writeable
+    np.testing.assert_allclose(T[:2, :2], B[:, :2])
+    np.testing.assert_allclose(np.diag(T)[2:], np.sqrt(np.linalg.det(B[:, :2])))
 
 
 def test_botsort_score_threshold_moves_the_split_and_keeps_the_floor():

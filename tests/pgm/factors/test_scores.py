@@ -312,3 +312,26 @@ def test_the_phd_learned_score_terms_are_invariant_and_favour_confident_detectio
     assert np.median(on_kappa[~truth]) > 2 * np.median(on_kappa[truth])
     with pytest.raises(ValueError, match="boxes"):
         ScoreCalibration(settings).observe(np.ones(2))
+
+
+def test_score_quantiles_are_mid_ranks_among_every_score_so_far():
+    """Oracle: each frame's quantiles are the mid-ranks among every finite score shown so
+    far, this frame's included, also after the recent scores are merged into the rest
+    (a small ``RECENT`` forces merges); non-finite scores get 0."""
+    from pgm.factors.scores import ScoreQuantiles, mid_ranks
+
+    rng = np.random.default_rng(5)
+    q = ScoreQuantiles()
+    q.RECENT = 16
+    seen = []
+    for frame in range(60):
+        s = np.round(rng.normal(size=rng.integers(0, 9)), 1)  # ties on purpose
+        if frame % 7 == 3 and s.size:
+            s[0] = np.nan
+        got = q.update(np.ones((s.size, 4)), s)
+        seen.extend(s[np.isfinite(s)])
+        want = np.where(np.isfinite(s), mid_ranks(np.sort(seen), np.nan_to_num(s)), 0.0)
+        np.testing.assert_allclose(got, want, atol=1e-15)
+    np.testing.assert_array_equal(q.history, np.sort(seen))
+    assert q._older.size > 0 and q._recent.size <= max(16, 4 * np.sqrt(q._older.size))
+    assert ScoreQuantiles().update(np.ones((1, 4)), np.array([np.nan])).tolist() == [0.0]
