@@ -63,14 +63,14 @@ def load(path: Path):
     return p, truth, meas
 
 
-def run(params_cls, builder, p, meas, truth, total, seed):
+def run(params_cls, builder, p, meas, truth, total, seed, regularise=False):
     per_target, n_min, n_birth = budget(total)
     area = float(np.prod(np.diff(np.array(p["region"]), axis=1)))
     params = params_cls(area=area, sigma=p["sigma_z"], q=p["q"], dt=p["dt"],
                         p_detect=p["p_detect"], p_survive=p["p_survive"],
                         clutter_rate=p["clutter_rate"], birth_rate=0.1, n_birth=n_birth,
                         birth_velocity_std=10.0, particles_per_target=per_target,
-                        min_particles=n_min, max_coast=2)
+                        min_particles=n_min, max_coast=2, regularise=regularise)
     eng = Engine(builder(params), np.random.default_rng(seed))
     secs, counts = 0.0, []
     o_raw, o_trk, o_raw2, card, sig = [], [], [], [], []

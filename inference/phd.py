@@ -17,7 +17,8 @@ A ``set`` variable's belief is an :class:`~pgm.Intensity`. Its rules:
   births as Ristic, Clark, Vo & Vo [#ristic2012]);
 * **resample** — the persistent set only, keeping its mass, with a budget of
   ``max(min_particles, round(num_particles · mass))`` (``num_particles`` is per
-  expected target here);
+  expected target here); with the factor's ``regularise``, each resampled particle is
+  then moved by a kernel of its target's posterior (:mod:`~pgm.inference.phd_regularise`);
 * **estimate** — per-measurement extraction (Ristic, Clark & Vo [#ristic2010]): report the
   weighted mean of measurement ``z``'s share of the persistent intensity when
   ``W_z > 0.5``, merge estimates closer than the factor's ``merge_gate`` σ, then the
@@ -57,6 +58,7 @@ from pgm.factors.scores import ScoreCalibration, shadowed
 
 from .context import RuleContext
 from .info import VariableInfo
+from .phd_regularise import regularise
 from .rules import RuleTable
 from .tracks import TrackManager
 
@@ -294,12 +296,17 @@ def _resample_intensity(ctx: RuleContext, variable: str, frame) -> VariableInfo:
     if b.num == 0:
         return VariableInfo(resampled=False)
     mass = b.mass
-    budget = max(phd_factor_of(ctx, variable).min_particles,
-                 int(round(ctx.num_particles[variable] * mass)))
+    factor = phd_factor_of(ctx, variable)
+    budget = max(factor.min_particles, int(round(ctx.num_particles[variable] * mass)))
     idx = ctx.resampler(ctx.rng, b.weights, budget)
-    out = Intensity._trusted_set(b.x[idx], np.full(budget, np.log(mass / budget)),
+    last = ctx.state.get(variable, PHDState).last
+    if factor.regularise and last is not None and last.get("x") is b.x:
+        x = regularise(ctx.rng, b.x, idx, last, budget, mass)  # each target's own kernel
+    else:
+        x = b.x.take(idx, axis=0)
+    out = Intensity._trusted_set(x, np.full(budget, np.log(mass / budget)),
                                  newborn=b.newborn, log_mass=np.log(mass),
-                                 labels=None if b.labels is None else b.labels[idx])
+                                 labels=None if b.labels is None else b.labels.take(idx))
     ctx.beliefs[variable] = out
     return VariableInfo(resampled=True, particles=budget)
 

@@ -85,6 +85,9 @@ class Params:
         σ of newborn velocities (px/frame): about a typical speed.
     particles_per_target, min_particles : int
         Resampling budget ``max(min_particles, round(particles_per_target · mass))``.
+    regularise : bool
+        Regularised resampling: each target's resampled particles spread again by a kernel
+        of its own posterior (:mod:`pgm.inference.phd_regularise`).
     confirm_hits, max_coast : int
         Track layer: hits to confirm, frames to coast.
     max_lost : int, optional
@@ -145,6 +148,7 @@ class Params:
     birth_velocity_std: float = 4.0
     particles_per_target: int = 300
     min_particles: int = 200
+    regularise: bool = False
     confirm_hits: int = 3
     max_coast: int = 2
     max_lost: int | None = None
@@ -248,6 +252,7 @@ def build_graph(params: Params, name: str = "phd") -> FactorGraph:
                       area=params.area, birth_rate=params.birth_rate, n_birth=params.n_birth,
                       birth_velocity_std=params.birth_velocity_std, velocity_indices=(1, 3),
                       min_particles=int(params.min_particles),
+                      regularise=params.regularise,
                       merge_gate=float(check_finite_param("merge_gate", params.merge_gate,
                                                           positive=True)),
                       tracks=TrackSettings(

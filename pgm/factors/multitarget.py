@@ -186,6 +186,11 @@ class PHDLikelihood(LikelihoodFactor):
     min_particles : int
         Floor of the intensity's resampling budget
         ``max(min_particles, round(num_particles · mass))``.
+    regularise : bool
+        Regularised resampling (:mod:`pgm.inference.phd_regularise`): each resampled
+        particle moved by a kernel of the posterior of the measurement that explains it
+        (shrunk so the target's mean and covariance are kept), against sample
+        impoverishment when the transition's noise is small. Off by default.
     merge_gate : float
         Extraction: estimates closer than this many σ are one target.
     tracks : TrackSettings or dict
@@ -216,7 +221,8 @@ class PHDLikelihood(LikelihoodFactor):
                  clutter_rate: float = 1.0, area: float = 1.0, birth_rate: float = 0.1,
                  n_birth: int = 100, birth_velocity_std: float = 1.0,
                  velocity_indices=(), appearance_temper: float = 1.0,
-                 min_particles: int = 200, merge_gate: float = 2.0,
+                 min_particles: int = 200, regularise: bool = False,
+                 merge_gate: float = 2.0,
                  tracks: TrackSettings | dict[str, Any] | None = None,
                  scale_index: int | None = None, scaled=None, log_h_range: float = 1.0,
                  scores: ScoreSettings | dict[str, Any] | str | None = None,
@@ -253,6 +259,10 @@ class PHDLikelihood(LikelihoodFactor):
                 or self.min_particles < 0:
             raise ValueError(f"factor {self.name!r}: min_particles must be a non-negative "
                              f"integer, got {min_particles!r}")
+        if not isinstance(regularise, (bool, np.bool_)):
+            raise ValueError(f"factor {self.name!r}: regularise must be True or False, got "
+                             f"{regularise!r}")
+        self.regularise = bool(regularise)
         self.merge_gate = float(check_finite_param(f"{self.name}.merge_gate", merge_gate,
                                                    positive=True))
         self.tracks = TrackSettings.coerce(tracks, f"factor {self.name!r}: tracks")
@@ -288,6 +298,8 @@ class PHDLikelihood(LikelihoodFactor):
                 "appearance_temper": self.appearance_temper,
                 "min_particles": self.min_particles, "merge_gate": self.merge_gate,
                 "tracks": dataclasses.asdict(self.tracks)}
+        if self.regularise:  # factors without it save as before
+            p["regularise"] = True
         if self.scores.enabled:  # score-blind factors save as before
             p["scores"] = self.scores.to_dict()
         if self.scale_index is not None:

@@ -201,8 +201,9 @@ def simulate_scenario(rng, T=60):
     return truth, meas, area_side**2
 
 
+@pytest.mark.parametrize("regularise", [False, True])
 @pytest.mark.parametrize("model", ["phd", "vb-phd"])
-def test_phd_mass_tracks_the_true_count(model):
+def test_phd_mass_tracks_the_true_count(model, regularise):
     """After the first frames the intensity's expected count follows the true count.
 
     Measured on this scenario (seeds 0-2): mean |mass − count| 0.2–0.3 from step 5 on;
@@ -211,7 +212,8 @@ def test_phd_mass_tracks_the_true_count(model):
     truth, meas, area = simulate_scenario(np.random.default_rng(0))
     mod = {"phd": phd, "vb-phd": vb_phd}[model]
     params = mod.Params(area=area, sigma=3.0, q=0.05, clutter_rate=4.0, p_detect=0.95,
-                        birth_velocity_std=2.0, particles_per_target=300)
+                        birth_velocity_std=2.0, particles_per_target=300,
+                        regularise=regularise)
     for seed in range(2):
         eng = Engine(mod.build_graph(params), np.random.default_rng(seed))
         mass, n_tracks = [], []
