@@ -81,7 +81,9 @@ def systematic(rng: np.random.Generator, weights: np.ndarray, num_samples: int) 
     below = np.ceil(cdf * (m / cdf[-1]) - u)  # points strictly below each cdf value
     np.clip(below, 0, m, out=below)
     below[-1] = m
-    counts = np.diff(below, prepend=0.0).astype(np.int64)
+    counts = np.empty(w.size, dtype=np.int64)  # np.diff(below, prepend=0), without its copy
+    counts[0] = below[0]
+    np.subtract(below[1:], below[:-1], out=counts[1:], casting="unsafe")
     return np.repeat(np.arange(w.size), counts)
 
 

@@ -80,7 +80,7 @@ def scratch(owner: object, key: str, shape: tuple[int, ...]) -> np.ndarray:
     and reused (grown by a quarter when too small). Fresh temporaries of hundreds of
     kilobytes are mmap'd by glibc and page-faulted in on every call; hot loops that make
     one per step reuse this instead. The content is undefined."""
-    size = int(np.prod(shape))
+    size = math.prod(shape)  # np.prod of a tuple costs an array (a few µs a call)
     buf = owner.__dict__.get(key)
     if buf is None or buf.size < size:
         buf = np.empty(max(size, 1) * 5 // 4)
