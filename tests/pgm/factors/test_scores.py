@@ -335,3 +335,40 @@ def test_score_quantiles_are_mid_ranks_among_every_score_so_far():
     np.testing.assert_array_equal(q.history, np.sort(seen))
     assert q._older.size > 0 and q._recent.size <= max(16, 4 * np.sqrt(q._older.size))
     assert ScoreQuantiles().update(np.ones((1, 4)), np.array([np.nan])).tolist() == [0.0]
+
+
+def test_persistence_model_refits_as_binning_every_labelled_score():
+    """Oracle: the curve refitted each frame from the bins' starts and the two sorted
+    parts is the curve of binning every labelled score by its quantile among every score
+    so far, bit for bit — with tied scores, NaN scores, empty frames and merges of the
+    recent part (a small ``RECENT`` forces them)."""
+    from pgm.factors.scores import PersistenceScoreModel, _pool_adjacent, mid_ranks
+
+    def naive(m, labelled, found):
+        u = mid_ranks(np.sort(m.history), labelled)
+        k = np.minimum((u * m.bins).astype(int), m.bins - 1)
+        count = np.bincount(k, minlength=m.bins).astype(float)
+        hits = np.bincount(k, weights=found.astype(float), minlength=m.bins)
+        overall = (hits.sum() + 1.0) / (len(labelled) + 1.0)
+        w = m.prior_weight
+        return _pool_adjacent((hits + w * overall) / np.maximum(count + w, 1e-12), count + w)
+
+    rng = np.random.default_rng(11)
+    for bins in (20, 3):
+        m = PersistenceScoreModel(bins=bins)
+        m.RECENT = 37
+        people = rng.uniform(0, 400, (6, 4))
+        people[:, 2:] = 30.0
+        for frame in range(150):
+            keep = rng.random(6) < 0.8
+            boxes = people[keep] + rng.normal(0, 2, (keep.sum(), 4))
+            clutter = rng.uniform(0, 400, (rng.poisson(2), 4))
+            clutter[:, 2:] = 30.0
+            b = np.concatenate([boxes, clutter]) if frame % 17 else np.zeros((0, 4))
+            s = np.round(rng.normal(size=len(b)), 1)  # ties on purpose
+            if len(s) and frame % 5 == 0:
+                s[0] = np.nan
+            m.update(b, s)
+            if m.labelled.size:
+                np.testing.assert_array_equal(m.curve, naive(m, m.labelled, m.found))
+        assert m._older.size > 0  # merges happened
