@@ -111,20 +111,22 @@ def match(cost: np.ndarray, valid: np.ndarray, lost: np.ndarray | list[bool]
     cost = np.asarray(cost, dtype=float)
     valid = np.asarray(valid, dtype=bool)
     lost = np.asarray(lost, dtype=bool).reshape(-1)
-    rows_t: list[int] = []
-    rows_m: list[int] = []
+    rows_t: list[np.ndarray] = []
+    rows_m: list[np.ndarray] = []
+    free = np.ones(cost.shape[1], dtype=bool)
     for round_lost in (False, True):
-        rows = [k for k in range(cost.shape[0]) if lost[k] == round_lost]
-        cols = [j for j in range(cost.shape[1]) if j not in rows_m]
-        if not rows or not cols:
+        rows = np.flatnonzero(lost == round_lost)
+        cols = np.flatnonzero(free)
+        if not rows.size or not cols.size:
             continue
-        sub = cost[np.ix_(rows, cols)]
-        r, c = linear_sum_assignment(sub)
-        for i, j in zip(r, c, strict=True):
-            if valid[rows[i], cols[j]]:
-                rows_t.append(rows[i])
-                rows_m.append(cols[j])
-    return np.array(rows_t, dtype=int), np.array(rows_m, dtype=int)
+        r, c = linear_sum_assignment(cost[rows][:, cols])
+        ok = valid[rows[r], cols[c]]
+        rows_t.append(rows[r[ok]])
+        rows_m.append(cols[c[ok]])
+        free[cols[c[ok]]] = False
+    cat = (lambda xs: np.concatenate(xs).astype(int) if xs  # noqa: E731
+           else np.zeros(0, dtype=int))
+    return cat(rows_t), cat(rows_m)
 
 
 def update_tracks(tracks: list[Track], matched: np.ndarray, *, confirm_hits: int,
