@@ -44,6 +44,7 @@ from pgm.inference.engine import Engine, StepRecord
 from pgm.io.annotated_video import AnnotatedVideoWriter
 from pgm.io.annotations import MotWriter, SingleTrack, load_single_gt
 from pgm.io.outputs import prepare_run_folder, provenance, write_json, write_run_status
+from pgm.io.track_files import TrackRows
 from pgm.io.video import FrameSource, open_source
 from pgm.observation.camera_motion import CameraMotionEstimator
 from pgm.plotting.annotate import annotate
@@ -376,7 +377,7 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
     total = known if max_frames is None else (max_frames if known is None
                                               else min(known, max_frames))
     outputs.bar = progress_bar(progress, total, graph.name)
-    rows_f, rows_i, rows_b, rows_c = [], [], [], []
+    track_rows = TrackRows()
     det_secs = 0.0
     sigmas: list[float] = []
 
@@ -396,10 +397,7 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
         ids, boxes, conf = targets.ids, targets.boxes, targets.scores
         # this frame's rows, then any of earlier frames reported now (a gap filled)
         f, i, b, c = targets.rows(number)
-        rows_f.extend(f.tolist())
-        rows_i.extend(i.tolist())
-        rows_b.extend(b.tolist())
-        rows_c.extend(c.tolist())
+        track_rows.extend(f, i, b, c)
         if outputs.writer is not None:
             for g in dict.fromkeys([int(number), *np.unique(f).tolist()]):  # then by frame
                 at = f == g
@@ -435,9 +433,7 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
                                  context=context, emit=emit)
     wall = time.perf_counter() - t_start
     secs += motion.seconds  # the camera's motion is inference too
-    table = MotTable(np.asarray(rows_f, dtype=np.int64), np.asarray(rows_i, dtype=np.int64),
-                     np.asarray(rows_b, dtype=float).reshape(-1, 4),
-                     np.asarray(rows_c, dtype=float))
+    table = track_rows.table()
     metrics = None
     if gt is not None:
         last = int(number)
