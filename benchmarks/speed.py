@@ -1,8 +1,9 @@
 """Speed where users run it: the defaults end to end at their native resolution, the peers in
 the same run.
 
-    python benchmarks/speed.py [--sections mot,camera,sot,phd] [--sequences A,B] [--sot A,B]
-                               [--frames N] [--repeats 3] [--no-peers] [--seeds 3]
+    python benchmarks/speed.py [--sections mot,camera,memory,sot,phd] [--sequences A,B]
+                               [--sot A,B] [--frames N] [--repeats 3] [--no-peers] [--seeds 3]
+                               [--memory-frames 6000]
 
 ``mot`` — on each shared MOT sequence (public detections, native resolution; MOT16-11 is
 1920x1080): the time to only **decode** its frames (one thread, one frame after another:
@@ -19,6 +20,13 @@ evaluation included) with its maximum resident set; the six ``trackers`` peers'
 ``bash benchmarks/peers/setup_env.sh``). On the largest sequence, the default's resident
 memory is sampled through a run: its peak over the first and the second half says whether
 memory stays flat over a video's length.
+
+``memory`` — the multi-target default's engine over a long synthetic stream
+(``--memory-frames``, default 6 000: people born at random, walking for 2 to 10 seconds,
+on a fixed 640x480 image): the Python allocations it holds (``tracemalloc``) and the
+process's resident set at a quarter, a half and the whole of the stream, and the growth per
+1 000 frames between the first and the last — whether memory stays flat over a long video,
+past the 300 frames of the ``mot`` section's sample.
 
 ``camera`` — the camera's motion on the shared moving-camera sequence (MOT16-11), estimated
 as before issue 39 (every frame shrunk to 640 wide, 400 corners found anew) and as now
@@ -313,6 +321,56 @@ def camera_section(name: str, frames: int) -> None:
                       f"{np.median(shift):.1f} px per frame")
 
 
+# memory over a long stream -----------------------------------------------------------
+def memory_section(frames: int) -> None:
+    """The default's engine over ``frames`` synthetic frames: held Python allocations and
+    resident memory at a quarter, a half and the end (see the module's docstring)."""
+    import tracemalloc
+
+    from pgm.core.frame import FrameContext
+    from pgm.inference import Engine
+    from pgm.models import get_config
+    from pgm.models.config import VideoInfo
+    from pgm.observation.detections import Detections
+
+    rng = np.random.default_rng(0)
+    w, h = 640, 480
+    image = rng.integers(0, 255, (h, w, 3), dtype=np.uint8)
+    graph = get_config("ocsort-colour").graph_for({}, VideoInfo(
+        w, h, fps=30.0, score_range=(0.0, 1.0), typical_height=80.0))
+    engine = Engine(graph, np.random.default_rng(0))
+    people: list[list[float]] = []  # x, y, vx, vy, last frame
+    marks = sorted({max(1, frames // 4), max(1, frames // 2), frames})
+    rows = []
+    tracemalloc.start()
+    try:
+        for t in range(1, frames + 1):
+            if rng.random() < 0.08:
+                people.append([rng.uniform(50, w - 50), rng.uniform(100, h - 100),
+                               rng.normal(0, 1.5), rng.normal(0, 0.5),
+                               t + rng.integers(60, 300)])
+            people = [p for p in people if p[4] > t and 0 < p[0] < w and 0 < p[1] < h]
+            for p in people:
+                p[0] += p[2]
+                p[1] += p[3]
+            boxes = np.array([[p[0] - 15, p[1] - 40, 30, 80] for p in people]).reshape(-1, 4)
+            boxes += rng.normal(0, 1.5, boxes.shape)
+            engine.step(FrameContext(t, image, detections=Detections(
+                boxes, rng.uniform(0.3, 1.0, len(boxes)))))
+            if t in marks:
+                rows.append([t, tracemalloc.get_traced_memory()[0] / 2**20,
+                             RssSampler.rss_mib(), len(people)])
+    finally:
+        tracemalloc.stop()
+    per = ((rows[-1][1] - rows[0][1]) / max(rows[-1][0] - rows[0][0], 1) * 1000
+           if len(rows) > 1 else float("nan"))
+    print_table(["frame", "Python allocations held, MiB", "resident MiB", "people on view"],
+                [[t, f"{a:.2f}", f"{r:.0f}", n] for t, a, r, n in rows],
+                title=f"the default's engine over {frames} synthetic frames (640x480, "
+                      f"tracemalloc on): growth {per:.3f} MiB per 1 000 frames from frame "
+                      f"{rows[0][0]} on")
+
+
 # one object -----------------------------------------------------------------------------
 def sot_section(names: list[str], frames: int, peers: bool, repeats: int) -> None:
     from _peers import frame_paths, run_sot_peers
@@ -465,7 +523,9 @@ def equal_accuracy_table(seeds: int, points: dict[int, tuple[float, float]], p, 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--sections", default="mot,camera,sot,phd")
+    ap.add_argument("--sections", default="mot,camera,memory,sot,phd")
+    ap.add_argument("--memory-frames", type=int, default=6000,
+                    help="synthetic frames for the memory section (default 6000)")
     ap.add_argument("--camera-frames", type=int, default=300,
                     help="frames of MOT16-11 for the camera section (default 300)")
     ap.add_argument("--sequences", default=",".join(MOT_SEQUENCES))
@@ -486,6 +546,8 @@ def main(argv: list[str] | None = None) -> int:
     if "mot" in sections and present:
         mot_section(present, max(1, args.repeats), not args.no_peers,
                     [c for c in args.cores.split(",") if c])
+    if "memory" in sections:
+        memory_section(max(4, args.memory_frames))
     if "camera" in sections and (SHARED_DATA / "MOT16-11").is_dir():
         camera_section("MOT16-11", args.camera_frames)
     sot = [q for q in args.sot.split(",") if (SHARED_DATA / q).is_dir()]

@@ -275,7 +275,8 @@ def test_speed_benchmark_prints_its_tables():
     out = subprocess.run(
         [sys.executable, str(root / "benchmarks" / "speed.py"), "--sequences", "TUD-Campus",
          "--sot", "David", "--frames", "15", "--repeats", "1", "--no-peers", "--seeds", "1",
-         "--camera-frames", "8", "--phd-particles", "1000", "--cores", "sort"],
+         "--camera-frames", "8", "--phd-particles", "1000", "--cores", "sort",
+         "--memory-frames", "40"],
         cwd=root, capture_output=True, text=True, timeout=600, check=True).stdout
     lines = out.splitlines()
 
@@ -291,6 +292,9 @@ def test_speed_benchmark_prints_its_tables():
         r = row(label)
         assert np.isfinite(float(r[-4])) and float(r[-4]) > 0 and float(r[-2]) > 0
     assert "resident memory over one run" in out
+    memory = [row(str(t)) for t in (10, 20, 40)]  # a quarter, a half, the whole stream
+    assert all(float(m[1]) > 0 and float(m[2]) > 0 for m in memory)
+    assert "MiB per 1 000 frames" in out
     cam = [row("before (640 wide"), row("now (defaults")]
     assert all(float(c[-3]) >= 0 for c in cam)
     assert float(row("David")[3]) > 0
