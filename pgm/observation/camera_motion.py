@@ -121,6 +121,8 @@ def track_camera_motion(prev_grey: np.ndarray, grey: np.ndarray, points: np.ndar
     points to follow into the next frame; None without a fit). Lucas–Kanade stops at a
     level after 30 iterations or when an iteration moves a point by less than
     ``flow_epsilon`` analysed pixels (OpenCV's default: 0.01)."""
+    if not (np.isfinite(flow_epsilon) and flow_epsilon > 0):
+        raise ValueError(f"flow_epsilon must be a positive number, got {flow_epsilon!r}")
     if points is None:
         points = cv2.goodFeaturesToTrack(prev_grey, maxCorners=max_corners, qualityLevel=0.01,
                                          minDistance=8, blockSize=7)

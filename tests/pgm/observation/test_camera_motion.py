@@ -8,7 +8,7 @@ from pgm import FactorGraph, FrameContext, Variable
 from pgm.core.motion import motion_scale, warp_states
 from pgm.factors import GaussianPrior, LinearGaussianTransition
 from pgm.inference import Engine
-from pgm.observation.camera_motion import CameraMotionEstimator
+from pgm.observation.camera_motion import CameraMotionEstimator, track_camera_motion
 
 
 def _scene(rng, h=360, w=480):
@@ -62,6 +62,8 @@ def test_auto_mode_reports_no_motion_for_a_still_camera():
     for bad in (0.0, -0.1, float("nan")):
         with pytest.raises(ValueError, match="flow_epsilon"):
             CameraMotionEstimator("on", flow_epsilon=bad)
+        with pytest.raises(ValueError, match="flow_epsilon"):
+            track_camera_motion(img[..., 0], img[..., 0], None, flow_epsilon=bad)
 
 
 def test_warp_states_moves_positions_velocities_and_sizes():
