@@ -256,7 +256,9 @@ def phases(kind: str) -> int:
     """How many shares of the frames a kind has: a frame rate divided by ``k``, ``k`` (its
     cell is the mean over them, each frame used once: which share a video happens to keep
     is no part of what a kind of change is); any other kind, one."""
-    return {"fps/2": 2, "fps/3": 3}.get(kind, 1)
+    from pgm.evaluation.perturb import frame_step
+
+    return frame_step(kind)
 
 
 def prepare(name: str, kind: str, work: Path, phase: int = 0) -> Path:

@@ -418,7 +418,6 @@ def phd_section(seeds: int, totals: list[int], peers: bool) -> None:
     from _peers import run_phd_peer
 
     from pgm.evaluation.set_distances import ospa
-    from pgm.models import phd
 
     path = BENCH / "phd_scenario_seed2024.json"
     if not path.is_file():
@@ -431,34 +430,30 @@ def phd_section(seeds: int, totals: list[int], peers: bool) -> None:
         return float(np.mean([ospa(t, np.asarray(e, dtype=float).reshape(-1, 2), 50, 1)
                               for t, e in zip(truth, estimates, strict=True)]))
 
+    # every particle count run once: the curve serves both tables
+    curve = phd_curve(seeds, p, truth, meas, sorted(set(PHD_CURVE) | set(totals)))
+    ran = "error" not in ss
+    points = ({n: (float(np.median([r["ms"] for r in ss[n]])),
+                   float(np.mean([ospa_of(r["estimates"]) for r in ss[n]])))
+               for n in totals if n in ss} if ran else
+              {n: phd_scenario.STONE_SOUP[n][:2] for n in totals
+               if n in phd_scenario.STONE_SOUP})
+    equal_accuracy_table(curve, points, seeds, path.name,
+                         "same run" if ran else
+                         "the bench README's figures: Stone Soup not run here")
     rows = []
     for total in totals:
-        res = [phd_scenario.run(phd.Params, phd.build_graph, p, meas, truth, total, s)
-               for s in range(seeds)]
-        ms = float(np.median([r["ms"] for r in res]))
-        ours = float(np.mean([r["ospa_raw"] for r in res]))
+        ms, ours = curve[total, False][:2]
         readme = phd_scenario.STONE_SOUP.get(total)
-        if "error" not in ss and total in ss:
-            theirs = ss[total]
-            ss_ms = float(np.median([r["ms"] for r in theirs]))
-            ss_ospa = float(np.mean([ospa_of(r["estimates"]) for r in theirs]))
+        if ran and total in points:
+            ss_ms, ss_ospa = points[total]
             rows.append([total, f"{ms:.2f}", f"{ours:.1f}", f"{ss_ms:.2f}", f"{ss_ospa:.1f}",
                          f"{ss_ms / ms:.1f}", readme[0] if readme else "-"])
         else:
             rows.append([total, f"{ms:.2f}", f"{ours:.1f}", "-", "-",
                          f"{readme[0] / ms:.1f} (README)" if readme else "-",
                          readme[0] if readme else "-"])
-    if "error" not in ss:
-        points = {n: (float(np.median([r["ms"] for r in ss[n]])),
-                      float(np.mean([ospa_of(r["estimates"]) for r in ss[n]])))
-                  for n in totals if n in ss}
-        equal_accuracy_table(seeds, points, p, truth, meas, path.name, "same run")
-    else:
-        points = {n: phd_scenario.STONE_SOUP[n][:2] for n in totals
-                  if n in phd_scenario.STONE_SOUP}
-        equal_accuracy_table(seeds, points, p, truth, meas, path.name,
-                             "the bench README's figures: Stone Soup not run here")
-    note = ("Stone Soup 1.9.1 run in this run (peers' venv)" if "error" not in ss else
+    note = ("Stone Soup 1.9.1 run in this run (peers' venv)" if ran else
             f"Stone Soup not run ({ss['error'][:80]}): the ratio is to the bench README's "
             f"figure")
     print_table(["N", "PHD ms/step", "PHD OSPA(50,1)", "Stone Soup ms/step",
@@ -472,32 +467,41 @@ def phd_section(seeds: int, totals: list[int], peers: bool) -> None:
 PHD_CURVE = (250, 500, 1000, 2000, 3000, 5000, 10000, 20000)
 
 
-def equal_accuracy_table(seeds: int, points: dict[int, tuple[float, float]], p, truth, meas,
-                         scenario: str, source: str) -> None:
-    """The PHD filter's cost at Stone Soup's accuracy: for each of Stone Soup's rows
-    ``points`` (``N -> (ms per step, OSPA(50, 1))``), the cheapest of the filter's particle
-    counts (:data:`PHD_CURVE`) whose mean OSPA(50, 1) is at or below Stone Soup's, and the
-    ratio of the ms per step — with the filter's per-measurement extraction (as Stone
-    Soup's figures) and with its track layer's confirmed tracks (the toolkit's output;
-    Stone Soup's SMC-PHD has no track layer); plain and with regularised resampling."""
+def phd_curve(seeds: int, p, truth, meas, counts) -> dict[tuple[int, bool], tuple]:
+    """``(N, regularise) -> (ms per step (median over seeds), OSPA(50, 1) of the
+    extraction, of the confirmed tracks (means))`` of the PHD filter on the scenario."""
     import phd_scenario
 
     from pgm.models import phd
 
-    curve = {}  # (N, regularise) -> (ms, OSPA extraction, OSPA tracks)
-    for total in PHD_CURVE:
+    curve = {}
+    for total in counts:
         for reg in (False, True):
             res = [phd_scenario.run(phd.Params, phd.build_graph, p, meas, truth, total, s,
                                     regularise=reg) for s in range(seeds)]
             curve[total, reg] = (float(np.median([r["ms"] for r in res])),
                                  float(np.mean([r["ospa_raw"] for r in res])),
                                  float(np.mean([r["ospa_trk"] for r in res])))
+    return curve
+
+
+def equal_accuracy_table(curve: dict[tuple[int, bool], tuple],
+                         points: dict[int, tuple[float, float]], seeds: int, scenario: str,
+                         source: str) -> None:
+    """The PHD filter's cost at Stone Soup's accuracy: its speed-accuracy ``curve``
+    (:func:`phd_curve`), then, for each of Stone Soup's rows ``points`` (``N -> (ms per
+    step, OSPA(50, 1))``), the cheapest particle count of the curve whose mean OSPA(50, 1)
+    is at or below Stone Soup's, and the ratio of the ms per step — with the filter's
+    per-measurement extraction (as Stone Soup's figures) and with its track layer's
+    confirmed tracks (the toolkit's output; Stone Soup's SMC-PHD has no track layer);
+    plain and with regularised resampling."""
+    def cells(v):  # ms, extraction, tracks
+        return [f"{v[0]:.2f}", f"{v[1]:.1f}", f"{v[2]:.1f}"]
+
+    counts = sorted({n for n, _ in curve})
     print_table(["N", "ms/step", "OSPA(50,1) extraction", "OSPA(50,1) tracks",
                  "regularised: ms/step", "extraction", "tracks"],
-                [[n, *(f"{v:.2f}" if i == 0 else f"{v:.1f}" for i, v in
-                       enumerate(curve[n, False])),
-                  *(f"{v:.2f}" if i == 0 else f"{v:.1f}" for i, v in
-                    enumerate(curve[n, True]))] for n in PHD_CURVE],
+                [[n, *cells(curve[n, False]), *cells(curve[n, True])] for n in counts],
                 title=f"PHD filter on {scenario}: speed and accuracy by particle count, plain "
                       f"and with regularised resampling ({seeds} seeds: ms median, OSPA mean)")
 

@@ -82,7 +82,7 @@ def _upper(d: int) -> tuple[np.ndarray, np.ndarray]:
 
 def _roots(cov: np.ndarray) -> np.ndarray:
     """``A`` with ``A Aᵀ = cov`` for each of a batch of covariances: the Cholesky factor
-    of ``cov`` plus ``10⁻¹²`` of its mean variance on the diagonal (a spread of one
+    of ``cov`` plus ``10⁻⁹`` of its mean variance on the diagonal (a spread of one
     particle is zero), or, if rounding left one not positive, the eigenvectors scaled by
     the roots of the eigenvalues clipped at 0."""
     d = cov.shape[-1]

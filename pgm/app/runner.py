@@ -42,9 +42,8 @@ from pgm.evaluation.calibration import confidence_outcomes, lost_signal
 from pgm.evaluation.single_object import single_object_metrics
 from pgm.inference.engine import Engine, StepRecord
 from pgm.io.annotated_video import AnnotatedVideoWriter
-from pgm.io.annotations import MotWriter, SingleTrack, load_single_gt
+from pgm.io.annotations import MotWriter, SingleTrack, TrackRows, load_single_gt
 from pgm.io.outputs import prepare_run_folder, provenance, write_json, write_run_status
-from pgm.io.track_files import TrackRows
 from pgm.io.video import FrameSource, open_source
 from pgm.observation.camera_motion import CameraMotionEstimator
 from pgm.plotting.annotate import annotate

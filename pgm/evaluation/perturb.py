@@ -40,13 +40,24 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ["KINDS", "SCORE_KINDS", "score_transform", "perturb_detections", "keep_frames",
-           "perturb_sequence"]
+           "frame_step", "perturb_sequence"]
 
 #: the strictly increasing score maps
 SCORE_KINDS = ("probability", "logit", "rank", "affine", "power")
 #: every perturbation kind, by name (``"none"``: the sequence as it is)
 KINDS = ("none",) + SCORE_KINDS + ("fps/2", "fps/3", "drop", "jitter", "false-positives",
                                    "shifted")
+
+#: the frame-rate kinds: every ``step``-th frame kept
+FRAME_STEPS = {"fps/2": 2, "fps/3": 3}
+
+
+def frame_step(kind: str) -> int:
+    """Every how many frames a kind keeps one: 2 or 3 for a frame rate divided, else 1
+    (also the number of shares of the frames it can keep, :func:`perturb_sequence`'s
+    seed picking one)."""
+    return FRAME_STEPS.get(kind, 1)
+
 
 DROP = 0.2
 JITTER = 0.05
@@ -184,7 +195,7 @@ def perturb_sequence(source: str | Path, out: str | Path, kind: str, seed: int =
         frames = [src / info.get("imDir", "img1") / f"{k:06d}{ext}" for k in range(1, n + 1)]
     if len(frames) < n:
         raise ValueError(f"{src}: {len(frames)} frames for a sequence of {n}")
-    step = {"fps/2": 2, "fps/3": 3}.get(kind, 1)
+    step = frame_step(kind)
     phase = int(seed) % step
     det = keep_frames(_read_rows(src / "det" / "det.txt"), step, n, phase)
     gt = keep_frames(_read_rows(src / "gt" / "gt.txt"), step, n, phase)

@@ -399,6 +399,18 @@ def _with_sorted(history: np.ndarray, scores: np.ndarray) -> np.ndarray:
     return np.insert(history, np.searchsorted(history, new), new) if new.size else history
 
 
+#: a sorted score store's recent part joins the rest past this many scores (and past
+#: four times the square root of the rest's count): each frame's insertion then costs the
+#: recent part, not the whole video, and the merges cost the video now and then
+RECENT_SCORES = 4096
+
+
+def _merge_due(recent: int, older: int, least: int) -> bool:
+    """Whether a recent part of ``recent`` scores joins the ``older`` ones now (more than
+    ``least`` and more than ``4 sqrt(older)``)."""
+    return recent > max(least, 4.0 * np.sqrt(older))
+
+
 def _pool_adjacent(p: np.ndarray, w: np.ndarray) -> np.ndarray:
     """The weighted least-squares non-decreasing fit to ``p`` (pool adjacent violators;
     a few bins, so a loop over blocks)."""
@@ -460,8 +472,8 @@ class PersistenceScoreModel:
         Buffered IoU a detection of the next frame needs to count (0.3).
     """
 
-    #: the recent labelled scores join the older ones past this many (and 4 sqrt(n))
-    RECENT = 4096
+    #: the recent labelled scores join the older ones past this many (:func:`_merge_due`)
+    RECENT = RECENT_SCORES
 
     def __init__(self, bins: int = 20, prior_weight: float = 5.0, buffer: float = 0.25,
                  gate: float = 0.3):
@@ -503,7 +515,7 @@ class PersistenceScoreModel:
         at = np.searchsorted(self._recent, scores)
         self._recent = np.insert(self._recent, at, scores)
         self._recent_found = np.insert(self._recent_found, at, found)
-        if self._recent.size > max(self.RECENT, 4.0 * np.sqrt(self._older.size)):
+        if _merge_due(self._recent.size, self._older.size, self.RECENT):
             values = np.concatenate([self._older, self._recent])
             order = np.argsort(values, kind="stable")
             hits = np.concatenate([np.diff(self._older_found).astype(bool),
@@ -616,10 +628,8 @@ class ScoreQuantiles:
     sequence's detections ("the top 40 %"), the same for any strictly increasing map of
     the scores. Online and deterministic; one instance per video."""
 
-    #: the recent scores are merged into the rest once they are more than this many and
-    #: more than four times the square root of the rest's count (each frame's insertion
-    #: then costs the recent scores, not the video's: a long video stays as fast)
-    RECENT = 4096
+    #: the recent scores are merged into the rest past this many (:func:`_merge_due`)
+    RECENT = RECENT_SCORES
 
     def __init__(self) -> None:
         self._older = np.zeros(0)   # sorted
@@ -637,7 +647,7 @@ class ScoreQuantiles:
             raise ValueError(f"{np.asarray(boxes).reshape(-1, 4).shape[0]} boxes but "
                              f"{s.size} scores")
         self._recent = _with_sorted(self._recent, s)
-        if self._recent.size > max(self.RECENT, 4.0 * np.sqrt(self._older.size)):
+        if _merge_due(self._recent.size, self._older.size, self.RECENT):
             self._older = _with_sorted(self._older, self._recent)
             self._recent = np.zeros(0)
         n = self._older.size + self._recent.size

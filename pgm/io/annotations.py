@@ -27,6 +27,7 @@ __all__ = [
     "SingleTrack",
     "MotTable",
     "MotWriter",
+    "TrackRows",
     "MOT16_PEDESTRIAN",
     "MOT16_DISTRACTOR_CLASSES",
     "write_otb_groundtruth",
@@ -379,6 +380,57 @@ class MotTable:
         """``(ids (n,), boxes (n, 4), conf (n,))`` of one frame (read-only views)."""
         s = self.rows(frame)
         return self.ids[s], self.boxes[s], self.conf[s]
+
+
+class TrackRows:
+    """A run's track rows — frame, identity, box ``(x, y, w, h)``, score — gathered frame
+    by frame in numpy arrays that double when full, handed over as a
+    :class:`MotTable` at the end (its evaluation, the returned result).
+
+    56 bytes a row (at most twice that while the arrays wait to be filled), where Python
+    lists of the numbers took about 320: an hour of 20 tracks at 30 frames/s holds 121 MB
+    instead of about 680.
+    """
+
+    def __init__(self, capacity: int = 1024):
+        capacity = max(1, int(capacity))
+        self.n = 0
+        self.frames = np.zeros(capacity, dtype=np.int64)
+        self.ids = np.zeros(capacity, dtype=np.int64)
+        self.boxes = np.zeros((capacity, 4))
+        self.scores = np.zeros(capacity)
+
+    def __len__(self) -> int:
+        return self.n
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes the arrays hold (filled or not)."""
+        return sum(a.nbytes for a in (self.frames, self.ids, self.boxes, self.scores))
+
+    def extend(self, frames, ids, boxes, scores) -> None:
+        """Append rows: ``frames``, ``ids``, ``scores`` ``(k,)``, ``boxes`` ``(k, 4)``."""
+        boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
+        k = len(boxes)
+        if self.n + k > len(self.frames):
+            size = max(2 * len(self.frames), self.n + k)
+            for name in ("frames", "ids", "boxes", "scores"):
+                old = getattr(self, name)
+                new = np.zeros((size,) + old.shape[1:], dtype=old.dtype)
+                new[:self.n] = old[:self.n]
+                setattr(self, name, new)
+        end = self.n + k
+        self.frames[self.n:end] = frames
+        self.ids[self.n:end] = ids
+        self.boxes[self.n:end] = boxes
+        self.scores[self.n:end] = scores
+        self.n = end
+
+    def table(self) -> MotTable:
+        """The rows as a :class:`MotTable` (copies)."""
+        n = self.n
+        return MotTable(self.frames[:n].copy(), self.ids[:n].copy(), self.boxes[:n].copy(),
+                        self.scores[:n].copy())
 
 
 def load_caviar(path: str | Path) -> MotTable:

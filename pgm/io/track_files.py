@@ -11,60 +11,7 @@ import numpy as np
 
 from pgm.core.errors import InputError
 
-__all__ = ["MotWriter", "TrackRows", "format_numbers", "write_otb_groundtruth"]
-
-
-class TrackRows:
-    """A run's track rows — frame, identity, box ``(x, y, w, h)``, score — gathered frame
-    by frame in numpy arrays that double when full, handed over as a
-    :class:`~pgm.io.annotations.MotTable` at the end (its evaluation, the returned result).
-
-    56 bytes a row (at most twice that while the arrays wait to be filled), where Python
-    lists of the numbers took about 320: an hour of 20 tracks at 30 frames/s holds 121 MB
-    instead of about 680.
-    """
-
-    def __init__(self, capacity: int = 1024):
-        capacity = max(1, int(capacity))
-        self.n = 0
-        self.frames = np.zeros(capacity, dtype=np.int64)
-        self.ids = np.zeros(capacity, dtype=np.int64)
-        self.boxes = np.zeros((capacity, 4))
-        self.scores = np.zeros(capacity)
-
-    def __len__(self) -> int:
-        return self.n
-
-    @property
-    def nbytes(self) -> int:
-        """Bytes the arrays hold (filled or not)."""
-        return sum(a.nbytes for a in (self.frames, self.ids, self.boxes, self.scores))
-
-    def extend(self, frames, ids, boxes, scores) -> None:
-        """Append rows: ``frames``, ``ids``, ``scores`` ``(k,)``, ``boxes`` ``(k, 4)``."""
-        boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
-        k = len(boxes)
-        if self.n + k > len(self.frames):
-            size = max(2 * len(self.frames), self.n + k)
-            for name in ("frames", "ids", "boxes", "scores"):
-                old = getattr(self, name)
-                new = np.zeros((size,) + old.shape[1:], dtype=old.dtype)
-                new[:self.n] = old[:self.n]
-                setattr(self, name, new)
-        end = self.n + k
-        self.frames[self.n:end] = frames
-        self.ids[self.n:end] = ids
-        self.boxes[self.n:end] = boxes
-        self.scores[self.n:end] = scores
-        self.n = end
-
-    def table(self):
-        """The rows as a :class:`~pgm.io.annotations.MotTable` (copies)."""
-        from pgm.io.annotations import MotTable
-
-        n = self.n
-        return MotTable(self.frames[:n].copy(), self.ids[:n].copy(), self.boxes[:n].copy(),
-                        self.scores[:n].copy())
+__all__ = ["MotWriter", "format_numbers", "write_otb_groundtruth"]
 
 
 def format_numbers(values: np.ndarray, decimals: int = 3) -> list[str]:

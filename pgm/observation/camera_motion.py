@@ -77,6 +77,11 @@ BOTSORT_CORNERS = {"maxCorners": 1000, "qualityLevel": 0.01, "minDistance": 1, "
 _LK_STOP = cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS
 
 
+def _check_flow_epsilon(flow_epsilon: float) -> None:
+    if not (np.isfinite(flow_epsilon) and flow_epsilon > 0):
+        raise ValueError(f"flow_epsilon must be a positive number, got {flow_epsilon!r}")
+
+
 def _grey(image: np.ndarray, scale: float = 1.0, halvings: int = 0) -> np.ndarray:
     """The grey image halved ``halvings`` times (each pixel the mean of the 2x2 below it,
     ``INTER_AREA``: a halving is several times cheaper than one arbitrary shrink), then
@@ -121,8 +126,7 @@ def track_camera_motion(prev_grey: np.ndarray, grey: np.ndarray, points: np.ndar
     points to follow into the next frame; None without a fit). Lucas–Kanade stops at a
     level after 30 iterations or when an iteration moves a point by less than
     ``flow_epsilon`` analysed pixels (OpenCV's default: 0.01)."""
-    if not (np.isfinite(flow_epsilon) and flow_epsilon > 0):
-        raise ValueError(f"flow_epsilon must be a positive number, got {flow_epsilon!r}")
+    _check_flow_epsilon(flow_epsilon)
     if points is None:
         points = cv2.goodFeaturesToTrack(prev_grey, maxCorners=max_corners, qualityLevel=0.01,
                                          minDistance=8, blockSize=7)
@@ -243,8 +247,7 @@ class CameraMotionEstimator:
                 raise ValueError(f"{name} must be a positive integer, got {v!r}")
         if fps is not None and not (np.isfinite(fps) and fps > 0):
             raise ValueError(f"fps must be a positive number, got {fps!r}")
-        if not (np.isfinite(flow_epsilon) and flow_epsilon > 0):
-            raise ValueError(f"flow_epsilon must be a positive number, got {flow_epsilon!r}")
+        _check_flow_epsilon(flow_epsilon)
         self.max_corners, self.win_size = int(max_corners), int(win_size)
         self.flow_epsilon = float(flow_epsilon)
         self.levels_given = None if pyramid_levels is None else int(pyramid_levels)

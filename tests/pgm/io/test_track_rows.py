@@ -3,8 +3,7 @@ and they hold 56 bytes a row (at most twice that), not a Python list's ~320."""
 
 import numpy as np
 
-from pgm.io.annotations import MotTable
-from pgm.io.track_files import TrackRows
+from pgm.io.annotations import MotTable, TrackRows
 
 
 def test_track_rows_make_the_table_of_their_numbers():
