@@ -51,13 +51,23 @@ def response_peaks(response: np.ndarray, radius: int, k: int) -> tuple[np.ndarra
     dil = cv2.dilate(r, np.ones((size, size), np.uint8))
     ys, xs = np.nonzero(r >= dil)
     vals = r[ys, xs]
-    order = np.argsort(-vals, kind="stable")
     keep: list[int] = []
-    for i in order:  # suppress plateaus: one maximum per neighbourhood
-        if all(max(abs(xs[i] - xs[j]), abs(ys[i] - ys[j])) > radius for j in keep):
-            keep.append(int(i))
-            if len(keep) == k:
-                break
+    # the highest maxima first (ties in row order); most maps need only the first few, so
+    # those at or above the 8k-th highest value are sorted first, all of them if needed
+    top = 8 * k
+    pools = ([np.flatnonzero(vals >= np.partition(vals, len(vals) - top)[len(vals) - top])]
+             if len(vals) > top else []) + [None]
+    for pool in pools:
+        keep = []
+        order = (np.argsort(-vals, kind="stable") if pool is None else
+                 pool[np.argsort(-vals[pool], kind="stable")])
+        for i in order:  # suppress plateaus: one maximum per neighbourhood
+            if all(max(abs(xs[i] - xs[j]), abs(ys[i] - ys[j])) > radius for j in keep):
+                keep.append(int(i))
+                if len(keep) == k:
+                    break
+        if len(keep) == k:
+            break
     idx = np.array(keep, dtype=np.intp)
     return np.stack([xs[idx], ys[idx]], axis=1).astype(float), vals[idx].astype(float)
 

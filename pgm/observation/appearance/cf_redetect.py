@@ -19,6 +19,23 @@ class RedetectionScan:
     """The re-detection scan of :class:`~pgm.observation.appearance.correlation.
     CorrelationFilterLikelihood` (a mixin: it reads that class's filters and settings)."""
 
+    def _scan_spectrum(self, fshape: tuple[int, int]) -> np.ndarray:
+        """The spectrum, at the scan's FFT size ``fshape``, of the long-term filter's cells
+        over the object's box; kept while the filter is unchanged (it changes only on the
+        frames it learns from, which a lost object's are not)."""
+        cached = self._scan_filter
+        if cached is not None and cached[0] is self.memory and cached[1] == fshape:
+            return cached[2]
+        num, den, _ = self.memory
+        th, tw = self.hann.shape
+        h = sfft.irfft2(np.conj(num) / self._regularised(den), s=(th, tw))
+        # the filter's cells over the object's box only: its context (padding) learned the
+        # background around the object, which stays where the object was
+        h = np.fft.fftshift(h, axes=(-2, -1)) * self.box_cells
+        hf = sfft.rfft2(h, s=fshape, axes=(-2, -1))
+        self._scan_filter = (self.memory, fshape, hf)
+        return hf
+
     def detect(self, ctx: FrameContext, centre, scale: float, max_peaks: int = 3) -> Scan:
         """Where the object may be in the whole frame: the highest peaks of the long-term
         filter's response over the frame at ``scale`` (relative to the first box), in
@@ -54,14 +71,8 @@ class RedetectionScan:
             fshape = (sfft.next_fast_len(full[0], real=True),
                       sfft.next_fast_len(full[1], real=True))
             zf = sfft.rfft2(feats, s=fshape, axes=(-2, -1))
-            num, den, peak = self.memory
-            h = sfft.irfft2(np.conj(num) / self._regularised(den), s=(th, tw))
-            # the filter's cells over the object's box only: its context (padding)
-            # learned the background around the object, which stays where the object was
-            h = np.fft.fftshift(h, axes=(-2, -1)) * self.box_cells
-            hf = sfft.rfft2(h, s=fshape, axes=(-2, -1))
-            best = sfft.irfft2(np.sum(hf * zf, axis=0), s=fshape)
-            best = best[th // 2:th // 2 + oh, tw // 2:tw // 2 + ow] / peak
+            best = sfft.irfft2(np.sum(self._scan_spectrum(fshape) * zf, axis=0), s=fshape)
+            best = best[th // 2:th // 2 + oh, tw // 2:tw // 2 + ow] / self.memory[2]
             # only where the whole box is in the frame: a box across the border reads
             # the border's replicated pixels
             half = self.ref_size * float(scale) / (1 + self.padding) / 2

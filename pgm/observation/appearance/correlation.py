@@ -116,6 +116,7 @@ class CorrelationFilterState(LearnedState):
     last_response: float | None = None  # relative response at the last estimate
     last_psr: float | None = None  # peak-to-sidelobe ratio of the map at the last estimate
     memory: tuple | None = None  # the long-term filter: (num, den, peak)
+    _scan_filter: tuple | None = None  # the scan's filter spectrum, kept while unchanged
     context: np.ndarray | None = None  # (th, tw) probability a cell moves with the object
     object_peak: float | None = None  # running mean peak of the filter's box cells alone
     camera_moved_at: int | None = None  # the frame where the camera was found moving

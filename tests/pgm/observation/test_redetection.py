@@ -54,6 +54,54 @@ def test_response_peaks_are_local_maxima_apart():
     assert xy[:2].tolist() == [[7, 5], [20, 15]] and vals[:2].tolist() == [3.0, 1.0]
 
 
+def _peaks_by_full_sort(r, radius, k):
+    """response_peaks' definition: every local maximum, highest first (ties in row
+    order), each kept unless a kept one is within ``radius``."""
+    r = np.asarray(r, np.float32)
+    dil = cv2.dilate(r, np.ones((2 * radius + 1,) * 2, np.uint8))
+    ys, xs = np.nonzero(r >= dil)
+    keep = []
+    for i in np.argsort(-r[ys, xs], kind="stable"):
+        if all(max(abs(xs[i] - xs[j]), abs(ys[i] - ys[j])) > radius for j in keep):
+            keep.append(i)
+            if len(keep) == k:
+                break
+    return np.stack([xs[keep], ys[keep]], axis=1).astype(float), r[ys[keep], xs[keep]]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_response_peaks_equal_the_full_sort_on_noise_plateaus_and_masked_maps(seed):
+    rng = np.random.default_rng(seed)
+    r = cv2.GaussianBlur(rng.normal(size=(60, 90)).astype(np.float32), (0, 0), 1 + seed)
+    r = np.round(r, 1 + seed % 2)  # plateaus and ties
+    if seed % 2:
+        r[:, :70] = -np.inf  # a scan's cells without the whole box in the frame
+    for radius, k in ((1, 3), (3, 5), (6, 40)):
+        xy, vals = response_peaks(r, radius, k)
+        ref_xy, ref_vals = _peaks_by_full_sort(r, radius, k)
+        np.testing.assert_array_equal(xy, ref_xy)
+        np.testing.assert_array_equal(vals, ref_vals)
+
+
+def test_the_scan_reads_the_long_term_filter_it_has_now():
+    """The scan's filter spectrum is kept between frames, and follows the filter when it
+    learns: each scan equals one by a freshly trained factor holding the same filter."""
+    rng = np.random.default_rng(3)
+    f = _trained(rng)
+    img2, img3 = scene(rng, (150, 110)), scene(rng, (120, 100))
+    first = f.detect(FrameContext(2, img2), (80, 90), 1.0)
+    before = f.memory
+    f.update({"object": np.array([150.0, 110, 40, 56])}, None, FrameContext(2, img2))
+    assert f.memory is not before  # it learned from the frame
+    scan = f.detect(FrameContext(3, img3), (150, 110), 1.0)
+    g = _trained(np.random.default_rng(3))
+    g.memory = f.memory
+    again = g.detect(FrameContext(3, img3), (150, 110), 1.0)
+    for a, b in zip(scan, again, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(first.values, scan.values)
+
+
 def test_particles_of_two_clouds_are_read_each_in_its_own_window():
     rng = np.random.default_rng(1)
     f = _trained(rng)
