@@ -122,9 +122,10 @@ CONFIG = _config.ModelConfig(
                             metavar="SHARE",
                             help="re-detection: while the calibrated confidence is below "
                                  "one half, draw this share of the particles near the peaks "
-                                 "of the correlation filter's whole-frame response (0: off, "
-                                 "the default; e.g. 0.5 for a target that leaves the view "
-                                 "and comes back elsewhere)"),
+                                 "of the correlation filter's response over ten object "
+                                 "sizes around the last estimate (0: off, the default; e.g. "
+                                 "0.5 for a target that leaves the view and comes back; "
+                                 "--appearance 'cf(scan_side=32)' scans wider)"),
              _config.Option("--rotation-noise", "rotation_noise",
                             type=_config.finite_float("--rotation-noise"), metavar="RAD",
                             help="an in-plane angle in the state, with this standard "

@@ -44,8 +44,9 @@ class RedetectionScan:
         object was.
 
         The frame is resampled to template pixels and correlated with the filters once
-        (FFT); a frame wider than :data:`MAX_DETECT_PX` template pixels is scanned in a
-        window of that side around ``centre``. Returns a :class:`Scan`: the peaks'
+        (FFT); a frame wider than ``scan_side`` object sizes (``scan_side · target_px``
+        template pixels, at most :data:`MAX_DETECT_PX`) is scanned in a window of that
+        side around ``centre``. Returns a :class:`Scan`: the peaks'
         centres ``(m, 2)`` in image pixels, their relative responses ``(m,)`` and
         standard scores (in standard deviations of the map above its mean), highest
         first, at least a tenth of the object apart and with the whole box inside the
@@ -57,8 +58,9 @@ class RedetectionScan:
             grey = grey_frame(ctx)
             H, W = grey.shape
             step = self.ref_size * float(scale) / np.array(self.shape)  # image px / cell
-            ow = min(int(np.ceil(W / step[0])), MAX_DETECT_PX)
-            oh = min(int(np.ceil(H / step[1])), MAX_DETECT_PX)
+            side = int(round(min(self.scan_side * self.target_px, MAX_DETECT_PX)))
+            ow = min(int(np.ceil(W / step[0])), side)
+            oh = min(int(np.ceil(H / step[1])), side)
             size = np.array([ow, oh]) * step
             c = np.asarray(centre, dtype=float)
             mid = np.array([W, H]) / 2.0 - 0.5

@@ -47,6 +47,24 @@ def test_the_whole_frame_scan_finds_the_object_far_from_where_it_was():
     assert vals[0] > 2 * vals[1]  # the object stands out of the rest of the frame
 
 
+def test_the_scan_covers_scan_side_object_sizes_around_the_estimate():
+    rng = np.random.default_rng(0)
+    img = scene(rng, (190, 120))  # the object 110 px right of where it was learned
+    found = {}
+    for side in (2.0, 6.0):
+        f = CorrelationFilterLikelihood("object", windows=4, scan_side=side)
+        f.learn(FrameContext(1, scene(np.random.default_rng(0), (80, 90))),
+                np.array([80.0, 90, 40, 56]))
+        xy = f.detect(FrameContext(2, img), (80, 90), 1.0).centres
+        # every peak inside the region: side sizes (sqrt(40 * 56) px) around (80, 90)
+        half = side * np.sqrt(40 * 56) / 2
+        assert np.all(np.abs(xy - (80, 90)) <= half + 1)
+        found[side] = np.hypot(*(xy[0] - (190, 120))) <= 2.0
+    assert found == {2.0: False, 6.0: True}  # 6 sizes (282 px) hold the whole frame
+    with pytest.raises(ValueError, match="scan_side"):
+        CorrelationFilterLikelihood("object", scan_side=0)
+
+
 def test_response_peaks_are_local_maxima_apart():
     r = np.zeros((20, 30))
     r[5, 7], r[5, 8], r[15, 20] = 3.0, 2.5, 1.0
