@@ -104,10 +104,13 @@ class RedetectionAndAngle:
     redetect : float
         One node with a correlation filter only: the share of particles a
         :class:`~pgm.observation.appearance.redetection.RedetectionProposal` draws near
-        the whole frame's response peaks in a frame where the calibrated confidence
+        the response peaks of the frame around the estimate (``scan_side`` object
+        sizes of the filter) in a frame where the calibrated confidence
         (``graph.meta["confidence"]``, where declared) is below one half (0: off, the
-        default). Needs ``frame_size``; the transition then re-appears anywhere in the
-        frame with probability ``reappear_prob`` per frame.
+        default). Needs ``frame_size``; the transition's density then holds a
+        re-appearance anywhere in the frame with probability ``reappear_prob`` per
+        frame, which the proposal's importance weights carry and the transition does not
+        draw (``AR2Transition(reappear_drawn=False)``).
     redetect_below, redetect_patience, redetect_false_alarm
         The proposal's ``below``, ``patience`` and ``false_alarm``
         (:class:`~pgm.observation.appearance.redetection.RedetectionProposal`).
@@ -389,10 +392,10 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
                           reference_size=pb[2:] if params.scale_noise > 0 else None,
                           jump_prob=params.jump_prob, jump_scale=params.jump_scale,
                           reappear_prob=params.reappear_prob if redetect else 0.0,
-                          region=region),
+                          region=region, reappear_drawn=not redetect),
         ]
         for k, (cue, opts) in enumerate(cues):
-            if redetect and cue == "cf":  # far-away particles read in windows of their own
+            if redetect and cue == "cf":  # proposed particles read in windows of their own
                 opts = {"windows": MAX_WINDOWS, **opts}
             if rotate and cue == "cf":  # the filter sees the angle
                 opts = {"angle_index": 4, **opts}

@@ -47,7 +47,8 @@ class ResponseReading:
             levels = base * self.scale_step ** (np.arange(self.scales) - self.scales // 2)
             centre = b[:, :2].mean(axis=0)
             quarter = self.ref_size * base / 4
-            if self.windows > 1 and not _one_cloud(b[:, :2], centre, quarter):
+            if (self.windows > 1 and self.opened(ctx) is not None
+                    and not _one_cloud(b[:, :2], centre, quarter)):
                 centre = self._next_centre(b[:, :2], quarter)
             angle = 0.0 if self.angle_index is None else float(x[:, self.angle_index].mean())
             return centre, levels, angle, self._window(ctx, centre, levels, angle, ())
@@ -57,28 +58,40 @@ class ResponseReading:
     def relative_response(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         """``(N,)`` response at each particle, in units of the typical peak.
 
-        The first window is centred on the particles' mean. With ``windows > 1``, and
-        unless nine in ten particles lie within a quarter window of it (one cloud, a few
-        stragglers: the usual case; otherwise a proposal put some near a far-away peak,
-        :meth:`detect`), each window is centred on a mode
-        of the particles not yet read — the one with the most of them within a quarter
-        window — and reads those within a quarter window of its centre, so every
-        particle is read near the middle of a window, where the maps are comparable; at
-        most ``windows`` windows, the last reading every particle inside it, and a
-        particle outside them all scores ``floor``."""
+        The first window is centred on the particles' mean. With ``windows > 1`` in a
+        frame where a proposal put particles near peaks of the re-detection's scan
+        (:meth:`detect`, :meth:`open_windows_at`), and unless
+        nine in ten particles lie within a quarter window of the mean (one cloud, a few
+        stragglers: the usual case; otherwise a proposal put some near a far-away peak),
+        each window is centred on a mode of the particles not yet read — the one with
+        the most of them within a quarter window — and reads those within a quarter
+        window of its centre, so every particle is read near the middle of a window,
+        where the maps are comparable; the windows after the first open only at
+        particles within a quarter window of a proposed peak; at most ``windows``
+        windows, the last reading every particle inside it, and a particle outside them
+        all scores ``floor``. In any other frame every particle is read in the one
+        window at the mean, as with ``windows=1``: a particle the transition's jumps
+        carried outside it scores ``floor`` (read in windows of their own, such
+        stragglers took the posterior to a distractor on David, AUC 0.550 against 0.634
+        over eight seeds)."""
         self.require_model()
         centre, levels, angle, maps = self._maps(x, ctx)
         b = self.boxes(x)
         angles = (np.zeros(len(b)) if self.angle_index is None
                   else np.asarray(x[:, self.angle_index], float))
         quarter = self.ref_size * float(levels[len(levels) // 2]) / 4
-        if self.windows == 1 or _one_cloud(b[:, :2], b[:, :2].mean(axis=0), quarter):
+        peaks = self.opened(ctx) if self.windows > 1 else None
+        if peaks is None or _one_cloud(b[:, :2], b[:, :2].mean(axis=0), quarter):
             return self._read(maps, levels, angle, centre, b, angles)[0]
         out = np.full(len(b), self.floor)
         todo = np.arange(len(b))
         for k in range(self.windows):
             if k > 0:
-                centre = self._next_centre(b[todo, :2], quarter)
+                near = np.any(np.all(np.abs(b[todo, None, :2] - peaks[None]) <= quarter,
+                                     axis=2), axis=1)
+                if not near.any():
+                    break
+                centre = self._next_centre(b[todo[near], :2], quarter)
                 maps = self._window(ctx, centre, levels, angle,
                                     (round(centre[0], 3), round(centre[1], 3)))
             val, inside = self._read(maps, levels, angle, centre, b[todo], angles[todo])

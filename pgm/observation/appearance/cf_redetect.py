@@ -99,3 +99,15 @@ class RedetectionScan:
                         float(valid.sum()) / max(corr * corr, 1.0))
 
         return self._cached(ctx, ("cf-detect", max_peaks), make)
+
+    def open_windows_at(self, ctx: FrameContext, centres: np.ndarray) -> None:
+        """Let this frame's particles near ``centres`` ``(m, 2)`` (image pixels) be read
+        in windows of their own (``windows > 1``): where a proposal put them, at the
+        peaks of :meth:`detect` it kept."""
+        self._cached(ctx, ("cf-open",), list).append(np.asarray(centres, float).reshape(-1, 2))
+
+    def opened(self, ctx: FrameContext) -> np.ndarray | None:
+        """The centres ``(m, 2)`` this frame's windows may open at (:meth:`open_windows_at`;
+        None: none)."""
+        found = self._cached(ctx, ("cf-open",), list)
+        return np.concatenate(found) if found else None

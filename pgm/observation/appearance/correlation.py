@@ -214,8 +214,8 @@ class CorrelationFilterLikelihood(LearnedContext, RedetectionScan, ResponseReadi
     windows : int
         Search windows a frame's particles may open (:meth:`relative_response`): 1 (the
         default), one window at the particles' mean, a particle outside it scores
-        ``floor``; more (at most :data:`MAX_WINDOWS`; re-detection sets it) when a
-        proposal puts particles far from the others.
+        ``floor``; more (at most :data:`MAX_WINDOWS`; re-detection sets it) at the
+        particles a proposal put near peaks of the scan (:meth:`open_windows_at`).
     """
 
     model_attr = "num"

@@ -154,6 +154,8 @@ class RedetectionProposal(ProposalFactor):
             return 0.0
         self._centres = scan.centres[keep]
         self._std = self.spread * size
+        if hasattr(cue, "open_windows_at"):  # the cue reads the proposed particles there
+            cue.open_windows_at(ctx, self._centres)
         return self.fraction
 
     def sample(self, rng: np.random.Generator, ctx: FrameContext, *past: np.ndarray

@@ -123,15 +123,46 @@ def test_the_scan_reads_the_long_term_filter_it_has_now():
 def test_particles_of_two_clouds_are_read_each_in_its_own_window():
     rng = np.random.default_rng(1)
     f = _trained(rng)
-    ctx = FrameContext(2, scene(rng, (190, 120)))
+    image = scene(rng, (190, 120))
     near = np.tile([80.0, 90.0, 40.0, 56.0], (50, 1)) + rng.normal(0, 2, (50, 4)) * [1, 1, 0, 0]
     far = np.tile([190.0, 120.0, 40.0, 56.0], (50, 1)) + rng.normal(0, 2, (50, 4)) * [1, 1, 0, 0]
+    # a frame the re-detection did not scan: one window at the particles' mean, as with
+    # windows=1
+    unscanned = f.relative_response(np.vstack([near, far]), FrameContext(2, image))
+    f.windows = 1
+    np.testing.assert_array_equal(
+        unscanned, f.relative_response(np.vstack([near, far]), FrameContext(2, image)))
+    f.windows = 4
+    ctx = FrameContext(2, image)
+    scan = f.detect(ctx, (80, 90), 1.0)  # the scan finds the object's peak at (190, 120)
+    f.open_windows_at(ctx, scan.centres[:1])  # where a proposal put the far cloud
     both = f.relative_response(np.vstack([near, far]), ctx)
-    alone = f.relative_response(far, FrameContext(2, ctx.image))
+    alone = f.relative_response(far, FrameContext(2, image))
     # the object scores above the place it left (whose static background the filter
     # learned as context, so that place keeps part of its response)
     assert both[50:].mean() > both[:50].mean() + 0.1
     np.testing.assert_allclose(both[50:], alone, atol=0.05)
+
+
+def test_stragglers_far_from_every_proposed_peak_score_the_floor():
+    """The windows after the first open only near the peaks a proposal put particles
+    at: particles the transition's jumps carried elsewhere, near a peak of the scan the
+    proposal did not keep or near none, are not read in windows of their own."""
+    rng = np.random.default_rng(2)
+    f = _trained(rng)
+    ctx = FrameContext(2, scene(rng, (80, 90)))  # the object has not moved
+    scan = f.detect(ctx, (80, 90), 1.0)
+    f.open_windows_at(ctx, scan.centres[:1])  # the object's own peak, where it is
+    cloud = np.tile([80.0, 90.0, 40.0, 56.0], (60, 1)) + rng.normal(0, 2, (60, 4)) * [1, 1, 0, 0]
+    # a third of the particles, in three groups outside the window at the cloud (not one
+    # cloud, so more windows may open): at the scan's second peak, which no proposal
+    # kept, and far from every peak
+    assert abs(scan.centres[1][0] - 80) > f.ref_size[0] / 2  # beside the window
+    stray = np.repeat([scan.centres[1].tolist(), [150.0, 175.0], [230.0, 170.0]], 10, axis=0)
+    stray = np.hstack([stray + rng.normal(0, 1, stray.shape), np.tile([40.0, 56], (30, 1))])
+    r = f.relative_response(np.vstack([cloud, stray]), ctx)
+    assert np.all(r[60:] == f.floor)
+    assert r[:60].mean() > 0.5
 
 
 def test_the_reappearance_density_is_the_mixture_and_restarts_the_velocity():
@@ -164,6 +195,21 @@ def test_the_reappearance_density_is_the_mixture_and_restarts_the_velocity():
     assert far_share == pytest.approx(expected, abs=3 * np.sqrt(expected / 20000))
     with pytest.raises(ValueError, match="region"):
         AR2Transition("o", noise_std=[1.0, 1, 0, 0], reappear_prob=0.1)
+
+
+def test_a_reappearance_left_to_the_proposal_is_in_the_density_and_never_drawn():
+    kw = dict(noise_std=[2.0, 2.0, 0, 0], reappear_prob=0.5, region=(0, 0, 320, 240))
+    drawn, left = AR2Transition("o", **kw), AR2Transition("o", **kw, reappear_drawn=False)
+    x = np.tile([100.0, 100, 40, 50], (2000, 1))
+    far = lambda y: np.hypot(*(y[:, :2] - 100).T) > 20  # noqa: E731
+    assert far(drawn.sample(np.random.default_rng(0), x, x)).mean() > 0.4
+    assert not far(left.sample(np.random.default_rng(0), x, x)).any()
+    y = np.array([[103.0, 99, 40, 50], [300.0, 20, 40, 50]])
+    np.testing.assert_array_equal(drawn.log_prob_columns(y, (0, 1), x[:2], x[:2]),
+                                  left.log_prob_columns(y, (0, 1), x[:2], x[:2]))
+    assert left.params()["reappear_drawn"] is False and "reappear_drawn" not in drawn.params()
+    with pytest.raises(ValueError, match="reappear_drawn"):
+        AR2Transition("o", **kw, reappear_drawn="no")
 
 
 def test_the_proposal_is_off_while_confident_and_its_density_integrates_to_one():
