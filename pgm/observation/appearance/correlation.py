@@ -198,10 +198,11 @@ class CorrelationFilterLikelihood(LearnedContext, RedetectionScan, ResponseReadi
         the scale scanned), centred on the estimate and kept inside the frame (the whole
         frame when it is smaller; at most ``cf_features.MAX_DETECT_PX`` template
         pixels). A scan costs the region's area in template pixels: on UAV10-group3 (a
-        person 21 px across in a 1280x720 frame) 11 ms at 10 sizes, 114 ms at 32. On
-        the eight shared sequences with re-detection on (four seeds) 10, 16 and 32 sizes
-        gave the same success AUC to 0.001 on every one: an object lost there is found
-        again near where it was lost. Raise it for an object that may come back far away.
+        person 21 px across in a 1280x720 frame) 11 ms at 10 sizes, 114 ms at 32. With
+        the default's re-detection (four seeds) 10 and 32 sizes give Biker and
+        MotorRolling the same boxes and UAV10-group3 a success AUC of 0.171 against
+        0.174: an object lost there is found again near where it was lost. Raise it
+        for one that may come back far away.
     angle_index : int, optional
         The state's in-plane rotation component (radians; None: no rotation, the
         default). The filter then learns the window turned by the estimate's angle (it
