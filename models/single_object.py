@@ -72,7 +72,7 @@ from . import config as _config
 from .cf_confidence import CONFIDENCE, with_confidence
 
 __all__ = ["CONFIG", "Params", "build_graph", "APPEARANCE", "SCALE_NOISE", "JUMP_PROB", "CONFIDENCE",
-           "REFERENCE_FPS", "REDETECT", "REAPPEAR_PROB", "with_confidence"]
+           "REFERENCE_FPS", "with_confidence"]
 
 APPEARANCE = "cf"
 SCALE_NOISE = 0.005
@@ -81,12 +81,6 @@ JUMP_PROB = 0.4
 #: chosen on); a video that declares another rate gets them converted
 #: (``Params.fps``; :attr:`pgm.models.part_graph.Params.frame_step`)
 REFERENCE_FPS = 30.0
-#: re-detection's share of the particles where the frame size is known (``Params.redetect``
-#: left at None), and the prior probability per frame that a lost object comes back
-#: elsewhere in the frame (``docs/results.md``, issue 36: over eight seeds on the eight
-#: shared sequences the default's boxes on six, Tiger1 -0.001, UAV10-group3 +0.051)
-REDETECT = 0.5
-REAPPEAR_PROB = 0.001
 
 
 @dataclass(frozen=True)
@@ -94,19 +88,14 @@ class Params(colour_pf.Params, part_graph.RedetectionAndAngle):
     """The fields of :class:`pgm.models.colour_pf.Params` (100 particles by default)
     with the default configuration's ``appearance``, ``scale_noise`` and ``jump_prob``,
     and those of :class:`pgm.models.part_graph.RedetectionAndAngle` (keyword only):
-    re-detection (``redetect``: None, the default, is :data:`REDETECT` where
-    ``frame_size`` is given — the application always gives it — and the appearance is
-    the correlation filter, else off; 0 turns it off, ``--redetect SHARE``) with its
-    re-appearance prior :data:`REAPPEAR_PROB`, and an in-plane angle (none by default,
-    ``--rotation-noise RAD``); ``fps``: the video's frame rate where it declares one (the
-    application passes it; ``pgm track --fps F`` for an image folder), which converts the
-    per-frame noise from :data:`REFERENCE_FPS` (None: no conversion)."""
+    re-detection (off by default, ``--redetect SHARE``) and an in-plane angle (none by
+    default, ``--rotation-noise RAD``); ``fps``: the video's frame rate where it declares
+    one (the application passes it; ``pgm track --fps F`` for an image folder), which
+    converts the per-frame noise from :data:`REFERENCE_FPS` (None: no conversion)."""
 
     appearance: str = APPEARANCE
     scale_noise: float = SCALE_NOISE
     jump_prob: float = JUMP_PROB
-    redetect: float | None = dataclasses.field(default=None, kw_only=True)
-    reappear_prob: float = dataclasses.field(default=REAPPEAR_PROB, kw_only=True)
     fps: float | None = None
 
 
@@ -114,17 +103,12 @@ def build_graph(params: Params, name: str = "object") -> FactorGraph:
     """The one-node part graph (:func:`pgm.models.part_graph.build_graph`) with the
     calibrated confidence declared when a correlation filter is among its cues; with
     ``fps`` (the video's declared frame rate), the per-frame noise read at
-    :data:`REFERENCE_FPS` (``frame_step = REFERENCE_FPS / fps``); with ``frame_size``,
-    re-detection unless ``redetect=0``."""
+    :data:`REFERENCE_FPS` (``frame_step = REFERENCE_FPS / fps``)."""
     if name != "object":
         raise ValueError("the single-object model's variable is called 'object'")
     if params.fps is not None:
         fps = float(check_finite_param("fps", params.fps, positive=True))
         params = dataclasses.replace(params, frame_step=REFERENCE_FPS / fps)
-    if params.redetect is None:
-        cf = any(cue == "cf" for cue, _ in part_graph.appearance_cues(params.appearance))
-        on = params.frame_size is not None and cf
-        params = dataclasses.replace(params, redetect=REDETECT if on else 0.0)
     return with_confidence(colour_pf.one_node_graph(params, "single-object"))
 
 
@@ -139,7 +123,8 @@ CONFIG = _config.ModelConfig(
                             help="re-detection: while the calibrated confidence is below "
                                  "one half, draw this share of the particles near the peaks "
                                  "of the correlation filter's response over ten object "
-                                 "sizes around the last estimate (default 0.5; 0: off; "
+                                 "sizes around the last estimate (0: off, the default; e.g. "
+                                 "0.5 for a target that leaves the view and comes back; "
                                  "--appearance 'cf(scan_side=32)' scans wider)"),
              _config.Option("--rotation-noise", "rotation_noise",
                             type=_config.finite_float("--rotation-noise"), metavar="RAD",

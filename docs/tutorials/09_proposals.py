@@ -126,10 +126,9 @@ print(f"{T} frames; wrote {out / 'proposals.txt'}")
 
 # %%
 # Re-detection. A textured object vanishes behind a page (frames 36-55) and comes back
-# 180 px away (:func:`pgm.synthetic.scenes.jump_scene`). Without re-detection
-# (``redetect=0``, ``pgm track ... --redetect 0``) the single-object tracker stays where
-# it vanished; with the default's (``redetect=0.5`` where the frame size is known) half
-# the particles come from the scan around the last estimate in the frames where the
+# 180 px away (:func:`pgm.synthetic.scenes.jump_scene`). The default single-object
+# tracker stays where it vanished; with ``redetect=0.5`` (``pgm track ... --redetect
+# 0.5``) half the particles come from the whole-frame scan in the frames where the
 # calibrated confidence is below one half.
 from pgm.core.boxes import cxcywh_to_xywh, iou_xywh  # noqa: E402
 from pgm.models import single_object  # noqa: E402
@@ -138,7 +137,7 @@ from pgm.synthetic.scenes import jump_scene  # noqa: E402
 seq = jump_scene(0)  # 90 frames, whatever --max-frames says: the jump is at 56
 x, y, w, h = seq.boxes[0]
 lines = [f"{'single-object tracker':<26} {'IoU >= 0.5 before':>18} {'after the jump':>15}"]
-for label, share in (("without re-detection", 0.0), ("default: re-detection", 0.5)):
+for label, share in (("default", 0.0), ("with re-detection", 0.5)):
     params = single_object.Params(init_box=(x + w / 2, y + h / 2, w, h), redetect=share,
                                   frame_size=(320, 240))
     engine = Engine(single_object.build_graph(params), np.random.default_rng(0))
