@@ -199,7 +199,7 @@ class CorrelationFilterLikelihood(LearnedContext, RedetectionScan, ResponseReadi
         frame when it is smaller; at most ``cf_features.MAX_DETECT_PX`` template
         pixels). A scan costs the region's area in template pixels: on UAV10-group3 (a
         person 21 px across in a 1280x720 frame) 11 ms at 10 sizes, 114 ms at 32. With
-        the default's re-detection (four seeds) 10 and 32 sizes give Biker and
+        re-detection (``--redetect 0.5``, four seeds) 10 and 32 sizes give Biker and
         MotorRolling the same boxes and UAV10-group3 a success AUC of 0.171 against
         0.174: an object lost there is found again near where it was lost. Raise it
         for one that may come back far away.
