@@ -20,7 +20,8 @@ a script::
 
 The second half does the same on images: the single-object tracker's re-detection
 proposal (:class:`pgm.observation.appearance.redetection.RedetectionProposal`) draws
-particles near the peaks of the correlation filter's whole-frame response while the
+particles near the peaks of the correlation filter's response around the last estimate
+(``scan_side`` object sizes; the 320x240 scene's whole frame) while the
 tracker's confidence is low, so a target that jumped across the frame while hidden is
 found again — and the weights stay those of the model, because its transition gives
 such a jump a (small) probability.
@@ -128,7 +129,7 @@ print(f"{T} frames; wrote {out / 'proposals.txt'}")
 # Re-detection. A textured object vanishes behind a page (frames 36-55) and comes back
 # 180 px away (:func:`pgm.synthetic.scenes.jump_scene`). The default single-object
 # tracker stays where it vanished; with ``redetect=0.5`` (``pgm track ... --redetect
-# 0.5``) half the particles come from the whole-frame scan in the frames where the
+# 0.5``) half the particles come from the filter's scan in the frames where the
 # calibrated confidence is below one half.
 from pgm.core.boxes import cxcywh_to_xywh, iou_xywh  # noqa: E402
 from pgm.models import single_object  # noqa: E402

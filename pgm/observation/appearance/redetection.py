@@ -1,9 +1,10 @@
 """Re-detection of a lost target as a proposal of the engine.
 
 When the tracker's calibrated confidence (:func:`pgm.core.readout.confidence`) falls
-below ``below``, :class:`RedetectionProposal` scans the whole frame with an appearance
-cue that can (a correlation filter's :meth:`~pgm.observation.appearance.correlation.
-CorrelationFilterLikelihood.detect`: the short-term and the long-term filter) and draws
+below ``below``, :class:`RedetectionProposal` scans the frame around the estimate with
+an appearance cue that can (a correlation filter's :meth:`~pgm.observation.appearance.
+correlation.CorrelationFilterLikelihood.detect`: its long-term filter over ``scan_side``
+object sizes) and draws
 a share ``fraction`` of the particles' positions near the highest peaks; the rest of each
 particle (its size) and the other particles come from the transition. The engine
 corrects every weight by ``p / ((1 - f) p + f q)``
@@ -13,7 +14,10 @@ transition must give a far-away position some probability — the re-appearance 
 :class:`~pgm.factors.AR2Transition` (``reappear_prob`` over the frame): a peak far from
 the lost estimate is then taken when its likelihood outweighs the re-appearance's
 prior odds, ``log(reappear_prob / area)`` against the density near the old position,
-and not otherwise.
+and not otherwise. The part graph leaves drawing the re-appearance to this proposal
+(``AR2Transition(reappear_drawn=False)``), and the proposal tells the cue where it put
+particles (``open_windows_at``), so that the cue reads those in windows of their own and
+no others: a frame where no peak passes the proposal's tests is tracked as without it.
 
 >>> from pgm.observation.appearance.redetection import RedetectionProposal
 >>> RedetectionProposal("object", cue="cf").params()["below"]
@@ -48,7 +52,7 @@ class RedetectionState(LearnedState):
 
 
 class RedetectionProposal(ProposalFactor):
-    """Positions from the peaks of a whole-frame appearance response, when lost.
+    """Positions from the peaks of an appearance response around the estimate, when lost.
 
     Parameters
     ----------
