@@ -59,6 +59,8 @@ import time
 import cv2
 import numpy as np
 
+from pgm.core.numerics import check_finite_param
+
 __all__ = ["CameraMotionEstimator", "estimate_camera_motion", "estimate_sparse_flow", "MODES",
            "METHODS", "MAX_PAN", "track_camera_motion"]
 
@@ -75,11 +77,6 @@ BOTSORT_CORNERS = {"maxCorners": 1000, "qualityLevel": 0.01, "minDistance": 1, "
 
 
 _LK_STOP = cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS
-
-
-def _check_flow_epsilon(flow_epsilon: float) -> None:
-    if not (np.isfinite(flow_epsilon) and flow_epsilon > 0):
-        raise ValueError(f"flow_epsilon must be a positive number, got {flow_epsilon!r}")
 
 
 def _grey(image: np.ndarray, scale: float = 1.0, halvings: int = 0) -> np.ndarray:
@@ -126,7 +123,7 @@ def track_camera_motion(prev_grey: np.ndarray, grey: np.ndarray, points: np.ndar
     points to follow into the next frame; None without a fit). Lucas–Kanade stops at a
     level after 30 iterations or when an iteration moves a point by less than
     ``flow_epsilon`` analysed pixels (OpenCV's default: 0.01)."""
-    _check_flow_epsilon(flow_epsilon)
+    check_finite_param("flow_epsilon", flow_epsilon, positive=True)
     if points is None:
         points = cv2.goodFeaturesToTrack(prev_grey, maxCorners=max_corners, qualityLevel=0.01,
                                          minDistance=8, blockSize=7)
@@ -247,7 +244,7 @@ class CameraMotionEstimator:
                 raise ValueError(f"{name} must be a positive integer, got {v!r}")
         if fps is not None and not (np.isfinite(fps) and fps > 0):
             raise ValueError(f"fps must be a positive number, got {fps!r}")
-        _check_flow_epsilon(flow_epsilon)
+        check_finite_param("flow_epsilon", flow_epsilon, positive=True)
         self.max_corners, self.win_size = int(max_corners), int(win_size)
         self.flow_epsilon = float(flow_epsilon)
         self.levels_given = None if pyramid_levels is None else int(pyramid_levels)
