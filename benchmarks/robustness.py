@@ -168,6 +168,15 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                           "noise_per": "detection",
                           "count_hits": "detections" if c else "seconds"})
        for c in ("", " counts")},
+    # the same with the process noise the step of a box's irregular displacement per
+    # detection, in the video's pixels at any frame rate (a rate's variance unchanged too)
+    "ocsort-colour quantile 0.2 s30 birth0.3 tentative-prediction recover3 fill0.5 births "
+    "noise-per-displacement": (
+        "ocsort_colour", {"score_map": "quantile", "score_threshold": 0.2,
+                          "reference_fps": 30.0, "birth_iou": 0.3,
+                          "explain_tentative": "prediction", "fill_gaps": 0.5,
+                          "recover_hits": 3, "consecutive": False, "fill_births": True,
+                          "noise_per": "displacement"}),
     # BoT-SORT's cascade (pooled rounds, IoU x score), its thresholds as quantiles
     "botsort quantile": ("botsort", {"score_map": "quantile"}),
     "botsort-colour quantile": ("botsort", {"score_map": "quantile", **COLOUR}),

@@ -92,7 +92,7 @@ REPORTS = ("detection", "estimate")
 #: what the counts of matches count with a reference frame rate (:func:`at_frame_rate`)
 HIT_COUNTS = ("seconds", "detections")
 #: how the process noise converts with a reference frame rate (:func:`at_frame_rate`)
-NOISE_PERS = ("second", "detection")
+NOISE_PERS = ("second", "detection", "displacement")
 
 
 @dataclass(frozen=True)
@@ -239,12 +239,15 @@ class Params:
         ``reference_fps``: frames at that rate, a window of time converted to the video's
         (``"seconds"``), or detections, the same at any rate (``"detections"``: the
         evidence that tells an object from clutter is a number of detections).
-    noise_per : {"second", "detection"}
+    noise_per : {"second", "detection", "displacement"}
         How the process noise converts with a ``reference_fps`` (:func:`at_frame_rate`):
         a continuous-time random walk (``"second"``: more noise between frames further
-        apart), or the same step each detection, only its rates put in the video's units
-        (``"detection"``: the noise models the detections' irregularity, which does not
-        grow with the time between them).
+        apart), the same step each detection, only its rates put in the video's units
+        (``"detection"``: the noise models the detections' irregularity in velocity, which
+        does not grow with the time between them), or the same step in the video's pixels
+        (``"displacement"``: the irregularity is a box's displacement from one detection to
+        the next — a pose, a detector's jitter — which moves a rate in pixels per frame by
+        as much at any frame rate; only the initial rate variance, a speed, converts).
     """
 
     box_state: str = "xyxy"

@@ -52,7 +52,11 @@ def at_frame_rate(p):
       initial variance as ``τ²`` (the scale-aware stds: ``√τ``, ``τ^1.5`` and ``τ``) —
       with ``noise_per="detection"`` a step per detection instead: a coordinate's
       variance unchanged, a rate's (process and initial) as ``τ²``, its units only
-      (stds: 1, ``τ`` and ``τ``).
+      (stds: 1, ``τ`` and ``τ``) — and with ``noise_per="displacement"`` the step of a
+      box's irregular displacement from one detection to the next: a coordinate's and a
+      rate's process variance unchanged (a displacement of so many pixels changes the
+      rate, in pixels per video frame, by as much at any rate), only the initial rate
+      variance (an object's speed, per second) as ``τ²`` (stds: 1, 1 and ``τ``).
 
     The detector's noise ``R`` is per detection and does not change.
 
@@ -69,8 +73,9 @@ def at_frame_rate(p):
     q, _, p0 = noise_diagonals(p)
     n = 4  # the box's columns come first, their rates after them
     per_second = p.noise_per == "second"
+    rate_power = {"second": 3, "detection": 2, "displacement": 0}[p.noise_per]
     q[:n] *= tau if per_second else 1.0
-    q[n:] *= tau ** (3 if per_second else 2)
+    q[n:] *= tau ** rate_power
     p0[n:] *= tau ** 2
     frames = lambda k: max(1, round(int(k) / tau))  # noqa: E731
     hits = frames if p.count_hits == "seconds" else int  # noqa: E731
@@ -80,7 +85,7 @@ def at_frame_rate(p):
                    process_noise=tuple(float(v) for v in q),
                    initial_cov=tuple(float(v) for v in p0),
                    pos_std=p.pos_std * (math.sqrt(tau) if per_second else 1.0),
-                   vel_std=p.vel_std * tau ** (1.5 if per_second else 1.0),
+                   vel_std=p.vel_std * tau ** (rate_power / 2),
                    initial_pos_std=p.initial_pos_std or 2.0 * p.pos_std,
                    initial_rate_std=(p.initial_rate_std or 10.0 * p.vel_std) * tau)
 

@@ -801,6 +801,33 @@ def test_noise_per_detection_keeps_the_step_and_converts_only_the_rates_units():
         sort.build_graph(sort.Params(noise_per="frame"))
 
 
+def test_noise_per_displacement_keeps_every_step_and_converts_the_initial_speed():
+    """``noise_per="displacement"``: at a third of the reference rate every process
+    variance (a coordinate's, a rate's) is the reference frame's — a displacement of so
+    many pixels per detection — while a rate's initial variance, a speed, is ``τ²`` times
+    it as with the other two; the scale-aware rate std is unchanged too."""
+    from dataclasses import replace
+
+    tau = 3.0
+    for p in (sort.Params(), sort.Params(box_state="xysr")):
+        ref = sort.build_graph(replace(p, fps=30.0))
+        slow = sort.build_graph(replace(p, fps=10.0, reference_fps=30.0,
+                                        noise_per="displacement"))
+        per_detection = sort.build_graph(replace(p, fps=10.0, reference_fps=30.0,
+                                                 noise_per="detection"))
+        np.testing.assert_allclose(slow.factors["transition:box"].Q,
+                                   ref.factors["transition:box"].Q)
+        np.testing.assert_allclose(np.diag(slow.factors["prior:box"].cov),
+                                   np.diag(per_detection.factors["prior:box"].cov))
+        assert not np.allclose(np.diag(slow.factors["prior:box"].cov),
+                               np.diag(ref.factors["prior:box"].cov))
+    scaled = sort.build_graph(sort.Params(noise="scale", fps=10.0, reference_fps=30.0,
+                                          noise_per="displacement"))
+    base = sort.build_graph(sort.Params(noise="scale"))
+    np.testing.assert_allclose(scaled.factors["transition:box"].relative_std,
+                               base.factors["transition:box"].relative_std)
+
+
 def test_no_birth_on_a_detection_a_track_explains():
     """``birth_iou``: a detector's second, weaker box on a person (IoU 0.43 with the first)
     starts a second identity in the package's cores (``birth_iou=1``), none with the
