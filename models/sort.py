@@ -539,10 +539,13 @@ OPTIONS = (
                    help="what the score thresholds read: detector (the detector's own numbers, "
                         "mapped through the logistic when outside [0, 1]: the trackers "
                         "package), learned (the probability that a detection is of a target, "
-                        "learned on the video from which detections are found again) or "
-                        "quantile (the score's quantile among the video's scores); the last "
-                        "two give the same tracks for any increasing map of the scores. "
-                        "Default: the model's"),
+                        "learned on the video from which detections are found again), "
+                        "quantile (the score's quantile among the video's scores), "
+                        "quantile-gated (that quantile, 0 where the video shows detections "
+                        "more likely clutter than not: a detector run at a lower threshold) "
+                        "or quantile-rebased (the quantile among the detections above that "
+                        "clutter); all but detector give the same tracks for any increasing "
+                        "map of the scores. Default: the model's"),
     _config.Option("--reference-fps", "reference_fps",
                    type=_config.finite_float("--reference-fps"), metavar="FPS",
                    help="read the per-frame constants (confirmation, OC-SORT's momentum "
@@ -627,7 +630,7 @@ def video_build(config: _config.ModelConfig, values: dict[str, Any],
         if not 0.0 <= iou <= 1.0:
             raise ValueError(f"--iou-threshold must be in [0, 1], got {iou}")
         kw["rounds"] = tuple(dict(r, iou=float(iou)) for r in params.rounds)
-    choice = kw.pop("score_map", None)  # --scores: detector | learned | quantile
+    choice = kw.pop("score_map", None)  # --scores: detector or a learned map
     if choice == "detector" and "score_threshold" not in kw:
         kw["score_threshold"] = None  # the core's own thresholds, on the detector's numbers
     reading = choice or params.score_map

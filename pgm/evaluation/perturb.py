@@ -18,6 +18,11 @@ when the detections change the way another detector's or camera's would. Each
 * ``false-positives`` — 20 % more detections, false: boxes (size and place) and scores
   drawn from the sequence's own detections of other frames, shifted by one to two
   boxes so they mark nobody, kept inside the image;
+* ``low-scores`` — the same detector run at a lower threshold, as a user dumps a
+  probability detector's boxes (YOLO, RT-DETR, Faster R-CNN at a confidence of 0.1 or
+  less): as many more detections as it had, false (placed as ``false-positives``'), each
+  scored below every score it gave (by up to half their range), so a share of the
+  detections is no longer a share of the objects;
 * ``shifted`` — every box 10 % taller, moved down by 5 % of its height and right by
   3 % of its width (another detector's box convention).
 
@@ -46,7 +51,7 @@ __all__ = ["KINDS", "SCORE_KINDS", "score_transform", "perturb_detections", "kee
 SCORE_KINDS = ("probability", "logit", "rank", "affine", "power")
 #: every perturbation kind, by name (``"none"``: the sequence as it is)
 KINDS = ("none",) + SCORE_KINDS + ("fps/2", "fps/3", "drop", "jitter", "false-positives",
-                                   "shifted")
+                                   "low-scores", "shifted")
 
 #: the frame-rate kinds: every ``step``-th frame kept
 FRAME_STEPS = {"fps/2": 2, "fps/3": 3}
@@ -62,6 +67,9 @@ def frame_step(kind: str) -> int:
 DROP = 0.2
 JITTER = 0.05
 FALSE_POSITIVES = 0.2
+#: ``low-scores``: extra false detections per detection, and how far below the lowest
+#: score they go (a share of the scores' range)
+LOW_SCORES = (1.0, 0.5)
 SHIFT = (0.03, 0.05, 1.1)  # right (of the width), down (of the height), height scale
 
 
@@ -112,8 +120,9 @@ def perturb_detections(det: np.ndarray, kind: str, rng: np.random.Generator,
         h = np.maximum(h * (1 + rng.normal(0, JITTER, len(d))), 1.0)
         d[:, 2], d[:, 3], d[:, 4], d[:, 5] = cx - w / 2, cy - h / 2, w, h
         return d
-    if kind == "false-positives":
-        n = int(round(FALSE_POSITIVES * len(d)))
+    if kind in ("false-positives", "low-scores"):
+        n = int(round((FALSE_POSITIVES if kind == "false-positives" else LOW_SCORES[0])
+                      * len(d)))
         if n == 0 or len(d) < 2:
             return d
         frames = d[:, 0].astype(int)
@@ -131,7 +140,12 @@ def perturb_detections(det: np.ndarray, kind: str, rng: np.random.Generator,
             w, h = float(image_size[0]), float(image_size[1])
             fp[:, 2] = np.clip(fp[:, 2], 1.0, np.maximum(w - fp[:, 4], 1.0))
             fp[:, 3] = np.clip(fp[:, 3], 1.0, np.maximum(h - fp[:, 5], 1.0))
-        fp[:, 6] = d[rng.integers(0, len(d), n), 6]
+        if kind == "false-positives":  # scored as its own detections are
+            fp[:, 6] = d[rng.integers(0, len(d), n), 6]
+        else:  # below every score it gave
+            s = d[:, 6]
+            span = float(np.ptp(s)) or max(abs(float(s.min())), 1.0)
+            fp[:, 6] = s.min() - rng.uniform(0.0, LOW_SCORES[1], n) * span - 1e-9 * span
         out = np.concatenate([d, fp])
         return out[np.argsort(out[:, 0], kind="stable")]
     if kind == "shifted":

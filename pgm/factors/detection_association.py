@@ -26,6 +26,7 @@ from pgm.core.numerics import check_finite_param
 from pgm.core.resolution import BOX_PIXELS
 from pgm.core.variable import Variable
 from pgm.factors.kinds import LikelihoodFactor
+from pgm.factors.persistent_quantiles import PersistentQuantiles
 from pgm.factors.scores import (
     LEARNED_SCORE_MAPS,
     SCORE_MAPS,
@@ -403,7 +404,8 @@ class DetectionAssociation(Factor):
     def check(self, variables: dict[str, Variable]) -> None:
         require_box_coding(self, variables, self.variables[0])
 
-    def scores(self, ctx: FrameContext, model: PersistenceScoreModel | None = None,
+    def scores(self, ctx: FrameContext,
+               model: PersistenceScoreModel | ScoreQuantiles | PersistentQuantiles | None = None,
                boxes: np.ndarray | None = None) -> np.ndarray:
         """The frame's detection scores, mapped; with a map learned on the video
         (:data:`LEARNED_SCORE_MAPS`), ``model`` (a run's :meth:`score_model`) sees the
@@ -420,8 +422,10 @@ class DetectionAssociation(Factor):
                      else xywh_to_cxcywh(np.asarray(d.boxes, dtype=float)))
         return model.update(boxes, np.zeros(0) if d is None else d.scores)
 
-    def score_model(self) -> PersistenceScoreModel | None:
-        """A new run's score model (the ``"learned"`` and ``"quantile"`` maps), or None."""
+    def score_model(self) -> PersistenceScoreModel | ScoreQuantiles | PersistentQuantiles | None:
+        """A new run's score model (the maps of :data:`LEARNED_SCORE_MAPS`), or None."""
         if self.score_map == "learned":
             return PersistenceScoreModel()
+        if self.score_map in ("quantile-gated", "quantile-rebased"):
+            return PersistentQuantiles(rebase=self.score_map == "quantile-rebased")
         return ScoreQuantiles() if self.score_map == "quantile" else None

@@ -672,10 +672,15 @@ class ScoreQuantiles:
 #: the detections, not about a number on the detector's scale), ``"quantile"`` (the
 #: score's quantile among the video's scores so far: a threshold is a share of the
 #: detections, :class:`ScoreQuantiles`; also the same for any
-#: strictly increasing map)
-SCORE_MAPS = ("none", "logistic", "constant", "learned", "quantile")
+#: strictly increasing map), ``"quantile-gated"`` (that quantile, 0 where the learned
+#: model shows the detections more likely clutter than of a target: a detector run at a
+#: lower threshold adds no detections a threshold lets through) and ``"quantile-rebased"``
+#: (the quantile among the detections above that clutter),
+#: :class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`
+SCORE_MAPS = ("none", "logistic", "constant", "learned", "quantile", "quantile-gated",
+              "quantile-rebased")
 #: the score maps learned on the video (kept per run by the association rule)
-LEARNED_SCORE_MAPS = ("learned", "quantile")
+LEARNED_SCORE_MAPS = ("learned", "quantile", "quantile-gated", "quantile-rebased")
 
 
 def map_scores(scores: np.ndarray, score_map: str) -> np.ndarray:

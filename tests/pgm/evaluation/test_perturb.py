@@ -52,6 +52,14 @@ def test_each_kind_is_seeded_and_does_what_it_says():
     assert np.all(fp[:, 2] >= 1) and np.all(fp[:, 2] + fp[:, 4] <= 640 + 1e-9)
     assert np.all(fp[:, 3] >= 1) and np.all(fp[:, 3] + fp[:, 5] <= 480 + 1e-9)
     assert np.all(np.diff(fp[:, 0]) >= 0)  # still sorted by frame
+    low = perturb_detections(det, "low-scores", np.random.default_rng(3), image_size=(640, 480))
+    assert len(low) == 2 * len(det) and np.all(np.diff(low[:, 0]) >= 0)
+    added = ~(low[:, None, :7] == det[None, :, :7]).all(axis=2).any(axis=1)
+    assert added.sum() == len(det)  # as many more, every one new
+    s = det[:, 6]
+    assert np.all(low[added, 6] < s.min())  # below every score it gave ...
+    assert np.all(low[added, 6] >= s.min() - 0.5 * np.ptp(s) - 1e-6)  # ... by at most half
+    assert np.all(low[added, 2] >= 1) and np.all(low[added, 2] + low[added, 4] <= 640 + 1e-9)
     jit = perturb_detections(det, "jitter", np.random.default_rng(4))
     rel = (jit[:, 4] - det[:, 4]) / det[:, 4]
     assert abs(rel.std() - 0.05) < 0.01

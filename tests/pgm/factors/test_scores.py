@@ -372,3 +372,85 @@ def test_persistence_model_refits_as_binning_every_labelled_score():
             if m.labelled.size:
                 np.testing.assert_array_equal(m.curve, naive(m, m.labelled, m.found))
         assert m._older.size > 0  # merges happened
+
+
+def test_persistent_quantiles_are_the_plain_quantiles_while_nothing_is_clutter():
+    """Oracle: on detections that are all found again (every bin's probability at the
+    top's), ``u*`` is 0 and each frame's map, gated or rebased, is the plain mid-rank
+    quantile, :class:`ScoreQuantiles`', exactly."""
+    from pgm.factors.persistent_quantiles import PersistentQuantiles
+    from pgm.factors.scores import ScoreQuantiles
+
+    scene = persistent_scene(np.random.default_rng(11), frames=80, pi_false=0.0)
+    gated, rebased, plain = PersistentQuantiles(), PersistentQuantiles(rebase=True), \
+        ScoreQuantiles()
+    for boxes, scores, _ in scene:
+        want = plain.update(boxes, scores)
+        np.testing.assert_allclose(gated.update(boxes, scores), want, atol=1e-15)
+        np.testing.assert_allclose(rebased.update(boxes, scores), want, atol=1e-15)
+    assert gated.threshold_quantile() == 0.0 == rebased.threshold_quantile()
+
+
+def test_persistent_quantiles_cut_the_clutter_a_lower_threshold_adds():
+    """The same scene as a detector run at a lower threshold would give it: as many
+    false detections again, scored below every true one and never found again. ``u*``
+    lands at the clutter's share of the scores (within four binomial standard errors
+    plus the 20 bins' half-width) and the clutter maps to 0. Gated, a true detection
+    keeps its plain quantile among all the scores; rebased, it reads its quantile among
+    the true detections alone (within the same tolerance) — what the plain quantile
+    gave it before the clutter came."""
+    from pgm.factors.persistent_quantiles import PersistentQuantiles
+    from pgm.factors.scores import mid_ranks
+
+    rng = np.random.default_rng(12)
+    scene = persistent_scene(rng, frames=200, pi_false=0.0)
+    frames = []
+    for boxes, scores, _ in scene:
+        k = len(scores)
+        fb = np.column_stack([rng.uniform(0, 1000, (k, 2)), np.full((k, 2), [40.0, 100.0])])
+        fs = scores.min() - 10.0 - rng.uniform(0, 5, k)  # below every true score
+        frames.append((np.concatenate([boxes, fb]), np.concatenate([scores, fs]), k))
+    share = 0.5  # as many false detections as true ones
+    n = sum(k for *_, k in frames) * 2
+    tol = 4 * np.sqrt(share * (1 - share) / n) + 0.5 / 20
+    for rebase in (False, True):
+        pq = PersistentQuantiles(rebase=rebase)
+        got = [pq.update(b, s) for b, s, _ in frames]
+        assert abs(pq.threshold_quantile() - share) < tol
+        is_true = np.concatenate([np.arange(len(s)) < k for _, s, k in frames[-50:]])
+        q = np.concatenate(got[-50:])
+        assert np.all(q[~is_true] == 0.0)
+        b, s, k = frames[-1]
+        if rebase:  # the quantile among the true detections seen so far
+            seen = np.sort(np.concatenate([x[:kk] for _, x, kk in frames]))
+            np.testing.assert_allclose(got[-1][:k], mid_ranks(seen, s[:k]), atol=2 * tol)
+            kept = q >= 0.2  # about 80 % of the true detections, none of the clutter
+            assert abs(kept[is_true].mean() - 0.8) < 2 * tol
+        else:  # the plain quantile among every score
+            seen = np.sort(np.concatenate([x for _, x, _ in frames]))
+            np.testing.assert_allclose(got[-1][:k], mid_ranks(seen, s[:k]), atol=1e-12)
+            assert np.all(q[is_true] > 0.2)  # every true one above the lowest fifth
+        assert not (q >= 0.2)[~is_true].any()
+
+
+def test_persistent_quantiles_are_invariant_to_the_detectors_scale():
+    """Fed the same detections with scores through any strictly increasing map, both
+    maps give the same values, exactly; a floor outside [0, 1] is an error."""
+    from pgm.factors.persistent_quantiles import PersistentQuantiles
+
+    scene = persistent_scene(np.random.default_rng(13), frames=60)
+    all_scores = np.concatenate([s for _, s, _ in scene]) * 20 + 40
+    split = np.cumsum([len(s) for _, s, _ in scene])[:-1]
+    for rebase in (False, True):
+        ref = None
+        for name, f in [("none", lambda s: s)] + list(MAPS.items()):
+            m = PersistentQuantiles(rebase=rebase)
+            q = np.concatenate([m.update(b, s) for (b, _, _), s in
+                                zip(scene, np.split(f(all_scores), split), strict=True)])
+            if ref is None:
+                ref = q
+            np.testing.assert_array_equal(q, ref, err_msg=name)
+        assert m.threshold_quantile() > 0  # this scene's clutter is seen: the gate acts
+    for bad in (-0.1, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="floor"):
+            PersistentQuantiles(floor=bad)

@@ -1,0 +1,93 @@
+"""A score's quantile with the clutter the video itself shows cut out
+(:class:`PersistentQuantiles`: the ``"quantile-gated"`` and ``"quantile-rebased"`` score
+maps)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pgm.core.numerics import check_finite_param
+from pgm.factors.scores import PersistenceScoreModel, mid_ranks
+
+__all__ = ["PersistentQuantiles"]
+
+
+class PersistentQuantiles:
+    r"""Each detection's score as its quantile, read as 0 where the detections at that
+    score are more likely clutter than of a target, both learned on the video.
+
+    A threshold on the plain quantile (:class:`~pgm.factors.scores.ScoreQuantiles`) is a
+    share of the detections ("drop the lowest fifth"), and a share of the detections is
+    a share of the objects only while the detector's output threshold stays where it
+    was. Run the same detector with a lower threshold, as a user does with a probability
+    detector (confidence 0.1 or less), and the lowest fifth are all clutter while the
+    clutter above them passes. What the video shows of each score is how often the
+    detections at it are found again in the next frame: the probability that a
+    detection is of a target (:meth:`PersistenceScoreModel.probability
+    <pgm.factors.scores.PersistenceScoreModel.probability>`). That probability is
+    non-decreasing in the score's mid-rank quantile ``u`` (the model's curve is pooled to
+    be), so the detections more likely clutter than not, below ``floor``, are the scores
+    below one quantile ``u*``: where the probability, interpolated as the model reads
+    it, first reaches ``floor`` (0 when it does so everywhere). A detection maps to
+
+    .. math::
+        q = u \ (u \ge u^*), \qquad 0 \ (u < u^*)
+
+    (``"quantile-gated"``): a threshold ``t`` on ``q`` drops the lowest share ``t`` of
+    the detections and every detection the video shows to be more likely clutter. With
+    ``rebase=True`` (``"quantile-rebased"``) the share is taken of the detections above
+    ``u*`` instead, ``q = (u − u*) / (1 − u*)`` there: the clutter is then read as added
+    to the detector's usual output, not as part of its lowest share. With no clutter the
+    video can see (``u* = 0``) both are the plain quantile. Both read the scores only
+    through their ranks, so any strictly increasing map of the scores gives the same
+    ``q``, exactly. Online and deterministic; one instance per video.
+
+    Parameters
+    ----------
+    floor : float
+        The probability of being of a target below which a detection is read as clutter
+        (0.5: more likely clutter than of a target).
+    rebase : bool
+        Take the quantile among the detections above ``u*`` (False: among all).
+    **model_options
+        The persistence model's settings (:class:`~pgm.factors.scores.PersistenceScoreModel`).
+    """
+
+    def __init__(self, floor: float = 0.5, rebase: bool = False, **model_options):
+        self.rebase = bool(rebase)
+        self.floor = float(check_finite_param("floor", floor, nonneg=True))
+        if self.floor > 1.0:
+            raise ValueError(f"floor must be in [0, 1], got {floor!r}")
+        self.model = PersistenceScoreModel(**model_options)
+
+    def threshold_quantile(self) -> float:
+        """``u*``: the mid-rank quantile from which the model's probability reaches
+        ``floor`` (0: everywhere)."""
+        m = self.model
+        top = float(m.curve[-1])
+        if top <= 0:
+            return 0.0
+        ratio = m.curve / top
+        centres = (np.arange(m.bins) + 0.5) / m.bins
+        above = np.flatnonzero(ratio >= self.floor)
+        b = int(above[0]) if above.size else m.bins - 1
+        if b == 0:
+            return 0.0
+        lo, hi = ratio[b - 1], ratio[b]
+        t = (self.floor - lo) / (hi - lo) if hi > lo else 1.0
+        return float(centres[b - 1] + t * (centres[b] - centres[b - 1]))
+
+    def update(self, boxes: np.ndarray, scores: np.ndarray) -> np.ndarray:
+        """Add a frame's detections (centre boxes ``(M, 4)``, raw scores ``(M,)``) to the
+        model and return their values ``q`` ``(M,)`` (NaN scores: 0)."""
+        s = np.asarray(scores, dtype=float).reshape(-1)
+        self.model.update(boxes, s)
+        u = mid_ranks(self.model.history, np.where(np.isfinite(s), s, -np.inf))
+        star = self.threshold_quantile()
+        if not self.rebase:
+            q = np.where(u >= star, u, 0.0)
+        elif star < 1.0:
+            q = np.clip((u - star) / (1.0 - star), 0.0, 1.0)
+        else:
+            q = np.zeros(s.size)
+        return np.where(np.isfinite(s), q, 0.0)
