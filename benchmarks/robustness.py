@@ -10,7 +10,8 @@ PETS09-S2L1 video with its own detections) and the toolkit's synthetic crossing 
 rate ÷2 and ÷3 (a cell the mean over the two or three shares of the frames, each frame used
 once); 20 % of the detections dropped; box jitter of 5 % of the size; 20 % more
 false positives; the detector run at a lower threshold, as many more false detections
-scored below all of its own; boxes shifted and scaled as another detector's), seeded and
+scored below all of its own; the detector run at a higher threshold, its lowest 40 % of
+scores removed; boxes shifted and scaled as another detector's), seeded and
 deterministic, and written as a sequence folder. On each, every candidate model of
 :data:`CANDIDATES` runs as ``pgm track`` runs it (the frames decoded for the colour
 models, the camera's motion estimated and compensated where it moves) and so do the six
@@ -170,17 +171,18 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                           "count_hits": "detections" if c else "seconds"})
        for c in ("", " counts")},
     # the default's thresholds on the learned probability that a detection is found
-    # again in the next frame (PersistenceScoreModel) instead of on the scores' quantile,
-    # and the same with the counts of matches kept as counts of detections ("counts")
-    **{f"ocsort-colour learned 0.5 s30 birth0.3 tentative-prediction recover3 fill0.5 births "
+    # again in the next frame (PersistenceScoreModel), relative to the best-scored
+    # detections', instead of on the scores' quantile (0.5, 0.7, 0.9), and the same with
+    # the counts of matches kept as counts of detections ("counts")
+    **{f"ocsort-colour learned {t:g} s30 birth0.3 tentative-prediction recover3 fill0.5 births "
        f"noise-per-detection{c}": (
-        "ocsort_colour", {"score_map": "learned", "score_threshold": 0.5,
+        "ocsort_colour", {"score_map": "learned", "score_threshold": t,
                           "reference_fps": 30.0, "birth_iou": 0.3,
                           "explain_tentative": "prediction", "fill_gaps": 0.5,
                           "recover_hits": 3, "consecutive": False, "fill_births": True,
                           "noise_per": "detection",
                           "count_hits": "detections" if c else "seconds"})
-       for c in ("", " counts")},
+       for t, c in ((0.5, ""), (0.5, " counts"), (0.7, ""), (0.9, ""))},
     # the default's quantile with the detections the learned model shows more likely
     # clutter than of a target read as 0 (PersistentQuantiles: "gated"), or the quantile
     # taken among the detections above them ("rebased"); the rebased also with the

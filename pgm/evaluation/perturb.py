@@ -23,6 +23,9 @@ when the detections change the way another detector's or camera's would. Each
   less): as many more detections as it had, false (placed as ``false-positives``'), each
   scored below every score it gave (by up to half their range), so a share of the
   detections is no longer a share of the objects;
+* ``high-scores`` — the same detector run at a higher threshold: its detections below
+  the 0.4 quantile of its scores removed, so the share it keeps holds fewer of its false
+  detections than before;
 * ``shifted`` — every box 10 % taller, moved down by 5 % of its height and right by
   3 % of its width (another detector's box convention).
 
@@ -51,7 +54,7 @@ __all__ = ["KINDS", "SCORE_KINDS", "score_transform", "perturb_detections", "kee
 SCORE_KINDS = ("probability", "logit", "rank", "affine", "power")
 #: every perturbation kind, by name (``"none"``: the sequence as it is)
 KINDS = ("none",) + SCORE_KINDS + ("fps/2", "fps/3", "drop", "jitter", "false-positives",
-                                   "low-scores", "shifted")
+                                   "low-scores", "high-scores", "shifted")
 
 #: the frame-rate kinds: every ``step``-th frame kept
 FRAME_STEPS = {"fps/2": 2, "fps/3": 3}
@@ -70,6 +73,8 @@ FALSE_POSITIVES = 0.2
 #: ``low-scores``: extra false detections per detection, and how far below the lowest
 #: score they go (a share of the scores' range)
 LOW_SCORES = (1.0, 0.5)
+#: ``high-scores``: the quantile of the scores below which detections are removed
+HIGH_SCORES = 0.4
 SHIFT = (0.03, 0.05, 1.1)  # right (of the width), down (of the height), height scale
 
 
@@ -112,6 +117,8 @@ def perturb_detections(det: np.ndarray, kind: str, rng: np.random.Generator,
         return d
     if kind == "drop":
         return d[rng.random(len(d)) >= DROP]
+    if kind == "high-scores":
+        return d[d[:, 6] >= np.quantile(d[:, 6], HIGH_SCORES)] if len(d) else d
     if kind == "jitter":
         w, h = d[:, 4].copy(), d[:, 5].copy()
         cx, cy = d[:, 2] + w / 2 + rng.normal(0, JITTER, len(d)) * w, \

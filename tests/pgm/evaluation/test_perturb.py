@@ -60,6 +60,11 @@ def test_each_kind_is_seeded_and_does_what_it_says():
     assert np.all(low[added, 6] < s.min())  # below every score it gave ...
     assert np.all(low[added, 6] >= s.min() - 0.5 * np.ptp(s) - 1e-6)  # ... by at most half
     assert np.all(low[added, 2] >= 1) and np.all(low[added, 2] + low[added, 4] <= 640 + 1e-9)
+    high = perturb_detections(det, "high-scores", np.random.default_rng(3))
+    assert abs(len(high) / len(det) - 0.6) < 1.0 / len(det) + 1e-9
+    removed = det[~np.isin(det[:, 6], high[:, 6])]
+    assert high[:, 6].min() >= removed[:, 6].max()  # the lowest scores, and only they
+    np.testing.assert_array_equal(high, det[det[:, 6] >= high[:, 6].min()])  # rows intact
     jit = perturb_detections(det, "jitter", np.random.default_rng(4))
     rel = (jit[:, 4] - det[:, 4]) / det[:, 4]
     assert abs(rel.std() - 0.05) < 0.01
