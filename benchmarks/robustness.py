@@ -185,8 +185,8 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
        for t, c in ((0.5, ""), (0.5, " counts"), (0.7, ""), (0.9, ""))},
     # the default's quantile with the detections the learned model shows more likely
     # clutter than of a target read as 0 (PersistentQuantiles: "gated"), or the quantile
-    # taken among the detections above them ("rebased"); the rebased also with the
-    # counts of detections ("counts")
+    # taken among the detections above them ("rebased"); both also with the counts of
+    # detections ("counts")
     **{f"ocsort-colour quantile-{m} 0.2 s30 birth0.3 tentative-prediction recover3 "
        f"fill0.5 births noise-per-detection{c}": (
         "ocsort_colour", {"score_map": f"quantile-{m}", "score_threshold": 0.2,
@@ -195,7 +195,8 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                           "recover_hits": 3, "consecutive": False, "fill_births": True,
                           "noise_per": "detection",
                           "count_hits": "detections" if c else "seconds"})
-       for m, c in (("gated", ""), ("rebased", ""), ("rebased", " counts"))},
+       for m, c in (("gated", ""), ("gated", " counts"), ("rebased", ""),
+                    ("rebased", " counts"))},
     # the same with the process noise the step of a box's irregular displacement per
     # detection, in the video's pixels at any frame rate (a rate's variance unchanged too)
     "ocsort-colour quantile 0.2 s30 birth0.3 tentative-prediction recover3 fill0.5 births "

@@ -61,7 +61,7 @@ cores, each one setting:
 Chosen **leave one sequence out** over the five shared MOT sequences and the toolkit's
 synthetic crossing scene, each under 13 kinds of perturbation (score maps, frame rate,
 dropped, jittered, extra and shifted detections, the detector run at a lower and at a
-higher threshold), among 39 candidates of every core (``python benchmarks/robustness.py``; numbers in
+higher threshold), among 40 candidates of every core (``python benchmarks/robustness.py``; numbers in
 ``docs/results.md``): five of the six folds pick it (the synthetic scene's picks the
 quantile rebased above the clutter, ``"quantile-rebased"``). It needs the
 frames (for the colour models) and, where the camera moves, compensates its motion as
