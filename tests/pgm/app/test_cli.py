@@ -406,3 +406,28 @@ def test_filled_gaps_reach_the_track_file_and_the_metrics(mot_dir, tmp_path, cap
         code, stdout, _ = run_cli(capsys, "eval", "--gt", mot_dir / "gt" / "gt.txt", "--pred",
                                   out / "tracks.txt", "--json")
         assert code == 0 and json.loads(stdout)["mota"] == pytest.approx(m["mota"])
+
+
+def test_the_sort_familys_scores_flag_reaches_the_saved_association(mot_dir, tmp_path,
+                                                                     capsys):
+    """``--scores`` for the multi-target default: each learned map is what the saved
+    association reads (the default's own, ``quantile-gated``, without the flag), and an
+    unknown map is a one-line error."""
+    def score_map(out):
+        model = json.loads((out / "model.json").read_text())
+        facs = model["factors"] if isinstance(model.get("factors"), list) else \
+            list(model["factors"].values())
+        return next(f["params"]["score_map"] for f in facs
+                    if f["type"] == "DetectionAssociation")
+
+    for choice in (None, "quantile", "quantile-rebased", "learned"):
+        out = tmp_path / str(choice)
+        flag = [] if choice is None else ["--scores", choice]
+        code, _, err = run_cli(capsys, "track", mot_dir, "--out", out, "--quiet",
+                               "--no-video", *flag)
+        assert code == 0, err
+        assert score_map(out) == (choice or "quantile-gated")
+    with pytest.raises(SystemExit) as exc:
+        main(["track", str(mot_dir), "--out", str(tmp_path / "x"), "--scores", "quantiles"])
+    assert exc.value.code == 2
+    assert_one_line_error(2, capsys.readouterr().err, "--scores")
