@@ -17,7 +17,7 @@ cores, each one setting:
 * ``score_map="quantile-gated"``, ``score_threshold=0.2`` — a detection's score is read
   as its quantile among the video's scores so far, and as 0 where the video shows the
   detections at that score to be more likely clutter than of a target, by how seldom
-  they are found again in the next frame
+  they are found again in the next frame above the scene's chance level
   (:class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`): the lowest fifth of
   the detections, and that clutter, are neither used nor start tracks. That is a
   statement about the detections, so any strictly increasing map of the scores (a
@@ -62,8 +62,8 @@ Chosen **leave one sequence out** over the five shared MOT sequences and the too
 synthetic crossing scene, each under 13 kinds of perturbation (score maps, frame rate,
 dropped, jittered, extra and shifted detections, the detector run at a lower and at a
 higher threshold), among 40 candidates of every core (``python benchmarks/robustness.py``; numbers in
-``docs/results.md``): five of the six folds pick it (the synthetic scene's picks the
-quantile rebased above the clutter, ``"quantile-rebased"``). It needs the
+``docs/results.md``): four of the six folds pick it (TUD-Stadtmitte's and the
+synthetic scene's pick the quantile rebased above the clutter, ``"quantile-rebased"``). It needs the
 frames (for the colour models) and, where the camera moves, compensates its motion as
 ``pgm track`` does by default. ``pgm track`` runs it on a folder with detections when no
 ``--model`` is given.

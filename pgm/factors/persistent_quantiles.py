@@ -6,10 +6,17 @@ from __future__ import annotations
 
 import numpy as np
 
+from pgm.core.boxes import cxcywh_to_xywh, iou_xywh
 from pgm.core.numerics import check_finite_param
 from pgm.factors.scores import PersistenceScoreModel, mid_ranks
 
 __all__ = ["PersistentQuantiles"]
+
+#: where a box is moved to measure the chance level: by this many of its widths (left,
+#: right) and heights (up, down) — past the reach of its own buffered box (1.5 of its
+#: sizes with the model's quarter-size buffer), so a copy is found again only by another
+#: detection
+CHANCE_SHIFT = 2.0
 
 
 class PersistentQuantiles:
@@ -28,7 +35,18 @@ class PersistentQuantiles:
     non-decreasing in the score's mid-rank quantile ``u`` (the model's curve is pooled to
     be), so the detections more likely clutter than not, below ``floor``, are the scores
     below one quantile ``u*``: where the probability, interpolated as the model reads
-    it, first reaches ``floor`` (0 when it does so everywhere). A detection maps to
+    it, first reaches ``floor`` (0 when it does so everywhere).
+
+    A false detection is "found again" by chance when another detection lands near it,
+    which in a crowd is often: a place where no detection was is found again at the
+    scene's **chance level** ``ρ_c``. The model's probability treats it as 0 (an upper
+    bound where it is not); here it is measured. Each frame, every box of the previous
+    frame is also moved by ``CHANCE_SHIFT`` of its widths (left, right) and heights (up,
+    down); the copies that lie inside the area the video's boxes have covered are
+    labelled found again or not by the same buffered IoU, and ``ρ_c`` is the share found
+    again. The probability of being of a target is read as the found-again rate above
+    chance over the best-scored detections' rate above chance, ``(ρ(u) − ρ_c) / (ρ_top −
+    ρ_c)`` (0 below chance; no gate while ``ρ_top ≤ ρ_c``). A detection maps to
 
     .. math::
         q = u \ (u \ge u^*), \qquad 0 \ (u < u^*)
@@ -55,19 +73,53 @@ class PersistentQuantiles:
 
     def __init__(self, floor: float = 0.5, rebase: bool = False, **model_options):
         self.rebase = bool(rebase)
+        self.chance_found = 0  # moved copies found again, and copies labelled
+        self.chance_labelled = 0
+        self._previous: np.ndarray | None = None  # the previous frame's centre boxes
+        self._extent: np.ndarray | None = None  # (x0, y0, x1, y1) the boxes have covered
         self.floor = float(check_finite_param("floor", floor, nonneg=True))
         if self.floor > 1.0:
             raise ValueError(f"floor must be in [0, 1], got {floor!r}")
         self.model = PersistenceScoreModel(**model_options)
 
+    def chance(self) -> float:
+        """``ρ_c``: the share of moved copies found again (0 before any is labelled)."""
+        return self.chance_found / (self.chance_labelled + 1.0)
+
+    def _label_chance(self, boxes: np.ndarray) -> None:
+        """Label the previous frame's boxes, moved, by ``boxes`` (centre boxes)."""
+        if boxes.shape[0]:
+            corners = np.concatenate([boxes[:, :2] - boxes[:, 2:] / 2,
+                                      boxes[:, :2] + boxes[:, 2:] / 2], axis=1)
+            seen = np.concatenate([corners[:, :2].min(axis=0), corners[:, 2:].max(axis=0)])
+            self._extent = seen if self._extent is None else np.concatenate(
+                [np.minimum(self._extent[:2], seen[:2]), np.maximum(self._extent[2:], seen[2:])])
+        prev, self._previous = self._previous, boxes
+        if prev is None or not prev.shape[0] or not boxes.shape[0]:
+            return
+        shifts = CHANCE_SHIFT * np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
+        centres = (prev[None, :, :2] + shifts[:, None, :] * prev[None, :, 2:]).reshape(-1, 2)
+        moved = np.concatenate([centres, np.tile(prev[:, 2:], (4, 1))], axis=1)
+        lo, hi = self._extent[:2], self._extent[2:]
+        inside = np.all((moved[:, :2] - moved[:, 2:] / 2 >= lo)
+                        & (moved[:, :2] + moved[:, 2:] / 2 <= hi), axis=1)
+        moved = moved[inside]
+        if moved.shape[0]:
+            k = self.model.buffer
+            widen = lambda b: np.concatenate(  # noqa: E731 - the model's buffered boxes
+                [cxcywh_to_xywh(b)[:, :2] - k * b[:, 2:], b[:, 2:] * (1.0 + 2.0 * k)], axis=1)
+            overlap = iou_xywh(widen(moved)[:, None, :], widen(boxes)[None, :, :])
+            self.chance_found += int(np.count_nonzero(overlap.max(axis=1) >= self.model.gate))
+            self.chance_labelled += int(moved.shape[0])
+
     def threshold_quantile(self) -> float:
-        """``u*``: the mid-rank quantile from which the model's probability reaches
-        ``floor`` (0: everywhere)."""
+        """``u*``: the mid-rank quantile from which the model's probability above
+        chance reaches ``floor`` (0: everywhere)."""
         m = self.model
-        top = float(m.curve[-1])
-        if top <= 0:
+        top, rho = float(m.curve[-1]), self.chance()
+        if top <= rho:
             return 0.0
-        ratio = m.curve / top
+        ratio = np.clip((m.curve - rho) / (top - rho), 0.0, 1.0)
         centres = (np.arange(m.bins) + 0.5) / m.bins
         above = np.flatnonzero(ratio >= self.floor)
         b = int(above[0]) if above.size else m.bins - 1
@@ -82,6 +134,7 @@ class PersistentQuantiles:
         model and return their values ``q`` ``(M,)`` (NaN scores: 0)."""
         s = np.asarray(scores, dtype=float).reshape(-1)
         self.model.update(boxes, s)
+        self._label_chance(np.asarray(boxes, dtype=float).reshape(-1, 4))
         u = mid_ranks(self.model.history, np.where(np.isfinite(s), s, -np.inf))
         star = self.threshold_quantile()
         if not self.rebase:

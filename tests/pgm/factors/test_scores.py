@@ -454,3 +454,39 @@ def test_persistent_quantiles_are_invariant_to_the_detectors_scale():
     for bad in (-0.1, 1.5, float("nan")):
         with pytest.raises(ValueError, match="floor"):
             PersistentQuantiles(floor=bad)
+
+
+def test_the_chance_level_is_the_rate_a_false_box_near_people_is_found_again():
+    """A crowd whose false detections land two box sizes from a person (where a lower
+    threshold's clutter lands) and are scored below every true one: many of them are
+    "found again" by a neighbour's box. Oracle: the chance level measured from the moved
+    copies of the boxes equals the rate at which the false detections are found again
+    (the model's own labels against the scene's truth), within four binomial standard
+    errors; the raw curve puts the clutter above one half of the top rate — no gate — and
+    the curve above chance gates it at its share of the scores."""
+    from pgm.factors.persistent_quantiles import PersistentQuantiles
+
+    rng = np.random.default_rng(21)
+    pos = rng.uniform(0, 500, (40, 2))
+    vel = rng.normal(0, 2, (40, 2))
+    pq, truth = PersistentQuantiles(), []
+    for _ in range(250):
+        pos = pos + vel
+        tb = np.column_stack([pos, np.full((40, 2), [40.0, 100.0])])
+        k = len(tb)
+        src = tb[rng.integers(0, k, k)]
+        step = np.array([[2, 0], [-2, 0], [0, 2], [0, -2]], float)[rng.integers(0, 4, k)]
+        fb = np.column_stack([src[:, :2] + step * src[:, 2:], src[:, 2:]])
+        scores = np.r_[rng.normal(5, 1, k), rng.normal(-5, 1, k)]
+        pq.update(np.concatenate([tb, fb]), scores)
+        truth.append(np.r_[np.ones(k, bool), np.zeros(k, bool)])
+    labelled = np.concatenate(truth[:-1])
+    false_rate = pq.model.found[~labelled].mean()
+    n = (~labelled).sum()
+    assert false_rate > 0.3  # a crowd: false boxes are often found again
+    se = np.sqrt(false_rate * (1 - false_rate) / min(n, pq.chance_labelled))
+    assert abs(pq.chance() - false_rate) < 4 * se
+    raw = pq.model.curve / pq.model.curve[-1]
+    assert raw[0] >= 0.5  # the raw curve sees no clutter...
+    tol = 4 * np.sqrt(0.25 / (2 * labelled.size)) + 0.5 / pq.model.bins
+    assert abs(pq.threshold_quantile() - 0.5) < tol  # ... the curve above chance does
