@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from pgm.core.boxes import cxcywh_to_xywh, iou_xywh
 from pgm.core.numerics import check_finite_param
 from pgm.factors.scores import PersistenceScoreModel, mid_ranks
 
@@ -17,6 +16,7 @@ __all__ = ["PersistentQuantiles"]
 #: sizes with the model's quarter-size buffer), so a copy is found again only by another
 #: detection
 CHANCE_SHIFT = 2.0
+_SHIFTS = CHANCE_SHIFT * np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
 
 
 class PersistentQuantiles:
@@ -89,28 +89,31 @@ class PersistentQuantiles:
     def _label_chance(self, boxes: np.ndarray) -> None:
         """Label the previous frame's boxes, moved, by ``boxes`` (centre boxes)."""
         if boxes.shape[0]:
-            corners = np.concatenate([boxes[:, :2] - boxes[:, 2:] / 2,
-                                      boxes[:, :2] + boxes[:, 2:] / 2], axis=1)
-            seen = np.concatenate([corners[:, :2].min(axis=0), corners[:, 2:].max(axis=0)])
-            self._extent = seen if self._extent is None else np.concatenate(
-                [np.minimum(self._extent[:2], seen[:2]), np.maximum(self._extent[2:], seen[2:])])
+            lo, hi = (boxes[:, :2] - boxes[:, 2:] / 2).min(axis=0), \
+                (boxes[:, :2] + boxes[:, 2:] / 2).max(axis=0)
+            self._extent = (lo, hi) if self._extent is None else \
+                (np.minimum(self._extent[0], lo), np.maximum(self._extent[1], hi))
         prev, self._previous = self._previous, boxes
         if prev is None or not prev.shape[0] or not boxes.shape[0]:
             return
-        shifts = CHANCE_SHIFT * np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
-        centres = (prev[None, :, :2] + shifts[:, None, :] * prev[None, :, 2:]).reshape(-1, 2)
-        moved = np.concatenate([centres, np.tile(prev[:, 2:], (4, 1))], axis=1)
-        lo, hi = self._extent[:2], self._extent[2:]
-        inside = np.all((moved[:, :2] - moved[:, 2:] / 2 >= lo)
-                        & (moved[:, :2] + moved[:, 2:] / 2 <= hi), axis=1)
-        moved = moved[inside]
-        if moved.shape[0]:
-            k = self.model.buffer
-            widen = lambda b: np.concatenate(  # noqa: E731 - the model's buffered boxes
-                [cxcywh_to_xywh(b)[:, :2] - k * b[:, 2:], b[:, 2:] * (1.0 + 2.0 * k)], axis=1)
-            overlap = iou_xywh(widen(moved)[:, None, :], widen(boxes)[None, :, :])
-            self.chance_found += int(np.count_nonzero(overlap.max(axis=1) >= self.model.gate))
-            self.chance_labelled += int(moved.shape[0])
+        size = np.tile(prev[:, 2:], (4, 1))
+        centre = (prev[None, :, :2] + _SHIFTS[:, None, :] * prev[None, :, 2:]).reshape(-1, 2)
+        inside = np.all((centre - size / 2 >= self._extent[0])
+                        & (centre + size / 2 <= self._extent[1]), axis=1)
+        if not inside.any():
+            return
+        # both buffered by the model's share of their size on each side, as it labels
+        k = self.model.buffer + 0.5
+        centre, size = centre[inside], size[inside]
+        a0, a1 = centre - k * size, centre + k * size
+        b0, b1 = boxes[:, :2] - k * boxes[:, 2:], boxes[:, :2] + k * boxes[:, 2:]
+        inter = np.clip(np.minimum(a1[:, None], b1[None]) - np.maximum(a0[:, None], b0[None]),
+                        0.0, None).prod(axis=2)
+        union = (a1 - a0).prod(axis=1)[:, None] + (b1 - b0).prod(axis=1)[None] - inter
+        with np.errstate(invalid="ignore", divide="ignore"):  # boxes of no area: not found
+            found = (inter / union).max(axis=1) >= self.model.gate
+        self.chance_found += int(np.count_nonzero(found))
+        self.chance_labelled += int(centre.shape[0])
 
     def threshold_quantile(self) -> float:
         """``u*``: the mid-rank quantile from which the model's probability above
