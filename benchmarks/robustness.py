@@ -73,6 +73,11 @@ HITS = {"recover_hits": 1, "consecutive": False}
 #: ``ocsort-colour`` model now has SORT's (the candidate chosen here)
 OCSORT_LIFE = {"recover_hits": 3, "consecutive": True}
 
+#: the default's life cycle and constants per second ("s30 birth0.3 tentative-prediction
+#: recover3 fill0.5 births"), which the candidates on its score reading share
+LIFE_S30 = {"reference_fps": 30.0, "birth_iou": 0.3, "explain_tentative": "prediction",
+            "fill_gaps": 0.5, "recover_hits": 3, "consecutive": False, "fill_births": True}
+
 #: candidate models: label -> (model module name, Params fields)
 CANDIDATES: dict[str, tuple[str, dict]] = {
     "ocsort-colour (detector scores)": ("ocsort_colour", {"score_map": "detector",
@@ -176,10 +181,7 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
     # the counts of matches kept as counts of detections ("counts")
     **{f"ocsort-colour learned {t:g} s30 birth0.3 tentative-prediction recover3 fill0.5 births "
        f"noise-per-detection{c}": (
-        "ocsort_colour", {"score_map": "learned", "score_threshold": t,
-                          "reference_fps": 30.0, "birth_iou": 0.3,
-                          "explain_tentative": "prediction", "fill_gaps": 0.5,
-                          "recover_hits": 3, "consecutive": False, "fill_births": True,
+        "ocsort_colour", {**LIFE_S30, "score_map": "learned", "score_threshold": t,
                           "noise_per": "detection",
                           "count_hits": "detections" if c else "seconds"})
        for t, c in ((0.5, ""), (0.5, " counts"), (0.7, ""), (0.9, ""))},
@@ -189,10 +191,7 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
     # detections ("counts")
     **{f"ocsort-colour quantile-{m} 0.2 s30 birth0.3 tentative-prediction recover3 "
        f"fill0.5 births noise-per-detection{c}": (
-        "ocsort_colour", {"score_map": f"quantile-{m}", "score_threshold": 0.2,
-                          "reference_fps": 30.0, "birth_iou": 0.3,
-                          "explain_tentative": "prediction", "fill_gaps": 0.5,
-                          "recover_hits": 3, "consecutive": False, "fill_births": True,
+        "ocsort_colour", {**LIFE_S30, "score_map": f"quantile-{m}", "score_threshold": 0.2,
                           "noise_per": "detection",
                           "count_hits": "detections" if c else "seconds"})
        for m, c in (("gated", ""), ("gated", " counts"), ("rebased", ""),
@@ -201,10 +200,7 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
     # detection, in the video's pixels at any frame rate (a rate's variance unchanged too)
     "ocsort-colour quantile 0.2 s30 birth0.3 tentative-prediction recover3 fill0.5 births "
     "noise-per-displacement": (
-        "ocsort_colour", {"score_map": "quantile", "score_threshold": 0.2,
-                          "reference_fps": 30.0, "birth_iou": 0.3,
-                          "explain_tentative": "prediction", "fill_gaps": 0.5,
-                          "recover_hits": 3, "consecutive": False, "fill_births": True,
+        "ocsort_colour", {**LIFE_S30, "score_map": "quantile", "score_threshold": 0.2,
                           "noise_per": "displacement"}),
     # BoT-SORT's cascade (pooled rounds, IoU x score), its thresholds as quantiles
     "botsort quantile": ("botsort", {"score_map": "quantile"}),

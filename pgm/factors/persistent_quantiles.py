@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pgm.core.boxes import iou_matrix
 from pgm.core.numerics import check_finite_param
 from pgm.factors.scores import PersistenceScoreModel, mid_ranks
 
@@ -76,7 +77,8 @@ class PersistentQuantiles:
         self.chance_found = 0  # moved copies found again, and copies labelled
         self.chance_labelled = 0
         self._previous: np.ndarray | None = None  # the previous frame's centre boxes
-        self._extent: np.ndarray | None = None  # (x0, y0, x1, y1) the boxes have covered
+        # the lowest (x, y) and highest corners the boxes have covered
+        self._extent: tuple[np.ndarray, np.ndarray] | None = None
         self.floor = float(check_finite_param("floor", floor, nonneg=True))
         if self.floor > 1.0:
             raise ValueError(f"floor must be in [0, 1], got {floor!r}")
@@ -103,17 +105,11 @@ class PersistentQuantiles:
         if not inside.any():
             return
         # both buffered by the model's share of their size on each side, as it labels
-        k = self.model.buffer + 0.5
-        centre, size = centre[inside], size[inside]
-        a0, a1 = centre - k * size, centre + k * size
-        b0, b1 = boxes[:, :2] - k * boxes[:, 2:], boxes[:, :2] + k * boxes[:, 2:]
-        inter = np.clip(np.minimum(a1[:, None], b1[None]) - np.maximum(a0[:, None], b0[None]),
-                        0.0, None).prod(axis=2)
-        union = (a1 - a0).prod(axis=1)[:, None] + (b1 - b0).prod(axis=1)[None] - inter
-        with np.errstate(invalid="ignore", divide="ignore"):  # boxes of no area: not found
-            found = (inter / union).max(axis=1) >= self.model.gate
+        grow = np.array([1.0, 1.0, 1.0 + 2.0 * self.model.buffer, 1.0 + 2.0 * self.model.buffer])
+        moved = np.concatenate([centre[inside], size[inside]], axis=1) * grow
+        found = iou_matrix(moved, boxes * grow).max(axis=1) >= self.model.gate
         self.chance_found += int(np.count_nonzero(found))
-        self.chance_labelled += int(centre.shape[0])
+        self.chance_labelled += int(moved.shape[0])
 
     def threshold_quantile(self) -> float:
         """``u*``: the mid-rank quantile from which the model's probability above
