@@ -88,6 +88,9 @@ class Assignment:
         IoU of each replica's predicted box with each detection.
     rounds : ndarray of int
         The round that made each match.
+    update : ndarray of bool, optional
+        Per match, whether its detection updates the replica (False: a match of a
+        round with ``"update": false``, which only keeps the replica matched); None: all.
     """
 
     rows: np.ndarray
@@ -96,6 +99,15 @@ class Assignment:
     scores: np.ndarray
     iou: np.ndarray
     rounds: np.ndarray
+    update: np.ndarray | None = None
+
+    def updating(self) -> Assignment:
+        """The matches whose detections update their replicas (all without ``update``)."""
+        if self.update is None:
+            return self
+        u = self.update
+        return Assignment(self.rows[u], self.cols[u], self.boxes, self.scores, self.iou,
+                          self.rounds[u])
 
 
 @dataclass
@@ -321,17 +333,24 @@ def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> Associat
                      tracked=np.array([t.misses == 0 for t in tracks], dtype=bool))
     a = assign(AssociationInputs(pred, boxes, scores, **fields), factor.plans, **pools,
                owner=f"factor {factor.name!r}")
+    if factor.presence_rounds:  # their matches keep a replica, its state left as it is
+        a.update = ~np.isin(a.rounds, factor.presence_rounds)
+    u = a.updating()
     if histories is not None:
-        for k, j in zip(a.rows, a.cols, strict=True):
+        for k, j in zip(u.rows, u.cols, strict=True):
             histories[k].observe(boxes[j])
     if factor.appearance is not None and frame.image is not None:  # learn from the match
-        _learn_appearance(ctx, factor, frame, boxes, a)
+        _learn_appearance(ctx, factor, frame, boxes, u)
     ctx.assignment = a
     # per replica, the index of its detection (NaN: none), a float so that replicas born
     # later in the frame read NaN too
     matched = np.full(len(pred), np.nan)
     matched[a.rows] = a.cols
-    return AssociationInfo(matched=matched)
+    presence = None
+    if a.update is not None:
+        presence = np.zeros(len(pred), dtype=bool)
+        presence[a.rows[~a.update]] = True
+    return AssociationInfo(matched=matched, presence=presence)
 
 
 def _appearance(ctx: RuleContext, factor, frame: FrameContext, boxes: np.ndarray
@@ -448,7 +467,10 @@ class ObservationHistory:
 def _assigned(ctx: RuleContext, factor) -> tuple[np.ndarray, np.ndarray] | None:
     """The assigned replicas and their coded detection boxes, or None."""
     a: Assignment | None = ctx.assignment
-    if a is None or not len(a.rows):
+    if a is None:
+        return None
+    a = a.updating()
+    if not len(a.rows):
         return None
     coding = box_coding(ctx.graph.variables[factor.variables[0]].labels)
     return a.rows, encode_boxes(a.boxes[a.cols], coding)

@@ -179,11 +179,15 @@ class AssociationInfo(Info):
     ----------
     matched : (K,) float array
         Per replica, the index of its detection this frame (NaN: none).
+    presence : (K,) bool array
+        With a round of ``"update": false``: per replica, whether its match was one of
+        that round's (kept matched, not updated).
     iterations : int
         VB-SORT: the adaptive Kalman fixed point's iterations (the most over replicas).
     """
 
     matched: np.ndarray | None = None
+    presence: np.ndarray | None = None
     iterations: int | None = None
 
 

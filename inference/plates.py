@@ -365,9 +365,10 @@ def step_stages(engine: Engine, frame: FrameContext, record: StepRecord, lifecyc
     if lc.report != "estimate":  # only where matched: the detection's box, or the estimate
         matched = np.array([t.matched for t in reps.tracks], dtype=bool)
         shown &= matched
-        if lc.report == "detection" and matched.any():
+        located = matched & np.array([t.located for t in reps.tracks], dtype=bool)
+        if lc.report == "detection" and located.any():  # a presence match: the estimate
             boxes = boxes.copy()
-            boxes[matched] = [t.state for t in reps.tracks if t.matched]
+            boxes[located] = [t.state for t in reps.tracks if t.matched and t.located]
     info.ids = np.array([t.track_id or 0 for t in reps.tracks], dtype=np.int64)
     info.boxes, info.reported, info.existence = boxes, shown, existences(reps.tracks)
     if lc.fill_gaps or lc.fill_births:
@@ -568,11 +569,14 @@ def associate(engine: Engine, frame: FrameContext, record: StepRecord) -> None:
         rows, cols = match(-iou, iou >= lc.match_iou,
                            [t.misses > lc.max_coast for t in reps.tracks])
     for t in reps.tracks:
-        t.matched = False
+        t.matched = t.located = False
         t.age += 1
-    for k, j in zip(rows, cols, strict=True):
-        reps.tracks[k].state = det_boxes[j].copy()
-        reps.tracks[k].matched = True
+    update = np.ones(len(rows), dtype=bool) if assignment is None or \
+        assignment.update is None else assignment.update
+    for k, j, u in zip(rows, cols, update, strict=True):
+        if u:  # a presence match (a round with "update": false) keeps the last box
+            reps.tracks[k].state = det_boxes[j].copy()
+        reps.tracks[k].matched, reps.tracks[k].located = True, bool(u)
     keep = update_tracks(reps.tracks, rows, confirm_hits=lc.confirm_hits,
                          max_coast=lc.max_coast, max_lost=lc.max_lost,
                          hit_log_odds=lc.hit_log_odds, miss_log_odds=lc.miss_log_odds,
@@ -616,7 +620,7 @@ def associate(engine: Engine, frame: FrameContext, record: StepRecord) -> None:
         new = add(engine, det_boxes[sorted(births)], frame, confirmed=first)
         if first:  # and reported now, with their birth boxes
             for k in new:
-                engine.replicas.tracks[k].matched = True
+                engine.replicas.tracks[k].matched = engine.replicas.tracks[k].located = True
 
 def _iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """IoU of centre boxes ``a`` and ``b``, broadcasting over the leading axes."""

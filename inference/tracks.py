@@ -51,8 +51,12 @@ class Track:
     streak: int = 1
     recovering: bool = False
     history: list = field(default_factory=list)
-    #: whether a detection was matched to it in the latest frame (``state`` is its box)
+    #: whether a detection was matched to it in the latest frame (``state`` is its box
+    #: when ``located``)
     matched: bool = False
+    #: whether that detection also located it: a presence match (a round with
+    #: ``"update": false``) does not, and ``state`` is then an earlier detection's box
+    located: bool = False
     #: the frames and boxes ``(cx, cy, w, h)`` it was reported with lately, the latest last
     #: (gap filling)
     recent_reports: list = field(default_factory=list)

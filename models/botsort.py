@@ -42,7 +42,6 @@ References
 
 from __future__ import annotations
 
-import math
 import sys
 from dataclasses import dataclass, field, replace
 
@@ -72,24 +71,9 @@ def rounds(high: float = 0.6, low: float = 0.1, iou: float = 0.2, low_iou: float
     return (first, second, third) if low < high else (first, third)
 
 
-def with_score_threshold(rounds, threshold: float) -> tuple[dict, ...]:
-    """``rounds`` with the split between confident and other detections at ``threshold``:
-    a round on a band of scores (finite ``max_score``) ends there and keeps its floor
-    (dropped when the floor is not below it), every other finite ``min_score`` is set to
-    it (:func:`pgm.models.sort.with_score_threshold`, which has no bands)."""
-    t = float(threshold)
-    out = []
-    for r in rounds:
-        r = dict(r)
-        hi, lo = r.get("max_score"), r.get("min_score")
-        if hi is not None and math.isfinite(float(hi)):
-            r["max_score"] = t
-            if lo is not None and float(lo) >= t:
-                continue
-        elif lo is not None and math.isfinite(float(lo)):
-            r["min_score"] = t
-        out.append(r)
-    return tuple(out)
+#: the split between confident and other detections set, bands' floors kept
+#: (:func:`pgm.models.sort.with_score_threshold`)
+with_score_threshold = sort.with_score_threshold
 
 
 @dataclass(frozen=True)

@@ -325,15 +325,22 @@ def score_map_for(scores: np.ndarray) -> str:
 
 
 def with_score_threshold(rounds, threshold: float) -> tuple[dict, ...]:
-    """``rounds`` with every finite ``min_score`` and ``max_score`` at ``threshold``
+    """``rounds`` with the split between confident and other detections at ``threshold``
     (ByteTrack's confident and other detections split there; OC-SORT's rounds take the
-    confident ones)."""
+    confident ones): a round on a band of scores (finite ``max_score``: ByteTrack's low
+    round, BoT-SORT's ``[0.1, 0.6)``) ends there and keeps its floor (the round dropped
+    when its floor is not below it), every other finite ``min_score`` is set to it."""
+    t = float(threshold)
     out = []
     for r in rounds:
         r = dict(r)
-        for key in ("min_score", "max_score"):
-            if r.get(key) is not None and math.isfinite(float(r[key])):
-                r[key] = float(threshold)
+        hi, lo = r.get("max_score"), r.get("min_score")
+        if hi is not None and math.isfinite(float(hi)):
+            r["max_score"] = t
+            if lo is not None and float(lo) >= t:
+                continue
+        elif lo is not None and math.isfinite(float(lo)):
+            r["min_score"] = t
         out.append(r)
     return tuple(out)
 

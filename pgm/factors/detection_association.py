@@ -153,7 +153,11 @@ class DetectionAssociation(Factor):
         0.3, "min_score": 0.6, "against": "last"}]``; BoT-SORT: ``[{"iou": 0.2,
         "min_score": 0.6, "tracks": "confirmed", "fuse_score": true}, {"iou": 0.5,
         "min_score": 0.1, "max_score": 0.6, "tracks": "tracked"}, {"iou": 0.3,
-        "min_score": 0.6, "tracks": "tentative", "fuse_score": true}]``.
+        "min_score": 0.6, "tracks": "tentative", "fuse_score": true}]``. A round with
+        ``"update": false`` matches as the others do (its track is matched: a hit, not a
+        miss), but its detection only says that the track is there: the track's state,
+        its observation history, its last box and its appearance are not updated from
+        it (a low-score round whose boxes keep a track alive without pulling it).
     score_map : {"none", "logistic", "constant", "learned"}
         Map applied to the detection scores first (:data:`SCORE_MAPS`); the mapped scores
         are also what the plate's ``birth_min_score`` compares. ``"learned"``: each
@@ -197,7 +201,8 @@ class DetectionAssociation(Factor):
 
     kind = "association"
     _KEYS = frozenset({"iou", "min_score", "max_score", "against", "direction", "appearance",
-                       "tracks", "fuse_score", "buffer", "terms", "gates", "affinity"})
+                       "tracks", "fuse_score", "buffer", "terms", "gates", "affinity",
+                       "update"})
 
     def __init__(self, variable: str, *, rounds: list[dict[str, Any]] | None = None,
                  score_map: str = "none", direction_weight: float = 0.2, delta_t: int = 3,
@@ -273,6 +278,10 @@ class DetectionAssociation(Factor):
                     not math.isfinite(buffer) or buffer < 0:
                 raise ValueError(f"factor {self.name!r}: a round's 'buffer' is a finite number "
                                  f">= 0, got {buffer!r}")
+            update = r.get("update", True)
+            if not isinstance(update, bool):
+                raise ValueError(f"factor {self.name!r}: a round's 'update' is true or false, "
+                                 f"got {update!r}")
             self.rounds.append({"iou": iou, "min_score": lo, "max_score": hi,
                                 "against": against, "direction": bool(r.get("direction")),
                                 "appearance": bool(r.get("appearance")), "tracks": tracks,
@@ -282,8 +291,10 @@ class DetectionAssociation(Factor):
                                           for t in (r.get("terms") or [])],
                                 "gates": [self._extension(g, "gate")
                                           for g in (r.get("gates") or [])],
-                                "affinity": affinity})
+                                "affinity": affinity, "update": update})
         self.plans: list[RoundPlan] = [self._plan(r) for r in self.rounds]
+        #: the rounds whose matches keep a track without updating it (``"update": false``)
+        self.presence_rounds = tuple(i for i, r in enumerate(self.rounds) if not r["update"])
         #: the functions the rounds' terms name (what the rule must prepare inputs for)
         self.term_fns = frozenset(t["fn"] for p in self.plans for t in p.terms)
 
@@ -379,6 +390,8 @@ class DetectionAssociation(Factor):
                 d["gates"] = [dict(g) for g in r["gates"]]
             if r["affinity"]:
                 d["affinity"] = dict(r["affinity"])
+            if not r["update"]:
+                d["update"] = False
             rounds.append(d)
         p: dict[str, Any] = {"rounds": rounds, "score_map": self.score_map}
         if self.keeps_observations:
