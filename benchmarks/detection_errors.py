@@ -16,6 +16,13 @@ sequence the script prints, in units of the ground-truth box's height ``h``:
   log-height errors move together, and a model that treats them as independent counts
   that one error twice.
 
+A second table asks what a detection's score says, by the decile of its quantile among
+the sequence's scores: the share of the detections that overlap a scored ground-truth box
+by IoU >= 0.5 (a true positive as the MOT metrics count one), and the share that the
+persistence model (:class:`pgm.factors.scores.PersistenceScoreModel`, its buffer and gate)
+labels found again in the next frame — what the score gate of the multi-target default
+reads instead of the truth.
+
 The ground truth is read here for diagnosis only; no tracker setting is taken from it.
 
     python benchmarks/detection_errors.py [--sequences A,B]
@@ -33,12 +40,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import SHARED_DATA, print_table  # noqa: E402
 from scipy.stats import spearmanr  # noqa: E402
 
-from pgm.core.boxes import iou_xywh  # noqa: E402
+from pgm.core.boxes import iou_matrix, iou_xywh  # noqa: E402
 from pgm.io.annotations import load_mot  # noqa: E402
 from pgm.io.video import open_source  # noqa: E402
 from pgm.observation.detections import make_detector, pair_boxes  # noqa: E402
 
-SEQUENCES = ("PETS09-S2L1", "TUD-Campus", "TUD-Stadtmitte", "MOT16-11")
+SEQUENCES = ("PETS09-S2L1", "TUD-Campus", "TUD-Stadtmitte", "MOT16-11", "PETS09-S2L1-video")
 
 
 def errors(seq_dir: Path) -> dict[str, np.ndarray]:
@@ -65,6 +72,34 @@ def errors(seq_dir: Path) -> dict[str, np.ndarray]:
     res = {k: np.concatenate(v) if v else np.zeros(0) for k, v in out.items()}
     res["heights"] = np.asarray(det.boxes[:, 3], dtype=float)
     return res
+
+
+def score_deciles(seq_dir: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Per decile of the detections' score quantile ``(10,)``: the share that overlap a
+    scored truth by IoU >= 0.5, and the share the persistence model labels found again."""
+    from pgm.factors.scores import PersistenceScoreModel, mid_ranks
+
+    src = open_source(seq_dir)
+    gt = load_mot(src.gt_path, kind="gt")
+    gt = gt.subset(gt.scored)
+    det = make_detector("public", src).table
+    model = PersistenceScoreModel()
+    grow = np.array([1.0, 1.0, 1.0 + 2.0 * model.buffer, 1.0 + 2.0 * model.buffer])
+    true, found = np.zeros(len(det.frames), bool), np.zeros(len(det.frames), bool)
+    for n in det.frame_numbers():
+        rows, following = det.rows(n), det.rows(n + 1)
+        d = det.boxes[rows]
+        g = gt.boxes[gt.rows(n)]
+        if len(g):
+            true[rows] = iou_xywh(d[:, None, :], g[None, :, :]).max(axis=1) >= 0.5
+        e = det.boxes[following]
+        if len(e):  # centre boxes, each buffered by the model's share of its size
+            c, e = (np.c_[b[:, :2] + b[:, 2:] / 2, b[:, 2:]] * grow for b in (d, e))
+            found[rows] = iou_matrix(c, e).max(axis=1) >= model.gate
+    scores = np.asarray(det.conf, dtype=float)
+    decile = np.minimum((mid_ranks(np.sort(scores), scores) * 10).astype(int), 9)
+    return (np.array([true[decile == k].mean() for k in range(10)]),
+            np.array([found[decile == k].mean() for k in range(10)]))
 
 
 def robust_sd(v: np.ndarray) -> float:
@@ -94,6 +129,16 @@ def main() -> None:
                  "sd centre y", "sd log h", "ρ(foot y, log h)", "ρ(centre y, log h)"], rows,
                 title="Public detections against the ground truth (IoU >= 0.5, one-to-one); "
                       "errors in units of the true height, robust sd = 1.4826 MAD")
+    rows = []
+    for name in args.sequences.split(","):
+        if (SHARED_DATA / name).is_dir():
+            true, found = score_deciles(SHARED_DATA / name)
+            rows.append([name, "on a person"] + [f"{v:.2f}" for v in true])
+            rows.append(["", "found again"] + [f"{v:.2f}" for v in found])
+    print_table(["sequence", "share"] + [f"{10 * k}-{10 * k + 10} %" for k in range(10)], rows,
+                title="By the decile of the score's quantile: the share on a person (IoU >= 0.5 "
+                      "with a scored truth) and the share the persistence model labels found "
+                      "again in the next frame")
 
 
 if __name__ == "__main__":

@@ -67,6 +67,15 @@ METRICS = ("mota", "idf1", "hota")
 OCSORT_LOW = ({"iou": 0.3, "min_score": 0.6, "direction": True},
               {"iou": 0.3, "min_score": 0.6, "against": "last"},
               {"iou": 0.5, "max_score": 0.6})
+#: the least value above a gated quantile's 0 (q = 0: read as clutter; a detection kept
+#: has q = u >= u* > 0, a mid-rank quantile)
+GATED = 1e-9
+#: OC-SORT's rounds, then the detections below their split and above the gate's 0 in
+#: ByteTrack's low-score round (IoU at least 0.5): never those the gate reads as clutter
+#: (the split at OC-SORT's 0.6, moved to the candidates' ``score_threshold``)
+OCSORT_LOW_GATED = ({"iou": 0.3, "min_score": 0.6, "direction": True},
+                    {"iou": 0.3, "min_score": 0.6, "against": "last"},
+                    {"iou": 0.5, "min_score": GATED, "max_score": 0.6})
 COLOUR = {"report": "estimate", "appearance": "colour", "appearance_weight": 1.0}
 HITS = {"recover_hits": 1, "consecutive": False}
 #: OC-SORT's own life cycle (three matches in a row after a miss), pinned: the
@@ -196,6 +205,36 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                           "count_hits": "detections" if c else "seconds"})
        for m, c in (("gated", ""), ("gated", " counts"), ("rebased", ""),
                     ("rebased", " counts"))},
+    # the gated quantile with no share of the detections dropped for its own sake: only
+    # those the video shows more likely clutter (q = 0) are left out ("0+"), or the lowest
+    # fifth above them may extend a track (IoU at least 0.5, ByteTrack's low-score round),
+    # never start one ("low"): a detector run at a higher threshold has no clutter there
+    "ocsort-colour quantile-gated 0+ s30 birth0.3 tentative-prediction recover3 fill0.5 "
+    "births noise-per-detection": (
+        "ocsort_colour", {**LIFE_S30, "score_map": "quantile-gated", "score_threshold": GATED,
+                          "noise_per": "detection"}),
+    "ocsort-colour+low quantile-gated 0.2 s30 birth0.3 tentative-prediction recover3 "
+    "fill0.5 births noise-per-detection": (
+        "ocsort_colour", {**LIFE_S30, "score_map": "quantile-gated", "score_threshold": 0.2,
+                          "rounds": OCSORT_LOW_GATED, "noise_per": "detection"}),
+    # the same with the low round on the tracks matched in the previous frame only
+    # (BoT-SORT's second round: "tracked") or on the confirmed tracks ("confirmed")
+    **{f"ocsort-colour+low-{w} quantile-gated 0.2 s30 birth0.3 tentative-prediction "
+       f"recover3 fill0.5 births noise-per-detection": (
+        "ocsort_colour", {**LIFE_S30, "score_map": "quantile-gated", "score_threshold": 0.2,
+                          "rounds": OCSORT_LOW_GATED[:2] + ({**OCSORT_LOW_GATED[2],
+                                                            "tracks": w},),
+                          "noise_per": "detection"})
+       for w in ("tracked", "confirmed")},
+    # the same with the low round's matches keeping a track without updating it
+    # ("presence": its box says the person is there, not where)
+    **{f"ocsort-colour+presence{t} quantile-gated 0.2 s30 birth0.3 tentative-prediction "
+       f"recover3 fill0.5 births noise-per-detection": (
+        "ocsort_colour", {**LIFE_S30, "score_map": "quantile-gated", "score_threshold": 0.2,
+                          "rounds": OCSORT_LOW_GATED[:2] + ({**OCSORT_LOW_GATED[2],
+                                                            "update": False, **extra},),
+                          "noise_per": "detection"})
+       for t, extra in (("", {}), ("-tracked", {"tracks": "tracked"}))},
     # the same with the process noise the step of a box's irregular displacement per
     # detection, in the video's pixels at any frame rate (a rate's variance unchanged too)
     "ocsort-colour quantile 0.2 s30 birth0.3 tentative-prediction recover3 fill0.5 births "
@@ -213,8 +252,8 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
 }
 #: the candidate the multi-target default (``pgm.models.ocsort_colour.Params()``) is
 #: (``tests/test_benchmarks.py`` holds the two equal)
-DEFAULT = ("ocsort-colour quantile-gated 0.2 s30 birth0.3 tentative-prediction recover3 "
-           "fill0.5 births noise-per-detection")
+DEFAULT = ("ocsort-colour+presence-tracked quantile-gated 0.2 s30 birth0.3 tentative-prediction "
+           "recover3 fill0.5 births noise-per-detection")
 #: what every ``ocsort_colour`` candidate starts from: OC-SORT's core reporting its
 #: filtered boxes with the colour model — not the module's defaults, which are the
 #: choice made here and move with it (a candidate is what its own fields say, whenever
@@ -413,7 +452,9 @@ def invariant(label: str) -> bool:
     map): its tracks under a score map are its tracks on the sequence as it is
     (``tests/models/test_score_invariance.py`` holds every core to that, exactly)."""
     module_name, fields = CANDIDATES[label]
-    return fields.get("score_map", fields.get("score_model")) in ("learned", "quantile")
+    return fields.get("score_map", fields.get("score_model")) in ("learned", "quantile",
+                                                                  "quantile-gated",
+                                                                  "quantile-rebased")
 
 
 def with_invariant_copies(results: dict, labels: list[str], seqs, kinds) -> dict:

@@ -88,6 +88,14 @@ def test_detection_errors_matches_every_scored_truth_at_most_once(shared_data, m
     same = de.errors(seq)
     assert len(same["log_h"]) == int(gt.scored.sum())
     assert max(np.abs(same[k]).max() for k in keys) < 1e-9
+    # the score table: the truth as its own detections (scored in file order) is on a
+    # person in every decile, and a person still there in the next frame is found again
+    from dataclasses import replace
+
+    Truth.table = replace(Truth.table, conf=np.arange(len(Truth.table.conf), dtype=float))
+    on, found = de.score_deciles(seq)
+    np.testing.assert_array_equal(on, np.ones(10))
+    assert found.min() > 0.8
 
 
 def test_confidence_benchmark_is_calibrated_on_data_drawn_from_its_own_model(monkeypatch,

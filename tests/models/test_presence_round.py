@@ -85,6 +85,24 @@ def test_update_key_is_saved_and_checked():
         DetectionAssociation("box", rounds=[{"iou": 0.3, "update": "no"}])
 
 
+def test_default_has_the_presence_round_and_a_threshold_moves_its_split():
+    """The multi-target default: OC-SORT's rounds on the gated quantile at 0.2, then the
+    presence round on (0, 0.2) for tracks matched in the previous frame; a
+    ``score_threshold`` moves the split and keeps the band's floor above the gate; a
+    threshold not above that floor leaves no band."""
+    from pgm.models import ocsort_colour
+
+    r = ocsort_colour.build_graph(ocsort_colour.Params()).factors["association"].rounds
+    assert [(x["min_score"], x["max_score"], x["update"]) for x in r] == [
+        (0.2, np.inf, True), (0.2, np.inf, True), (ocsort_colour.ABOVE_GATE, 0.2, False)]
+    assert r[2]["tracks"] == "tracked" and r[2]["iou"] == 0.5
+    r = ocsort_colour.build_graph(ocsort_colour.Params(score_threshold=0.4)
+                                  ).factors["association"].rounds
+    assert [(x["min_score"], x["max_score"]) for x in r] == [
+        (0.4, np.inf), (0.4, np.inf), (ocsort_colour.ABOVE_GATE, 0.4)]
+    assert len(sort.with_score_threshold(ocsort_colour.rounds(), 0.0)) == 2
+
+
 def test_presence_match_reports_the_estimate_where_a_track_reports_its_detection():
     """A model that reports a matched track's detection (``report="detection"``) reports
     a presence-matched track at its estimate (its box there is an earlier detection's)."""

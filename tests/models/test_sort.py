@@ -450,11 +450,13 @@ def test_the_score_map_follows_what_is_known_of_the_detector():
         g = ocsort_colour.CONFIG.graph_for({}, VideoInfo(fps=25.0, score_range=score_range))
         assert g.factors["association"].score_map == (
             "constant" if score_range is None else "quantile-gated")
-        # ... and with --scores detector the detector's numbers at OC-SORT's own thresholds
+        # ... and with --scores detector the detector's numbers at OC-SORT's own split,
+        # the default's presence round below it
         g = ocsort_colour.CONFIG.graph_for({"scores": "detector"},
                                            VideoInfo(fps=25.0, score_range=score_range))
         assert g.factors["association"].score_map == expected
-        assert [r["min_score"] for r in g.factors["association"].rounds] == [0.6, 0.6]
+        assert [(r["min_score"], r["max_score"]) for r in g.factors["association"].rounds] \
+            == [(0.6, np.inf), (0.6, np.inf), (ocsort_colour.ABOVE_GATE, 0.6)]
     np.testing.assert_array_equal(map_scores(np.array([0.1, 0.4]), "constant"), [1.0, 1.0])
 
 
