@@ -68,7 +68,8 @@ OCSORT_LOW = ({"iou": 0.3, "min_score": 0.6, "direction": True},
               {"iou": 0.3, "min_score": 0.6, "against": "last"},
               {"iou": 0.5, "max_score": 0.6})
 #: the least value above a gated quantile's 0 (q = 0: read as clutter; a detection kept
-#: has q = u >= u* > 0, a mid-rank quantile)
+#: has q = u >= u* > 0, a mid-rank quantile): ``ocsort_colour.ABOVE_GATE``, which the test
+#: holding the default equal to its candidate checks
 GATED = 1e-9
 #: OC-SORT's rounds, then the detections below their split and above the gate's 0 in
 #: ByteTrack's low-score round (IoU at least 0.5): never those the gate reads as clutter

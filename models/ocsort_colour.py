@@ -33,7 +33,8 @@ cores, each one setting:
   truth, ``python benchmarks/detection_errors.py``): such a box says that the person is
   there, not where, and drawn into the filter it pulls tracks off their people
   (TUD-Campus, MOTA / IDF1: 0.638 / 0.705 without the round, 0.524 / 0.498 when it
-  updates, 0.579 / 0.686 as it is: a box kept on its prediction is sometimes off). A
+  updates every track, 0.579 / 0.686 as it is: a track kept on its prediction is
+  sometimes off its person). A
   detector run at a higher threshold has no clutter in its lowest fifth, and there the
   round keeps the tracks the threshold would lose (the synthetic scene with its lowest
   40 % of scores removed: MOTA 0.441 without the round, 0.754 with it);
@@ -137,7 +138,8 @@ def rounds(threshold: float = 0.6) -> tuple[dict, ...]:
 class Params(ocsort.Params):
     """:class:`pgm.models.ocsort.Params` reporting the filtered boxes, with colour
     appearance in the association, score quantiles gated by the detections found again,
-    SORT's confirmation count, its per-frame
+    the detections below the threshold keeping a track without updating it (the presence
+    round of :func:`rounds`), SORT's confirmation count, its per-frame
     constants read at 30 frames/s, a track found again reported after three matches in
     a row, no birth, nor tentative track, on a detection a track explains, gaps of up to
     0.5 s filled, a track's tentative frames reported when it is confirmed, and the Kalman
@@ -168,6 +170,7 @@ def build_graph(params: Params | None = None, name: str = "ocsort-colour") -> Fa
 CONFIG = _config.ModelConfig(
     "ocsort-colour", "multi-target", sys.modules[__name__],
     "the multi-target default: OC-SORT's association reporting its filtered boxes, a colour "
-    "model per track, thresholds on score quantiles, constants per second, short gaps filled "
+    "model per track, thresholds on score quantiles, a low-scored box keeping a track without "
+    "moving it, constants per second, short gaps filled "
     "(chosen leave one sequence out over sequences and perturbations)",
     options=sort.OPTIONS, build=sort.video_build)
