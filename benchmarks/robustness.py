@@ -235,7 +235,9 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                           "rounds": OCSORT_LOW_GATED[:2] + ({**OCSORT_LOW_GATED[2],
                                                             "update": False, **extra},),
                           "noise_per": "detection"})
-       for t, extra in (("", {}), ("-tracked", {"tracks": "tracked"}))},
+       for t, extra in (("", {}), ("-tracked", {"tracks": "tracked"}),
+                        *((f"-tracked-iou{g:g}", {"tracks": "tracked", "iou": g})
+                          for g in (0.3, 0.7)))},
     # the same with the process noise the step of a box's irregular displacement per
     # detection, in the video's pixels at any frame rate (a rate's variance unchanged too)
     "ocsort-colour quantile 0.2 s30 birth0.3 tentative-prediction recover3 fill0.5 births "
