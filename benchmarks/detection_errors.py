@@ -40,7 +40,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import SHARED_DATA, print_table  # noqa: E402
 from scipy.stats import spearmanr  # noqa: E402
 
-from pgm.core.boxes import iou_matrix, iou_xywh  # noqa: E402
+from pgm.core.boxes import iou_xywh  # noqa: E402
 from pgm.io.annotations import load_mot  # noqa: E402
 from pgm.io.video import open_source  # noqa: E402
 from pgm.observation.detections import make_detector, pair_boxes  # noqa: E402
@@ -76,30 +76,30 @@ def errors(seq_dir: Path) -> dict[str, np.ndarray]:
 
 def score_deciles(seq_dir: Path) -> tuple[np.ndarray, np.ndarray]:
     """Per decile of the detections' score quantile ``(10,)``: the share that overlap a
-    scored truth by IoU >= 0.5, and the share the persistence model labels found again."""
+    scored truth by IoU >= 0.5, and the share the persistence model labels found again
+    (the model itself run over every frame, as a tracker runs it)."""
+    from pgm.core.boxes import xywh_to_cxcywh
     from pgm.factors.scores import PersistenceScoreModel, mid_ranks
 
     src = open_source(seq_dir)
     gt = load_mot(src.gt_path, kind="gt")
     gt = gt.subset(gt.scored)
-    det = make_detector("public", src).table
-    model = PersistenceScoreModel()
-    grow = np.array([1.0, 1.0, 1.0 + 2.0 * model.buffer, 1.0 + 2.0 * model.buffer])
-    true, found = np.zeros(len(det.frames), bool), np.zeros(len(det.frames), bool)
-    for n in det.frame_numbers():
-        rows, following = det.rows(n), det.rows(n + 1)
-        d = det.boxes[rows]
-        g = gt.boxes[gt.rows(n)]
-        if len(g):
-            true[rows] = iou_xywh(d[:, None, :], g[None, :, :]).max(axis=1) >= 0.5
-        e = det.boxes[following]
-        if len(e):  # centre boxes, each buffered by the model's share of its size
-            c, e = (np.c_[b[:, :2] + b[:, 2:] / 2, b[:, 2:]] * grow for b in (d, e))
-            found[rows] = iou_matrix(c, e).max(axis=1) >= model.gate
+    det = make_detector("public", src).table  # rows sorted by frame
     scores = np.asarray(det.conf, dtype=float)
+    true = np.zeros(scores.size, dtype=bool)
+    model = PersistenceScoreModel()
+    for n in range(1, int(det.frames.max()) + 1):
+        rows = det.rows(n)
+        d, g = det.boxes[rows], gt.boxes[gt.rows(n)]
+        if len(d) and len(g):
+            true[rows] = iou_xywh(d[:, None, :], g[None, :, :]).max(axis=1) >= 0.5
+        model.update(xywh_to_cxcywh(d), scores[rows])
+    # the model labels each frame's detections when the next frame comes: all but the
+    # last frame's, in row order
     decile = np.minimum((mid_ranks(np.sort(scores), scores) * 10).astype(int), 9)
+    found, labelled = model.found, decile[:model.found.size]
     return (np.array([true[decile == k].mean() for k in range(10)]),
-            np.array([found[decile == k].mean() for k in range(10)]))
+            np.array([found[labelled == k].mean() for k in range(10)]))
 
 
 def robust_sd(v: np.ndarray) -> float:

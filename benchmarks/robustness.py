@@ -454,10 +454,10 @@ def invariant(label: str) -> bool:
     """Whether a candidate reads scores only through their ranks (a learned or quantile
     map): its tracks under a score map are its tracks on the sequence as it is
     (``tests/models/test_score_invariance.py`` holds every core to that, exactly)."""
+    from pgm.factors.scores import LEARNED_SCORE_MAPS
+
     module_name, fields = CANDIDATES[label]
-    return fields.get("score_map", fields.get("score_model")) in ("learned", "quantile",
-                                                                  "quantile-gated",
-                                                                  "quantile-rebased")
+    return fields.get("score_map", fields.get("score_model")) in LEARNED_SCORE_MAPS
 
 
 def with_invariant_copies(results: dict, labels: list[str], seqs, kinds) -> dict:

@@ -365,10 +365,10 @@ def step_stages(engine: Engine, frame: FrameContext, record: StepRecord, lifecyc
     if lc.report != "estimate":  # only where matched: the detection's box, or the estimate
         matched = np.array([t.matched for t in reps.tracks], dtype=bool)
         shown &= matched
-        located = matched & np.array([t.located for t in reps.tracks], dtype=bool)
+        located = np.array([t.located for t in reps.tracks], dtype=bool)  # matched too
         if lc.report == "detection" and located.any():  # a presence match: the estimate
             boxes = boxes.copy()
-            boxes[located] = [t.state for t in reps.tracks if t.matched and t.located]
+            boxes[located] = [t.state for t in reps.tracks if t.located]
     info.ids = np.array([t.track_id or 0 for t in reps.tracks], dtype=np.int64)
     info.boxes, info.reported, info.existence = boxes, shown, existences(reps.tracks)
     if lc.fill_gaps or lc.fill_births:
