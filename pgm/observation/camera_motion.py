@@ -12,22 +12,19 @@ previous frame to the current one; it is attached to the frame
 (:attr:`pgm.core.frame.FrameContext.camera_motion`) and the engine's transition rules
 move every target's past states through it (:func:`pgm.core.motion.warp_states`).
 
-Frames are analysed halved (``INTER_AREA``, colour frames before they are made grey)
-until at most ``max_side`` (480) pixels wide — a 1920x1080 frame at 480x270, a 640x480 one
-at 320x240 — and the motion is rescaled to full resolution. The corners a fit explained
-are followed into the next frame: new ones are found only when fewer than half of
-``max_corners`` (200) remain or the followed ones give no fit; the Lucas–Kanade pyramid
-is deep enough to follow a pan of ``MAX_PAN`` (2) frame widths a second at the video's
-frame rate; Lucas–Kanade works in 9-pixel windows
+Frames are analysed halved (``INTER_AREA``) until at most ``max_side`` (480) pixels wide
+— a 1920x1080 frame at 480x270, a 640x480 one at 320x240 — and the motion is rescaled to
+full resolution. The corners a fit explained are followed into the next frame: new ones
+are found only when fewer than half of ``max_corners`` (200) remain or the followed ones
+give no fit; the Lucas–Kanade pyramid is deep enough to follow a pan of ``MAX_PAN`` (2)
+frame widths a second at the video's frame rate; Lucas–Kanade works in 9-pixel windows
 and stops refining a point once it moves by less than 0.03 of an analysed pixel. On
-MOT16-11 (a camera walking with the crowd) that costs 1.3 ms a frame against 8.9 for
+MOT16-11 (a camera walking with the crowd) that costs 1.2 ms a frame against 7.5 for
 finding 400 corners anew on every frame shrunk to 640 wide, 21-pixel windows (the same
 run), and is as close to a finer estimate (960 wide, 1000 corners) as that was: median
-corner error 0.42 px against 0.43, 95th percentile 1.50 against 1.34, largest 2.70
-against 2.59, where the camera moves the image's corners by 5.7 px a frame; the same
-estimate from frames made grey before halving (each analysed pixel within one grey level)
-gives 0.41, 1.30 and 2.52, so differences of this size are rounding (``python
-benchmarks/speed.py --sections camera``). ``mode="auto"`` attaches a
+corner error 0.41 px against 0.43, 95th percentile 1.30 against 1.34, where the camera
+moves the image's corners by 5.8 px a frame (``python benchmarks/speed.py --sections
+camera``). ``mode="auto"`` attaches a
 frame's motion only when the camera is
 *moving*: the frame's fit moves some image corner by more than ``min_shift`` pixels
 (default 1 px), and so did at least ``min_fraction`` (80 %) of the last ``window`` (20)
@@ -85,15 +82,11 @@ _LK_STOP = cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS
 def _grey(image: np.ndarray, scale: float = 1.0, halvings: int = 0) -> np.ndarray:
     """The grey image halved ``halvings`` times (each pixel the mean of the 2x2 below it,
     ``INTER_AREA``: a halving is several times cheaper than one arbitrary shrink), then
-    shrunk by ``scale``. A colour image is halved before it is made grey (both are
-    averages, so the result differs by rounding alone, at most one grey level): on a
-    1080p frame the full-resolution grey conversion cost more than the rest together."""
-    img = image
+    shrunk by ``scale``."""
+    img = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
     for _ in range(halvings):
         h, w = img.shape[:2]
         img = cv2.resize(img, (max(1, w // 2), max(1, h // 2)), interpolation=cv2.INTER_AREA)
-    if img.ndim == 3:
-        img = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
     if scale != 1.0:
         img = cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
     return img
