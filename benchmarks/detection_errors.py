@@ -93,7 +93,7 @@ def score_deciles(seq_dir: Path) -> tuple[np.ndarray, np.ndarray]:
         d, g = det.boxes[rows], gt.boxes[gt.rows(n)]
         if len(d) and len(g):
             true[rows] = iou_xywh(d[:, None, :], g[None, :, :]).max(axis=1) >= 0.5
-        model.update(xywh_to_cxcywh(d), scores[rows])
+        model.observe(xywh_to_cxcywh(d), scores[rows])
     # the model labels each frame's detections when the next frame comes: all but the
     # last frame's, in row order
     decile = np.minimum((mid_ranks(np.sort(scores), scores) * 10).astype(int), 9)

@@ -132,7 +132,7 @@ class PersistentQuantiles:
         """Add a frame's detections (centre boxes ``(M, 4)``, raw scores ``(M,)``) to the
         model and return their values ``q`` ``(M,)`` (NaN scores: 0)."""
         s = np.asarray(scores, dtype=float).reshape(-1)
-        self.model.update(boxes, s)
+        self.model.observe(boxes, s)
         self._label_chance(np.asarray(boxes, dtype=float).reshape(-1, 4))
         u = mid_ranks(self.model.history, np.where(np.isfinite(s), s, -np.inf))
         star = self.threshold_quantile()

@@ -531,9 +531,12 @@ class PersistenceScoreModel:
         return np.concatenate([b[:, :2] - k * b[:, 2:], b[:, 2:] * (1.0 + 2.0 * k)], axis=1)
 
     def update(self, boxes: np.ndarray, scores: np.ndarray) -> np.ndarray:
+        """:meth:`observe`, then this frame's target probabilities ``(M,)``."""
+        return self.probability(self.observe(boxes, scores))
+
+    def observe(self, boxes: np.ndarray, scores: np.ndarray) -> np.ndarray:
         """Add a frame's detections (centre boxes ``(M, 4)``, raw scores ``(M,)``): label
-        the previous frame's, refit, and return this frame's target probabilities ``(M,)``
-        (:meth:`probability`)."""
+        the previous frame's and refit; the scores as kept (NaN where not finite)."""
         b = np.asarray(boxes, dtype=float).reshape(-1, 4)
         s = np.asarray(scores, dtype=float).reshape(-1)
         if s.size != b.shape[0]:
@@ -541,17 +544,14 @@ class PersistenceScoreModel:
         s = np.where(np.isfinite(s), s, np.nan)
         if self._previous is not None and self._previous[1].size:
             pb, ps = self._previous
-            if b.shape[0]:
-                overlap = iou_xywh(self._widened(pb)[:, None, :], self._widened(b)[None, :, :])
-                again = overlap.max(axis=1) >= self.gate
-            else:
-                again = np.zeros(ps.size, dtype=bool)
+            again = (iou_xywh(self._widened(pb)[:, None, :], self._widened(b)[None, :, :])
+                     .max(axis=1) >= self.gate) if b.shape[0] else np.zeros(ps.size, dtype=bool)
             ok = ~np.isnan(ps)
             self._label(ps[ok], again[ok])
         self.history = _with_sorted(self.history, s)
         self._previous = (b, s)
         self._fit()
-        return self.probability(s)
+        return s
 
     def _bin(self, scores: np.ndarray) -> np.ndarray:
         """The quantile bin of each score (of the history): ``⌊bins · u⌋``, ``u`` its

@@ -357,6 +357,8 @@ def test_persistence_model_refits_as_binning_every_labelled_score():
     for bins in (20, 3):
         m = PersistenceScoreModel(bins=bins)
         m.RECENT = 37
+        quiet = PersistenceScoreModel(bins=bins)  # fed by observe: the same model
+        quiet.RECENT = 37
         people = rng.uniform(0, 400, (6, 4))
         people[:, 2:] = 30.0
         for frame in range(150):
@@ -368,7 +370,10 @@ def test_persistence_model_refits_as_binning_every_labelled_score():
             s = np.round(rng.normal(size=len(b)), 1)  # ties on purpose
             if len(s) and frame % 5 == 0:
                 s[0] = np.nan
-            m.update(b, s)
+            p = m.update(b, s)
+            quiet.observe(b, s)
+            np.testing.assert_array_equal(p, m.probability(s))
+            np.testing.assert_array_equal(quiet.curve, m.curve)
             if m.labelled.size:
                 np.testing.assert_array_equal(m.curve, naive(m, m.labelled, m.found))
         assert m._older.size > 0  # merges happened
