@@ -8,7 +8,7 @@ import numpy as np
 
 from pgm.core.boxes import iou_matrix
 from pgm.core.numerics import check_finite_param
-from pgm.factors.scores import PersistenceScoreModel, mid_ranks
+from pgm.factors.scores import PersistenceScoreModel
 
 __all__ = ["PersistentQuantiles"]
 
@@ -134,7 +134,7 @@ class PersistentQuantiles:
         s = np.asarray(scores, dtype=float).reshape(-1)
         self.model.observe(boxes, s)
         self._label_chance(np.asarray(boxes, dtype=float).reshape(-1, 4))
-        u = mid_ranks(self.model.history, np.where(np.isfinite(s), s, -np.inf))
+        u = self.model.seen.mid_ranks(np.where(np.isfinite(s), s, -np.inf))
         star = self.threshold_quantile()
         if not self.rebase:
             q = np.where(u >= star, u, 0.0)

@@ -322,7 +322,7 @@ def test_score_quantiles_are_mid_ranks_among_every_score_so_far():
 
     rng = np.random.default_rng(5)
     q = ScoreQuantiles()
-    q.RECENT = 16
+    q.seen.RECENT = 16
     seen = []
     for frame in range(60):
         s = np.round(rng.normal(size=rng.integers(0, 9)), 1)  # ties on purpose
@@ -333,8 +333,44 @@ def test_score_quantiles_are_mid_ranks_among_every_score_so_far():
         want = np.where(np.isfinite(s), mid_ranks(np.sort(seen), np.nan_to_num(s)), 0.0)
         np.testing.assert_allclose(got, want, atol=1e-15)
     np.testing.assert_array_equal(q.history, np.sort(seen))
-    assert q._older.size > 0 and q._recent.size <= max(16, 4 * np.sqrt(q._older.size))
+    store = q.seen
+    assert store._older.size > 0 and store._recent.size <= max(16,
+                                                                 4 * np.sqrt(store._older.size))
     assert ScoreQuantiles().update(np.ones((1, 4)), np.array([np.nan])).tolist() == [0.0]
+
+
+def test_sorted_scores_answer_as_the_one_sorted_array():
+    """Oracle: the two-part store's sorted sequence, scores at every rank, counts and
+    mid-ranks are those of one sorted array of every finite score added — with ties,
+    NaN and infinite scores, empty frames, and merges (a small ``RECENT`` forces them)."""
+    from pgm.factors.scores import mid_ranks
+    from pgm.factors.sorted_scores import SortedScores
+
+    rng = np.random.default_rng(3)
+    store, every = SortedScores(), []
+    store.RECENT = 23
+    merges = 0
+    for frame in range(120):
+        s = np.round(rng.normal(size=rng.integers(0, 12)), 1)  # ties on purpose
+        if frame % 9 == 4 and s.size:
+            s[0] = np.nan
+        if frame % 13 == 6 and s.size:
+            s[-1] = np.inf
+        before = store._older.size
+        store.add(s)
+        merges += store._older.size > before
+        every.extend(s[np.isfinite(s)])
+        want = np.sort(every)
+        np.testing.assert_array_equal(store.sorted(), want)
+        assert store.size == want.size
+        if want.size:
+            np.testing.assert_array_equal(store.at(np.arange(want.size)), want)
+        probe = np.concatenate([want, [-np.inf, np.inf, np.nan, 0.05, -7.0, 7.0]])
+        for side in ("left", "right"):
+            np.testing.assert_array_equal(store.count(probe, side),
+                                          np.searchsorted(want, probe, side=side))
+        np.testing.assert_array_equal(store.mid_ranks(probe), mid_ranks(want, probe))
+    assert merges >= 3 and store._recent.size > 0  # both parts in use at the end
 
 
 def test_persistence_model_refits_as_binning_every_labelled_score():
@@ -356,9 +392,10 @@ def test_persistence_model_refits_as_binning_every_labelled_score():
     rng = np.random.default_rng(11)
     for bins in (20, 3):
         m = PersistenceScoreModel(bins=bins)
-        m.RECENT = 37
+        m.RECENT = m.seen.RECENT = 37  # merges of the labelled scores and of every score
+        m.BATCHES = 9  # the labelled frames joined into one array now and then
         quiet = PersistenceScoreModel(bins=bins)  # fed by observe: the same model
-        quiet.RECENT = 37
+        quiet.RECENT = quiet.seen.RECENT = 37
         people = rng.uniform(0, 400, (6, 4))
         people[:, 2:] = 30.0
         for frame in range(150):
@@ -374,9 +411,11 @@ def test_persistence_model_refits_as_binning_every_labelled_score():
             quiet.observe(b, s)
             np.testing.assert_array_equal(p, m.probability(s))
             np.testing.assert_array_equal(quiet.curve, m.curve)
+            np.testing.assert_array_equal(m.labelled, quiet.labelled)  # joined, in order
+            np.testing.assert_array_equal(m.found, quiet.found)
             if m.labelled.size:
                 np.testing.assert_array_equal(m.curve, naive(m, m.labelled, m.found))
-        assert m._older.size > 0  # merges happened
+        assert m._older.size > 0 and m.seen._older.size > 0  # merges happened
 
 
 def test_persistent_quantiles_are_the_plain_quantiles_while_nothing_is_clutter():

@@ -1,0 +1,102 @@
+"""Every score a video has shown, kept sorted at a cost per frame that does not grow with
+the video (:class:`SortedScores`: the score maps that read a score's rank)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["RECENT_SCORES", "SortedScores"]
+
+#: a sorted score store's recent part joins the rest past this many scores (and past
+#: four times the square root of the rest's count): each frame's insertion then costs the
+#: recent part, not the whole video, and the merges cost the video now and then
+RECENT_SCORES = 4096
+
+
+def _merge_due(recent: int, older: int, least: int) -> bool:
+    """Whether a recent part of ``recent`` scores joins the ``older`` ones now (more than
+    ``least`` and more than ``4 sqrt(older)``)."""
+    return recent > max(least, 4.0 * np.sqrt(older))
+
+
+class SortedScores:
+    """Every finite score added so far, as one sorted sequence kept in two sorted parts:
+    the older scores and the recent ones, each recent score with its place among the older
+    (how many of them are at most it). The recent part joins the older one once it
+    outgrows ``max(RECENT, 4 sqrt(n))``.
+
+    A frame's scores are inserted into the recent part only, so adding them costs that part
+    (at most a few thousand numbers), not the video: a single sorted array of an hour of
+    ten detections a frame (a million scores) costs 0.6 ms a frame to insert into, three
+    hours 2.6 ms. The merges cost the video once every ``4 sqrt(n)`` scores. Counting the
+    scores below a value is a search in each part; the score at a rank of the whole
+    sequence is found from the recent scores' places (:meth:`at`). Every answer is that of
+    the one sorted array (:meth:`sorted`), exactly.
+    """
+
+    #: the recent part joins the older one past this many scores (:func:`_merge_due`)
+    RECENT = RECENT_SCORES
+
+    def __init__(self) -> None:
+        self._older = np.zeros(0)                      # sorted
+        self._recent = np.zeros(0)                     # sorted, since the last merge
+        self._place = np.zeros(0, dtype=np.intp)       # older scores <= each recent one
+        # (kept once there are older scores: until the first merge every score is recent)
+
+    @property
+    def size(self) -> int:
+        """How many scores are kept."""
+        return self._older.size + self._recent.size
+
+    def sorted(self) -> np.ndarray:
+        """Every score kept, sorted (a new array)."""
+        if not self._older.size:
+            return self._recent.copy()
+        return np.insert(self._older, self._place, self._recent)
+
+    def add(self, scores: np.ndarray) -> None:
+        """Keep the finite ones of ``scores``."""
+        s = np.asarray(scores, dtype=float).reshape(-1)
+        new = np.sort(s[np.isfinite(s)])
+        if not new.size:
+            return
+        at = np.searchsorted(self._recent, new)
+        self._recent = np.insert(self._recent, at, new)
+        if self._older.size:
+            self._place = np.insert(self._place, at,
+                                    np.searchsorted(self._older, new, side="right"))
+        if _merge_due(self._recent.size, self._older.size, self.RECENT):
+            self._older = self.sorted()
+            self._recent = np.zeros(0)
+            self._place = np.zeros(0, dtype=np.intp)
+
+    def count(self, values: np.ndarray, side: str = "left") -> np.ndarray:
+        """How many scores are below each of ``values`` (``side="right"``: at most it), as
+        ``np.searchsorted(self.sorted(), values, side)``."""
+        n = np.searchsorted(self._recent, values, side=side)
+        return n + np.searchsorted(self._older, values, side=side) if self._older.size else n
+
+    def mid_ranks(self, values: np.ndarray) -> np.ndarray:
+        """Each of ``values`` as its mid-rank quantile among the scores kept,
+        :func:`pgm.factors.scores.mid_ranks` of :meth:`sorted`."""
+        v = np.asarray(values, dtype=float).reshape(-1)
+        n = self.size
+        if n == 0:
+            return np.full(v.size, 0.5)
+        return (self.count(v, "left") + self.count(v, "right")) / (2.0 * n)
+
+    def at(self, ranks: np.ndarray) -> np.ndarray:
+        """The scores at 0-based ``ranks`` of the sorted sequence (each in ``[0, size)``),
+        ``self.sorted()[ranks]``: recent score ``j`` stands at ``j + place[j]``; a rank no
+        recent score holds is the older score ``rank − (recent scores before it)``."""
+        k = np.asarray(ranks, dtype=np.intp)
+        if not self._recent.size:
+            return self._older[k]
+        if not self._older.size:
+            return self._recent[k]
+        where = np.arange(self._recent.size) + self._place
+        j = np.searchsorted(where, k, side="left")
+        jj = np.minimum(j, where.size - 1)
+        recent = where[jj] == k
+        older = self._older[np.clip(k - j, 0, self._older.size - 1)]
+        return np.where(recent, self._recent[jj], older)
