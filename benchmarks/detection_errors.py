@@ -87,17 +87,19 @@ def score_deciles(seq_dir: Path) -> tuple[np.ndarray, np.ndarray]:
     det = make_detector("public", src).table  # rows sorted by frame
     scores = np.asarray(det.conf, dtype=float)
     true = np.zeros(scores.size, dtype=bool)
-    model = PersistenceScoreModel()
+    model, labels = PersistenceScoreModel(), []
     for n in range(1, int(det.frames.max()) + 1):
         rows = det.rows(n)
         d, g = det.boxes[rows], gt.boxes[gt.rows(n)]
         if len(d) and len(g):
             true[rows] = iou_xywh(d[:, None, :], g[None, :, :]).max(axis=1) >= 0.5
         model.observe(xywh_to_cxcywh(d), scores[rows])
+        labels.append(model.last_labelled[1])
     # the model labels each frame's detections when the next frame comes: all but the
     # last frame's, in row order
     decile = np.minimum((mid_ranks(np.sort(scores), scores) * 10).astype(int), 9)
-    found, labelled = model.found, decile[:model.found.size]
+    found = np.concatenate(labels)
+    labelled = decile[:found.size]
     return (np.array([true[decile == k].mean() for k in range(10)]),
             np.array([found[labelled == k].mean() for k in range(10)]))
 

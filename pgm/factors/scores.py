@@ -460,8 +460,6 @@ class PersistenceScoreModel:
 
     #: the recent labelled scores join the older ones past this many (:func:`_merge_due`)
     RECENT = RECENT_SCORES
-    #: frames of labelled scores kept as arrays of their own before they are joined
-    BATCHES = 256
 
     def __init__(self, bins: int = 20, prior_weight: float = 5.0, buffer: float = 0.25,
                  gate: float = 0.3):
@@ -479,7 +477,11 @@ class PersistenceScoreModel:
         self._older_found = np.zeros(1, dtype=np.int64)  # running count, from 0
         self._recent = np.zeros(0)
         self._recent_found = np.zeros(0, dtype=bool)
-        self._arrived: list[tuple[np.ndarray, np.ndarray]] = []  # in order, for reading
+        #: the previous frame's finite scores, in their order, and whether each was found
+        #: again, labelled by the latest frame (empty before the second frame): a caller
+        #: that wants every label collects these (the model keeps only their counts)
+        self.last_labelled: tuple[np.ndarray, np.ndarray] = (np.zeros(0),
+                                                             np.zeros(0, dtype=bool))
         self._previous: tuple[np.ndarray, np.ndarray] | None = None  # boxes, scores
         self.curve = np.ones(self.bins)  # the fitted probability at each bin's centre
 
@@ -488,23 +490,10 @@ class PersistenceScoreModel:
         """Every finite score so far, sorted."""
         return self.seen.sorted()
 
-    @property
-    def labelled(self) -> np.ndarray:
-        """The scores of the labelled detections, in the order they were labelled."""
-        return np.concatenate([a for a, _ in self._arrived]) if self._arrived else np.zeros(0)
-
-    @property
-    def found(self) -> np.ndarray:
-        """Whether each labelled detection was found again (as :attr:`labelled`)."""
-        return (np.concatenate([b for _, b in self._arrived]) if self._arrived
-                else np.zeros(0, dtype=bool))
-
     def _label(self, scores: np.ndarray, found: np.ndarray) -> None:
         """Add labelled detections to the recent part; merge it into the older one once it
         outgrows ``max(RECENT, 4 sqrt(n))``."""
-        self._arrived.append((scores, found))
-        if len(self._arrived) > self.BATCHES:  # one array, not one per frame
-            self._arrived = [(self.labelled, self.found)]
+        self.last_labelled = (scores, found)
         order = np.argsort(scores, kind="stable")  # np.insert places a sorted batch
         scores, found = scores[order], found[order]
         at = np.searchsorted(self._recent, scores)
@@ -537,6 +526,7 @@ class PersistenceScoreModel:
         if s.size != b.shape[0]:
             raise ValueError(f"{b.shape[0]} boxes but {s.size} scores")
         s = np.where(np.isfinite(s), s, np.nan)
+        self.last_labelled = (np.zeros(0), np.zeros(0, dtype=bool))
         if self._previous is not None and self._previous[1].size:
             pb, ps = self._previous
             again = (iou_xywh(self._widened(pb)[:, None, :], self._widened(b)[None, :, :])

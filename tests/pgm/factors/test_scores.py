@@ -247,14 +247,17 @@ def test_the_learned_probability_recovers_the_true_share_of_targets():
     rng = np.random.default_rng(7)
     scene = persistent_scene(rng, frames=300, people=8)
     m = PersistenceScoreModel(buffer=0.25, gate=0.3)
+    found = []
     for boxes, scores, _ in scene:
         m.update(boxes, scores)
+        found.append(m.last_labelled[1])
+    found = np.concatenate(found)
     s = np.concatenate([x for _, x, _ in scene])
     truth = np.concatenate([t for _, _, t in scene])
     pi = truth.mean()
     post = pi * norm.pdf(s, 2, 1) / (pi * norm.pdf(s, 2, 1) + (1 - pi) * norm.pdf(s, 0, 1))
     labelled = np.concatenate([t for _, _, t in scene[:-1]])
-    rho_t, rho_f = m.found[labelled].mean(), m.found[~labelled].mean()
+    rho_t, rho_f = found[labelled].mean(), found[~labelled].mean()
     assert 0.85 < rho_t < 0.95 and rho_f < 0.15  # the detector's 0.9; chance overlaps
     post = (rho_f + (rho_t - rho_f) * post) / rho_t
     p = m.probability(s)
@@ -393,9 +396,9 @@ def test_persistence_model_refits_as_binning_every_labelled_score():
     for bins in (20, 3):
         m = PersistenceScoreModel(bins=bins)
         m.RECENT = m.seen.RECENT = 37  # merges of the labelled scores and of every score
-        m.BATCHES = 9  # the labelled frames joined into one array now and then
         quiet = PersistenceScoreModel(bins=bins)  # fed by observe: the same model
         quiet.RECENT = quiet.seen.RECENT = 37
+        labelled, found, previous = [], [], np.zeros(0)
         people = rng.uniform(0, 400, (6, 4))
         people[:, 2:] = 30.0
         for frame in range(150):
@@ -411,10 +414,14 @@ def test_persistence_model_refits_as_binning_every_labelled_score():
             quiet.observe(b, s)
             np.testing.assert_array_equal(p, m.probability(s))
             np.testing.assert_array_equal(quiet.curve, m.curve)
-            np.testing.assert_array_equal(m.labelled, quiet.labelled)  # joined, in order
-            np.testing.assert_array_equal(m.found, quiet.found)
-            if m.labelled.size:
-                np.testing.assert_array_equal(m.curve, naive(m, m.labelled, m.found))
+            scores, flags = m.last_labelled  # the previous frame's finite scores, in order
+            np.testing.assert_array_equal(scores, previous[np.isfinite(previous)])
+            labelled.append(scores)
+            found.append(flags)
+            previous = s
+            if sum(x.size for x in labelled):
+                np.testing.assert_array_equal(
+                    m.curve, naive(m, np.concatenate(labelled), np.concatenate(found)))
         assert m._older.size > 0 and m.seen._older.size > 0  # merges happened
 
 
@@ -513,7 +520,7 @@ def test_the_chance_level_is_the_rate_a_false_box_near_people_is_found_again():
     rng = np.random.default_rng(21)
     pos = rng.uniform(0, 500, (40, 2))
     vel = rng.normal(0, 2, (40, 2))
-    pq, truth = PersistentQuantiles(), []
+    pq, truth, found = PersistentQuantiles(), [], []
     for _ in range(250):
         pos = pos + vel
         tb = np.column_stack([pos, np.full((40, 2), [40.0, 100.0])])
@@ -523,9 +530,10 @@ def test_the_chance_level_is_the_rate_a_false_box_near_people_is_found_again():
         fb = np.column_stack([src[:, :2] + step * src[:, 2:], src[:, 2:]])
         scores = np.r_[rng.normal(5, 1, k), rng.normal(-5, 1, k)]
         pq.update(np.concatenate([tb, fb]), scores)
+        found.append(pq.model.last_labelled[1])
         truth.append(np.r_[np.ones(k, bool), np.zeros(k, bool)])
     labelled = np.concatenate(truth[:-1])
-    false_rate = pq.model.found[~labelled].mean()
+    false_rate = np.concatenate(found)[~labelled].mean()
     n = (~labelled).sum()
     assert false_rate > 0.3  # a crowd: false boxes are often found again
     se = np.sqrt(false_rate * (1 - false_rate) / min(n, pq.chance_labelled))
