@@ -6,8 +6,8 @@ the same run.
                                [--memory-frames 6000]
 
 ``mot`` — on each shared MOT sequence (public detections, native resolution; MOT16-11 is
-1920x1080): the time to only **decode** its frames (one thread, one frame after another:
-the baseline), then for the multi-target default and each classic core, run as ``pgm
+1920x1080): the time to only **decode** its frames (one thread, one frame after another,
+each held until the next is decoded as a tracker holds it: the baseline), then for the multi-target default and each classic core, run as ``pgm
 track`` runs them (:func:`pgm.app.runner.track_multi`, tracks written, no video):
 **inference** frames/s (``engine.step`` plus the camera's motion) and **end to end** frames/s
 (from the first frame read to the last row written), the median of ``--repeats`` runs
@@ -82,15 +82,22 @@ BENCH = Path(__file__).resolve().parents[2] / "shared" / "bench"
 # decoding ----------------------------------------------------------------------------
 def decode_seconds(name: str) -> tuple[float, int]:
     """Seconds to decode every frame of ``name`` in this thread, one after another (the
-    toolkit's own decoding, without its read-ahead thread), and the frame count."""
+    toolkit's own decoding, without its read-ahead thread), and the frame count.
+
+    Each frame is held until the next is decoded, as a tracker holds the frame it works
+    on: a loop that drops each 1080p frame before decoding the next paid about 3 ms more a
+    frame (9.4 against 6.4 ms on MOT16-11, this machine), the allocator handing the
+    process fresh pages for every frame, which made decoding look slower than it is in a
+    run."""
     from pgm.io import video
 
     src = video.open_source(SHARED_DATA / name)
     t0 = time.perf_counter()
     n = 0
     if isinstance(src, video.ImageSequenceSource):
+        held: list = [None]  # the last frame, held until the next is decoded
         for path in src.files:
-            video._read_image(path)
+            held[0] = video._read_image(path)
             n += 1
     else:
         for _ in src._decode(1, None):
