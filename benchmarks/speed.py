@@ -7,10 +7,11 @@ the same run.
 
 ``mot`` — on each shared MOT sequence (public detections, native resolution; MOT16-11 is
 1920x1080): the time to only **decode** its frames (one thread, one frame after another,
-each held until the next is decoded as a tracker holds it: the baseline), then for the multi-target default and each classic core, run as ``pgm
-track`` runs them (:func:`pgm.app.runner.track_multi`, tracks written, no video):
-**inference** frames/s (``engine.step`` plus the camera's motion) and **end to end** frames/s
-(from the first frame read to the last row written), the median of ``--repeats`` runs
+each held until the next is decoded as a tracker holds it: the baseline), then for the
+multi-target default and each classic core, run as ``pgm track`` runs them
+(:func:`pgm.app.runner.track_multi`, tracks written, no video): **inference** frames/s
+(``engine.step`` plus the camera's motion) and **end to end** frames/s (from the first
+frame read to the last row written), the median of ``--repeats`` runs
 interleaved with as many decoding runs (the machine's speed drifts: only ratios measured
 side by side mean much); the default's ``engine.step`` and camera motion *alone*, on the
 first 150 frames decoded beforehand (no decoding thread sharing the two cores), scaled to
