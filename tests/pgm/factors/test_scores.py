@@ -336,9 +336,8 @@ def test_score_quantiles_are_mid_ranks_among_every_score_so_far():
         want = np.where(np.isfinite(s), mid_ranks(np.sort(seen), np.nan_to_num(s)), 0.0)
         np.testing.assert_allclose(got, want, atol=1e-15)
     np.testing.assert_array_equal(q.history, np.sort(seen))
-    store = q.seen
-    assert store._older.size > 0 and store._recent.size <= max(16,
-                                                                 4 * np.sqrt(store._older.size))
+    older, recent = q.seen._older.size, q.seen._recent.size
+    assert older > 0 and recent <= max(16, 4 * np.sqrt(older))
     assert ScoreQuantiles().update(np.ones((1, 4)), np.array([np.nan])).tolist() == [0.0]
 
 
