@@ -300,7 +300,12 @@ def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> Associat
         model = state.score_model
         if model is None:
             model = state.score_model = factor.score_model()
-    scores = factor.scores(frame, model, boxes)
+    references = None
+    if factor.score_map == "placed":  # the tracks confirmed and matched last frame
+        tracks = ctx.replicas.tracks
+        references = pred[np.array([t.track_id is not None and t.misses == 0 for t in tracks],
+                                   dtype=bool)]
+    scores = factor.scores(frame, model, boxes, references)
     fields: dict[str, Any] = {}
     if APPEARANCE in factor.term_fns:
         fields["appearance"] = _appearance(ctx, factor, frame, boxes)

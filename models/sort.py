@@ -69,6 +69,7 @@ from pgm.factors.association import (
     constant_velocity,
 )
 from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, VBNoise
+from pgm.factors.persistent_quantiles import PLACED_LEVEL
 from pgm.inference.settings import EngineSettings
 
 from . import config as _config
@@ -150,8 +151,9 @@ class Params:
         SORT: one, IoU ≥ 0.3).
     activation : float
         Score a detection needs to start a track (0.25).
-    score_map : {"none", "logistic", "constant", "learned", "quantile"}
-        How scores reach [0, 1] before the thresholds. The package's cores read the
+    score_map : str
+        How scores reach [0, 1] before the thresholds (one of
+        :data:`~pgm.factors.scores.SCORE_MAPS`). The package's cores read the
         detector's own numbers (:func:`score_map_for` picks ``"none"`` or ``"logistic"``
         for a video; ``"constant"`` when the detector's scores have no known scale);
         ``"learned"`` makes each score the probability that its detection is of a
@@ -160,6 +162,11 @@ class Params:
         (:class:`~pgm.factors.scores.ScoreQuantiles`): both give the same tracks for any
         strictly increasing map of the scores, and every threshold below is then in
         their units.
+    placed_level : float
+        With ``score_map="placed"``, the placement relative to the best-scored
+        detections' from which a detection below the threshold is lifted to it
+        (:data:`~pgm.factors.persistent_quantiles.PLACED_LEVEL`,
+        :class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`).
     score_threshold : float, optional
         Set every score threshold — the rounds' split between confident and other
         detections and ``activation`` — to this value (:func:`with_score_threshold`;
@@ -273,6 +280,7 @@ class Params:
     rounds: tuple[dict[str, float], ...] = field(default_factory=lambda: ({"iou": 0.3},))
     activation: float = 0.25
     score_map: str = "none"
+    placed_level: float = PLACED_LEVEL
     score_threshold: float | None = None
     recover_hits: int = 1
     keep_tentative: bool = False
@@ -469,7 +477,8 @@ def _association(p: Params) -> DetectionAssociation:
     return DetectionAssociation(
         "box", rounds=[dict(r, appearance=True) if p.appearance and r.get(
             "against", "prediction") == "prediction" else r for r in p.rounds],
-        score_map=p.score_map, direction_weight=p.direction_weight, delta_t=int(p.delta_t),
+        score_map=p.score_map, placed_level=p.placed_level, direction_weight=p.direction_weight,
+        delta_t=int(p.delta_t),
         appearance=appearance_factors(p.appearance), appearance_weight=p.appearance_weight,
         name="association")
 
@@ -550,8 +559,11 @@ OPTIONS = (
                         "quantile (the score's quantile among the video's scores), "
                         "quantile-gated (that quantile, 0 where the video shows detections "
                         "more likely clutter than not: a detector run at a lower threshold) "
-                        "or quantile-rebased (the quantile among the detections above that "
-                        "clutter); all but detector give the same tracks for any increasing "
+                        "quantile-rebased (the quantile among the detections above that "
+                        "clutter) or placed (the gated quantile, the detections below the "
+                        "threshold kept where the tracks show them on their people as "
+                        "often as the best-scored ones: a detector run at a higher "
+                        "threshold); all but detector give the same tracks for any increasing "
                         "map of the scores. Default: the model's"),
     _config.Option("--reference-fps", "reference_fps",
                    type=_config.finite_float("--reference-fps"), metavar="FPS",

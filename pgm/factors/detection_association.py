@@ -26,7 +26,7 @@ from pgm.core.numerics import check_finite_param
 from pgm.core.resolution import BOX_PIXELS
 from pgm.core.variable import Variable
 from pgm.factors.kinds import LikelihoodFactor
-from pgm.factors.persistent_quantiles import PersistentQuantiles
+from pgm.factors.persistent_quantiles import PLACED_LEVEL, PersistentQuantiles
 from pgm.factors.scores import (
     LEARNED_SCORE_MAPS,
     SCORE_MAPS,
@@ -209,7 +209,8 @@ class DetectionAssociation(Factor):
                  appearance: list | None = None, appearance_weight: float = 0.5,
                  appearance_pixels: float = BOX_PIXELS,
                  terms: list[dict[str, Any]] | None = None,
-                 gates: list[dict[str, Any]] | None = None, name: str | None = None):
+                 gates: list[dict[str, Any]] | None = None, placed_level: float = PLACED_LEVEL,
+                 name: str | None = None):
         super().__init__(variable, name=name)
         self.terms = [self._extension(t, "term") for t in (terms or [])]
         self.gates = [self._extension(g, "gate") for g in (gates or [])]
@@ -234,6 +235,11 @@ class DetectionAssociation(Factor):
             raise ValueError(f"factor {self.name!r}: unknown score_map {score_map!r} (choose "
                              f"from {SCORE_MAPS})")
         self.score_map = score_map
+        self.placed_level = float(check_finite_param(f"{self.name}.placed_level", placed_level,
+                                                     nonneg=True))
+        if self.placed_level > 1.0:
+            raise ValueError(f"factor {self.name!r}: placed_level must be in [0, 1], got "
+                             f"{placed_level!r}")
         self.direction_weight = float(check_finite_param(f"{self.name}.direction_weight",
                                                          direction_weight, nonneg=True))
         if isinstance(delta_t, bool) or int(delta_t) != delta_t or delta_t < 1:
@@ -394,6 +400,8 @@ class DetectionAssociation(Factor):
                 d["update"] = False
             rounds.append(d)
         p: dict[str, Any] = {"rounds": rounds, "score_map": self.score_map}
+        if self.placed_level != PLACED_LEVEL:
+            p["placed_level"] = self.placed_level
         if self.keeps_observations:
             p.update(direction_weight=self.direction_weight, delta_t=self.delta_t)
         if self.appearance is not None:
@@ -419,11 +427,13 @@ class DetectionAssociation(Factor):
 
     def scores(self, ctx: FrameContext,
                model: PersistenceScoreModel | ScoreQuantiles | PersistentQuantiles | None = None,
-               boxes: np.ndarray | None = None) -> np.ndarray:
+               boxes: np.ndarray | None = None,
+               references: np.ndarray | None = None) -> np.ndarray:
         """The frame's detection scores, mapped; with a map learned on the video
         (:data:`LEARNED_SCORE_MAPS`), ``model`` (a run's :meth:`score_model`) sees the
         frame — its detections' centre ``boxes`` ``(M, 4)``, computed here when not given
-        — and maps its scores."""
+        — and maps its scores; ``"placed"`` learns from ``references``, the predicted
+        centre boxes of the tracks confirmed and matched in the previous frame."""
         d = ctx.detections
         if self.score_map not in LEARNED_SCORE_MAPS:
             return np.zeros(0) if d is None else map_scores(d.scores, self.score_map)
@@ -433,12 +443,18 @@ class DetectionAssociation(Factor):
         if boxes is None:
             boxes = (np.zeros((0, 4)) if d is None
                      else xywh_to_cxcywh(np.asarray(d.boxes, dtype=float)))
-        return model.update(boxes, np.zeros(0) if d is None else d.scores)
+        s = np.zeros(0) if d is None else d.scores
+        if self.score_map == "placed":
+            return model.update(boxes, s, references)
+        return model.update(boxes, s)
 
     def score_model(self) -> PersistenceScoreModel | ScoreQuantiles | PersistentQuantiles | None:
         """A new run's score model (the maps of :data:`LEARNED_SCORE_MAPS`), or None."""
         if self.score_map == "learned":
             return PersistenceScoreModel()
+        if self.score_map == "placed":  # lifted to the threshold of the updating rounds
+            return PersistentQuantiles(placed=True, level=self.placed_level, share=max(
+                r["min_score"] for r in self.rounds if r["update"]))
         if self.score_map in ("quantile-gated", "quantile-rebased"):
             return PersistentQuantiles(rebase=self.score_map == "quantile-rebased")
         return ScoreQuantiles() if self.score_map == "quantile" else None

@@ -1,16 +1,16 @@
 """A score's quantile with the clutter the video itself shows cut out
-(:class:`PersistentQuantiles`: the ``"quantile-gated"`` and ``"quantile-rebased"`` score
-maps)."""
+(:class:`PersistentQuantiles`: the ``"quantile-gated"``, ``"quantile-rebased"`` and
+``"placed"`` score maps)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from pgm.core.boxes import iou_matrix
+from pgm.core.boxes import iou_matrix, iou_xywh
 from pgm.core.numerics import check_finite_param
 from pgm.factors.scores import PersistenceScoreModel
 
-__all__ = ["PersistentQuantiles"]
+__all__ = ["PLACED_IOU", "PLACED_LEVEL", "PersistentQuantiles"]
 
 #: where a box is moved to measure the chance level: by this many of its widths (left,
 #: right) and heights (up, down) — past the reach of its own buffered box (1.5 of its
@@ -18,6 +18,12 @@ __all__ = ["PersistentQuantiles"]
 #: detection
 CHANCE_SHIFT = 2.0
 _SHIFTS = CHANCE_SHIFT * np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
+#: the IoU with a tracked object's box at which a detection is on it (the MOT metrics'
+#: criterion for a box to count as the object's)
+PLACED_IOU = 0.5
+#: the placement, relative to the best-scored detections', from which ``"placed"`` lifts
+#: the detections below the threshold to it
+PLACED_LEVEL = 0.7
 
 
 class PersistentQuantiles:
@@ -59,7 +65,26 @@ class PersistentQuantiles:
     to the detector's usual output, not as part of its lowest share. With no clutter the
     video can see (``u* = 0``) both are the plain quantile. Both read the scores only
     through their ranks, so any strictly increasing map of the scores gives the same
-    ``q``, exactly. Online and deterministic; one instance per video.
+    ``q``, exactly.
+
+    With ``placed=True`` (``"placed"``) the share cut gives way where the tracker's own
+    tracks show the detections it would cut to be placed as well as the best-scored ones.
+    A detector's lowest scores are seldom clutter far from everyone: on the shared
+    detectors they are boxes near a person but not on one (a part, a box too large, one
+    off by half a width), and a fixed share cuts them. A detector run at a higher
+    threshold has none left, and there the same share cuts people. Each frame, the
+    detections near a track confirmed and matched in the previous frame (its predicted
+    box, passed as ``references``; near: the persistence model's buffered IoU gate) are
+    labelled on it when their IoU with that box is at least :data:`PLACED_IOU`, and a
+    second curve over the same score quantiles is fitted to those labels (pooled
+    non-decreasing, each bin shrunk towards 0 with the model's pseudo-detections: a
+    bin with few labels counts as placed badly). ``u_p`` is where that curve over its top
+    first reaches ``level`` (1 before any label); the detections from ``u_p`` up to
+    ``share`` (the threshold the association puts on ``q``) are lifted to ``share``, so
+    the threshold keeps them. Where the low ranks are misplaced (``u_p ≥ share``) this
+    is the gated quantile exactly.
+
+    Online and deterministic; one instance per video.
 
     Parameters
     ----------
@@ -68,12 +93,23 @@ class PersistentQuantiles:
         (0.5: more likely clutter than of a target).
     rebase : bool
         Take the quantile among the detections above ``u*`` (False: among all).
+    placed : bool
+        Lift the detections above ``u_p`` to ``share``, ``u_p`` learned from
+        ``references`` (False: the gated or rebased quantile).
+    share : float
+        The threshold on ``q`` that ``placed`` lifts detections to.
+    level : float
+        The placement, relative to the best-scored detections', from which ``placed``
+        lifts.
     **model_options
         The persistence model's settings (:class:`~pgm.factors.scores.PersistenceScoreModel`).
     """
 
-    def __init__(self, floor: float = 0.5, rebase: bool = False, **model_options):
+    def __init__(self, floor: float = 0.5, rebase: bool = False, placed: bool = False,
+                 share: float = 0.2, level: float = PLACED_LEVEL, **model_options):
         self.rebase = bool(rebase)
+        if self.rebase and placed:
+            raise ValueError("rebase and placed are two maps: choose one")
         self.chance_found = 0  # moved copies found again, and copies labelled
         self.chance_labelled = 0
         self._previous: np.ndarray | None = None  # the previous frame's centre boxes
@@ -83,6 +119,12 @@ class PersistentQuantiles:
         if self.floor > 1.0:
             raise ValueError(f"floor must be in [0, 1], got {floor!r}")
         self.model = PersistenceScoreModel(**model_options)
+        #: the on-its-object curve over the same scores (``placed``), or None
+        self.placement = (PersistenceScoreModel(**{**model_options, "prior_rate": 0.0,
+                                                   "seen": self.model.seen})
+                          if placed else None)
+        self.share = float(check_finite_param("share", share, nonneg=True))
+        self.level = float(check_finite_param("level", level, nonneg=True))
 
     def chance(self) -> float:
         """``ρ_c``: the share of moved copies found again (0 before any is labelled)."""
@@ -118,28 +160,66 @@ class PersistentQuantiles:
         top, rho = float(m.curve[-1]), self.chance()
         if top <= rho:
             return 0.0
-        ratio = np.clip((m.curve - rho) / (top - rho), 0.0, 1.0)
-        centres = (np.arange(m.bins) + 0.5) / m.bins
-        above = np.flatnonzero(ratio >= self.floor)
-        b = int(above[0]) if above.size else m.bins - 1
-        if b == 0:
-            return 0.0
-        lo, hi = ratio[b - 1], ratio[b]
-        t = (self.floor - lo) / (hi - lo) if hi > lo else 1.0
-        return float(centres[b - 1] + t * (centres[b] - centres[b - 1]))
+        return _reaches(np.clip((m.curve - rho) / (top - rho), 0.0, 1.0), self.floor)
 
-    def update(self, boxes: np.ndarray, scores: np.ndarray) -> np.ndarray:
+    def placed_quantile(self) -> float:
+        """``u_p``: the mid-rank quantile from which the placement curve over its top
+        reaches ``level`` (1 before any detection is labelled or without ``placed``)."""
+        p = self.placement
+        if p is None or not p.labelled:
+            return 1.0
+        top = float(p.curve[-1])
+        return _reaches(p.curve / top, self.level) if top > 0 else 1.0
+
+    def _label_placed(self, boxes: np.ndarray, scores: np.ndarray,
+                      references: np.ndarray) -> None:
+        """Label this frame's detections near a reference box (centre boxes) by whether
+        they are on it."""
+        ok = np.isfinite(scores)
+        if not references.shape[0] or not ok.any():
+            return
+        m = self.model
+        near = iou_xywh(m.widened(boxes[ok])[:, None, :],
+                        m.widened(references)[None, :, :]).max(axis=1) >= m.gate
+        if near.any():
+            on = iou_matrix(boxes[ok][near], references).max(axis=1) >= PLACED_IOU
+            self.placement.add_labels(scores[ok][near], on)
+
+    def update(self, boxes: np.ndarray, scores: np.ndarray,
+               references: np.ndarray | None = None) -> np.ndarray:
         """Add a frame's detections (centre boxes ``(M, 4)``, raw scores ``(M,)``) to the
-        model and return their values ``q`` ``(M,)`` (NaN scores: 0)."""
+        model and return their values ``q`` ``(M,)`` (NaN scores: 0); ``references``
+        (centre boxes ``(K, 4)``): the tracked objects' predicted boxes that ``placed``
+        learns from (ignored without it)."""
         s = np.asarray(scores, dtype=float).reshape(-1)
-        self.model.observe(boxes, s)
-        self._label_chance(np.asarray(boxes, dtype=float).reshape(-1, 4))
+        b = np.asarray(boxes, dtype=float).reshape(-1, 4)
+        self.model.observe(b, s)
+        self._label_chance(b)
         u = self.model.seen.mid_ranks(np.where(np.isfinite(s), s, -np.inf))
         star = self.threshold_quantile()
-        if not self.rebase:
+        if self.placement is not None:
+            if references is not None:
+                self._label_placed(b, s, np.asarray(references, dtype=float).reshape(-1, 4))
+            lift = u >= self.placed_quantile()
+            q = np.where(u >= star, np.where(lift, np.maximum(u, self.share), u), 0.0)
+        elif not self.rebase:
             q = np.where(u >= star, u, 0.0)
         elif star < 1.0:
             q = np.clip((u - star) / (1.0 - star), 0.0, 1.0)
         else:
             q = np.zeros(s.size)
         return np.where(np.isfinite(s), q, 0.0)
+
+
+def _reaches(ratio: np.ndarray, level: float) -> float:
+    """The mid-rank quantile from which a non-decreasing curve at ``bins`` equal bins'
+    centres first reaches ``level``, interpolated between centres (0: everywhere)."""
+    bins = ratio.size
+    centres = (np.arange(bins) + 0.5) / bins
+    above = np.flatnonzero(ratio >= level)
+    b = int(above[0]) if above.size else bins - 1
+    if b == 0:
+        return 0.0
+    lo, hi = ratio[b - 1], ratio[b]
+    t = (level - lo) / (hi - lo) if hi > lo else 1.0
+    return float(centres[b - 1] + t * (centres[b] - centres[b - 1]))

@@ -456,20 +456,29 @@ class PersistenceScoreModel:
         (0.25).
     gate : float
         Buffered IoU a detection of the next frame needs to count (0.3).
+    prior_rate : float, optional
+        The rate the bins are shrunk towards (default: the video's overall rate).
+    seen : SortedScores, optional
+        The store of every score to bin by (default: the model's own, which
+        :meth:`observe` fills); another model's, to learn a second curve over its
+        scores from labels given with :meth:`add_labels`.
     """
 
     #: the recent labelled scores join the older ones past this many (:func:`_merge_due`)
     RECENT = RECENT_SCORES
 
     def __init__(self, bins: int = 20, prior_weight: float = 5.0, buffer: float = 0.25,
-                 gate: float = 0.3):
+                 gate: float = 0.3, prior_rate: float | None = None,
+                 seen: SortedScores | None = None):
         if isinstance(bins, bool) or int(bins) != bins or bins < 1:
             raise ValueError(f"bins must be a positive integer, got {bins!r}")
         self.bins = int(bins)
         self.prior_weight = float(check_finite_param("prior_weight", prior_weight, nonneg=True))
         self.buffer = float(check_finite_param("buffer", buffer, nonneg=True))
         self.gate = float(check_finite_param("gate", gate, nonneg=True))
-        self.seen = SortedScores()  # every score so far
+        self.prior_rate = (None if prior_rate is None
+                           else float(check_finite_param("prior_rate", prior_rate, nonneg=True)))
+        self.seen = SortedScores() if seen is None else seen  # every score so far
         # the labelled detections' scores, sorted, in two parts (an older one with the
         # running count of those found again, and the recent ones, merged into it now and
         # then): each frame's refit then costs the bins and the recent part, not the video
@@ -490,6 +499,11 @@ class PersistenceScoreModel:
         """Every finite score so far, sorted."""
         return self.seen.sorted()
 
+    @property
+    def labelled(self) -> int:
+        """How many detections have been labelled."""
+        return self._older.size + self._recent.size
+
     def _label(self, scores: np.ndarray, found: np.ndarray) -> None:
         """Add labelled detections to the recent part; merge it into the older one once it
         outgrows ``max(RECENT, 4 sqrt(n))``."""
@@ -509,7 +523,13 @@ class PersistenceScoreModel:
             self._recent = np.zeros(0)
             self._recent_found = np.zeros(0, dtype=bool)
 
-    def _widened(self, boxes: np.ndarray) -> np.ndarray:
+    def add_labels(self, scores: np.ndarray, found: np.ndarray) -> None:
+        """Label detections with finite ``scores`` (of :attr:`seen`) by ``found`` and refit."""
+        self._label(np.asarray(scores, dtype=float), np.asarray(found, dtype=bool))
+        self._fit()
+
+    def widened(self, boxes: np.ndarray) -> np.ndarray:
+        """Centre boxes ``(N, 4)`` as ``xywh``, widened by :attr:`buffer` on each side."""
         b = cxcywh_to_xywh(np.asarray(boxes, dtype=float).reshape(-1, 4))
         k = self.buffer
         return np.concatenate([b[:, :2] - k * b[:, 2:], b[:, 2:] * (1.0 + 2.0 * k)], axis=1)
@@ -529,7 +549,7 @@ class PersistenceScoreModel:
         self.last_labelled = (np.zeros(0), np.zeros(0, dtype=bool))
         if self._previous is not None and self._previous[1].size:
             pb, ps = self._previous
-            again = (iou_xywh(self._widened(pb)[:, None, :], self._widened(b)[None, :, :])
+            again = (iou_xywh(self.widened(pb)[:, None, :], self.widened(b)[None, :, :])
                      .max(axis=1) >= self.gate) if b.shape[0] else np.zeros(ps.size, dtype=bool)
             ok = ~np.isnan(ps)
             self._label(ps[ok], again[ok])
@@ -578,7 +598,7 @@ class PersistenceScoreModel:
                                  [self._older_found[-1] + recent_hits[-1]]])
         count = np.diff(at).astype(float)
         hits = np.diff(hit_at).astype(float)
-        overall = (hits.sum() + 1.0) / (n + 1.0)
+        overall = (hits.sum() + 1.0) / (n + 1.0) if self.prior_rate is None else self.prior_rate
         w = self.prior_weight
         rate = (hits + w * overall) / np.maximum(count + w, 1e-12)
         self.curve = _pool_adjacent(rate, count + w)
@@ -648,13 +668,14 @@ class ScoreQuantiles:
 #: detections, :class:`ScoreQuantiles`; also the same for any
 #: strictly increasing map), ``"quantile-gated"`` (that quantile, 0 where the learned
 #: model shows the detections more likely clutter than of a target: a detector run at a
-#: lower threshold adds no detections a threshold lets through) and ``"quantile-rebased"``
-#: (the quantile among the detections above that clutter),
-#: :class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`
+#: lower threshold adds no detections a threshold lets through), ``"quantile-rebased"``
+#: (the quantile among the detections above that clutter) and ``"placed"`` (above that
+#: clutter, the probability that a detection is on the tracked object it is near, learned
+#: from the tracks), :class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`
 SCORE_MAPS = ("none", "logistic", "constant", "learned", "quantile", "quantile-gated",
-              "quantile-rebased")
+              "quantile-rebased", "placed")
 #: the score maps learned on the video (kept per run by the association rule)
-LEARNED_SCORE_MAPS = ("learned", "quantile", "quantile-gated", "quantile-rebased")
+LEARNED_SCORE_MAPS = ("learned", "quantile", "quantile-gated", "quantile-rebased", "placed")
 
 
 def map_scores(scores: np.ndarray, score_map: str) -> np.ndarray:

@@ -1,0 +1,118 @@
+"""The ``"placed"`` score map: the share cut relaxed where the tracks show the detections
+below it placed as well as the best-scored ones
+(:class:`pgm.factors.persistent_quantiles.PersistentQuantiles` with ``placed=True``).
+
+The oracle scene: people walking, each detected by a box on them (IoU with the true box
+above 0.8) scored high, and, for some, a second box off by 0.6 of its width (IoU 0.25:
+near the person, not on them) scored below every box on a person — what the shared
+detectors put in their lowest scores. The tracker's predicted boxes are stood in for by
+the true boxes, so the labels are known exactly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.pgm.factors.test_scores import MAPS
+
+
+def placed_scene(rng, frames=200, people=10, misplaced=0.0):
+    """Per frame: (centre boxes, scores, the people's true boxes, is_misplaced).
+    ``misplaced`` of the boxes (on average) are a second box beside a person."""
+    pos = rng.uniform(100, 900, (people, 2))
+    vel = rng.normal(0, 2, (people, 2))
+    size = np.array([40.0, 100.0])
+    out = []
+    for _ in range(frames):
+        pos = pos + vel
+        truth = np.column_stack([pos, np.tile(size, (people, 1))])
+        on = truth + np.column_stack([rng.normal(0, 1.0, (people, 2)), np.zeros((people, 2))])
+        k = rng.binomial(people, misplaced / (1 - misplaced)) if misplaced else 0
+        who = rng.choice(people, k, replace=False)
+        side = rng.choice([-1.0, 1.0], k)
+        off = truth[who] + np.column_stack([0.6 * size[0] * side, np.zeros((k, 3))])
+        boxes = np.concatenate([on, off])
+        scores = np.r_[rng.normal(5.0, 1.0, people), rng.normal(-5.0, 1.0, k)]
+        out.append((boxes, scores, truth, np.r_[np.zeros(people, bool), np.ones(k, bool)]))
+    return out
+
+
+def test_placed_is_the_gated_quantile_where_the_lowest_scores_are_misplaced():
+    """Oracle: with 30 % of the boxes beside a person and scored lowest, the placement
+    curve puts ``u_p`` at their share (within four binomial standard errors plus the 20
+    bins' half-width), above the threshold's 0.2, so nothing is lifted and every frame's
+    map is the gated quantile's, exactly."""
+    from pgm.factors.persistent_quantiles import PersistentQuantiles
+
+    scene = placed_scene(np.random.default_rng(31), misplaced=0.3)
+    placed, gated = PersistentQuantiles(placed=True, share=0.2), PersistentQuantiles()
+    for boxes, scores, truth, _ in scene:
+        q = placed.update(boxes, scores, truth)
+        np.testing.assert_array_equal(q, gated.update(boxes, scores))
+    n = placed.placement.labelled
+    tol = 4 * np.sqrt(0.3 * 0.7 / n) + 0.5 / 20
+    assert abs(placed.placed_quantile() - 0.3) < tol
+
+
+def test_placed_lifts_what_a_higher_threshold_left_every_box_on_a_person():
+    """The same people with no box beside them (the detector run at a higher threshold):
+    every bin is placed as well as the top, ``u_p`` falls to 0 and the lowest fifth,
+    which the gated quantile cuts, is lifted to the threshold (``q = max(u, 0.2)``);
+    the same values, exactly, for any strictly increasing map of the scores."""
+    from pgm.factors.persistent_quantiles import PersistentQuantiles
+
+    scene = placed_scene(np.random.default_rng(32))
+    ref = None
+    for name, f in [("none", lambda s: s)] + list(MAPS.items()):
+        all_scores = f(np.concatenate([s for _, s, _, _ in scene]) * 20 + 40)
+        split = np.cumsum([len(s) for _, s, _, _ in scene])[:-1]
+        placed, gated = PersistentQuantiles(placed=True, share=0.2), PersistentQuantiles()
+        got = []
+        for (boxes, _, truth, _), s in zip(scene, np.split(all_scores, split), strict=True):
+            q, g = placed.update(boxes, s, truth), gated.update(boxes, s)
+            lifted = placed.placed_quantile() <= g
+            np.testing.assert_array_equal(q, np.where(lifted, np.maximum(g, 0.2), g))
+            got.append(q)
+        assert placed.placed_quantile() == 0.0
+        last = np.concatenate(got[-50:])
+        assert np.all(last >= 0.2)  # every box kept; the gated quantile cuts a fifth
+        if ref is None:
+            ref = np.concatenate(got)
+        np.testing.assert_array_equal(np.concatenate(got), ref, err_msg=name)
+
+
+def test_placed_lifts_nothing_before_a_box_is_labelled():
+    """Without references (no tracked person yet) ``u_p`` is 1 and the map is the gated
+    quantile; a box far from every reference is not labelled."""
+    from pgm.factors.persistent_quantiles import PersistentQuantiles
+
+    scene = placed_scene(np.random.default_rng(33), frames=30)
+    placed, gated = PersistentQuantiles(placed=True), PersistentQuantiles()
+    far = np.array([[5000.0, 5000.0, 40.0, 100.0]])
+    for boxes, scores, _, _ in scene:
+        np.testing.assert_array_equal(placed.update(boxes, scores, far),
+                                      gated.update(boxes, scores))
+        np.testing.assert_array_equal(placed.update(boxes, scores, None),
+                                      gated.update(boxes, scores))
+    assert placed.placement.labelled == 0 and placed.placed_quantile() == 1.0
+
+
+def test_placed_settings_are_checked_and_kept_with_the_factor():
+    from pgm.core.factor import factor_from_dict
+    from pgm.factors.detection_association import DetectionAssociation
+    from pgm.factors.persistent_quantiles import PLACED_LEVEL, PersistentQuantiles
+
+    with pytest.raises(ValueError, match="rebase and placed"):
+        PersistentQuantiles(rebase=True, placed=True)
+    for bad in (-0.1, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="placed_level"):
+            DetectionAssociation("box", score_map="placed", placed_level=bad)
+    f = DetectionAssociation("box", score_map="placed", placed_level=0.6,
+                             rounds=[{"iou": 0.3, "min_score": 0.25}])
+    g = factor_from_dict(f.to_dict())
+    assert g.placed_level == 0.6 and g.score_map == "placed"
+    m = g.score_model()
+    assert (m.level, m.share) == (0.6, 0.25)
+    assert "placed_level" not in DetectionAssociation("box").to_dict()["params"]
+    assert DetectionAssociation("box").placed_level == PLACED_LEVEL
