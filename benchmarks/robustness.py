@@ -238,6 +238,18 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
        for t, extra in (("", {}), ("-tracked", {"tracks": "tracked"}),
                         *((f"-tracked-iou{g:g}", {"tracks": "tracked", "iou": g})
                           for g in (0.3, 0.7)))},
+    # the default with the share cut relaxed where its own tracks show the detections
+    # below it placed as well as the best-scored ones (at least `level` of their rate of
+    # IoU >= 0.5 with a tracked person's predicted box): lifted to the threshold
+    **{f"ocsort-colour+presence-tracked placed{v:g} 0.2 s30 birth0.3 tentative-prediction "
+       f"recover3 fill0.5 births noise-per-detection": (
+        "ocsort_colour", {**LIFE_S30, "score_map": "placed", "placed_level": v,
+                          "score_threshold": 0.2,
+                          "rounds": OCSORT_LOW_GATED[:2] + ({**OCSORT_LOW_GATED[2],
+                                                            "update": False,
+                                                            "tracks": "tracked"},),
+                          "noise_per": "detection"})
+       for v in (0.6, 0.7, 0.8)},
     # the same with the process noise the step of a box's irregular displacement per
     # detection, in the video's pixels at any frame rate (a rate's variance unchanged too)
     "ocsort-colour quantile 0.2 s30 birth0.3 tentative-prediction recover3 fill0.5 births "
@@ -255,7 +267,7 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
 }
 #: the candidate the multi-target default (``pgm.models.ocsort_colour.Params()``) is
 #: (``tests/test_benchmarks.py`` holds the two equal)
-DEFAULT = ("ocsort-colour+presence-tracked quantile-gated 0.2 s30 birth0.3 tentative-prediction "
+DEFAULT = ("ocsort-colour+presence-tracked placed0.7 0.2 s30 birth0.3 tentative-prediction "
            "recover3 fill0.5 births noise-per-detection")
 #: what every ``ocsort_colour`` candidate starts from: OC-SORT's core reporting its
 #: filtered boxes with the colour model — not the module's defaults, which are the

@@ -63,7 +63,8 @@ def test_the_cores_with_learned_scores_give_the_same_tracks_under_any_score_map(
         shared_data, name):
     """``sort``, ``bytetrack``, ``ocsort``, ``botsort`` and ``ocsort-colour``'s core (colour
     aside), each with the learned score map, and ``ocsort`` with the quantile map, plain,
-    gated and rebased by the detections found again, on the whole sequence."""
+    gated and rebased by the detections found again, and placed by its own tracks, on the
+    whole sequence."""
     from pgm.models import botsort, bytetrack, ocsort, ocsort_colour, sort
 
     det, src = _detections(shared_data, name)
@@ -72,7 +73,8 @@ def test_the_cores_with_learned_scores_give_the_same_tracks_under_any_score_map(
              ("botsort", botsort, {}), ("ocsort-colour", ocsort_colour, {"appearance": None}),
              ("ocsort quantile", ocsort, {"score_map": "quantile"}),
              ("ocsort quantile-gated", ocsort, {"score_map": "quantile-gated"}),
-             ("ocsort quantile-rebased", ocsort, {"score_map": "quantile-rebased"})]
+             ("ocsort quantile-rebased", ocsort, {"score_map": "quantile-rebased"}),
+             ("ocsort placed", ocsort, {"score_map": "placed"})]
     for label, module, extra in cores:
         p = replace(module.Params(), fps=float(src.fps), **{"score_map": "learned", **extra})
         graph = module.build_graph(p)
@@ -105,7 +107,7 @@ def test_the_default_gives_the_same_tracks_under_any_score_map(shared_data, name
             reads = [f.score_map for f in graph.factors.values() if hasattr(f, "score_map")] + [
                 f.scores.model for f in graph.factors.values()
                 if hasattr(f, "scores") and hasattr(f.scores, "model")]
-            assert reads in (["quantile-gated"], ["learned"]), reads
+            assert reads in (["placed"], ["learned"]), reads
             result = track_multi(open_source(shared_data / name), graph, d, rng=0,
                                  write_video=False, progress=False, max_frames=60)
             table = result.table
