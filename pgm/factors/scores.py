@@ -571,7 +571,11 @@ class PersistenceScoreModel:
         ``b``-th start. Bin ``b`` starts at the tie group holding rank ``⌊b n / bins⌋`` or
         at the next one (a group before it has its mid-rank half a rank or more below
         ``b n / bins``, the one after half a rank or more above): their values, and their
-        neighbours', are the only candidates binned."""
+        neighbours', are the only candidates binned (computed once per store and bin
+        count while no score is added: :meth:`SortedScores.memo`)."""
+        return self.seen.memo(("bin_starts", self.bins), self._find_bin_starts)
+
+    def _find_bin_starts(self) -> np.ndarray:
         seen, bins = self.seen, self.bins
         n = seen.size
         base = np.floor(np.arange(1, bins) * (n / bins)).astype(np.intp)

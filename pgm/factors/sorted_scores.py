@@ -42,6 +42,7 @@ class SortedScores:
         self._recent = np.zeros(0)                     # sorted, since the last merge
         self._place = np.zeros(0, dtype=np.intp)       # older scores <= each recent one
         # (kept once there are older scores: until the first merge every score is recent)
+        self._memo: dict = {}  # answers computed from the scores as they are (:meth:`memo`)
 
     @property
     def size(self) -> int:
@@ -60,6 +61,7 @@ class SortedScores:
         new = np.sort(s[np.isfinite(s)])
         if not new.size:
             return
+        self._memo.clear()
         at = np.searchsorted(self._recent, new)
         self._recent = np.insert(self._recent, at, new)
         if self._older.size:
@@ -69,6 +71,14 @@ class SortedScores:
             self._older = self.sorted()
             self._recent = np.zeros(0)
             self._place = np.zeros(0, dtype=np.intp)
+
+    def memo(self, key, compute):
+        """``compute()``, kept under ``key`` until scores are next added: models that share
+        the store (a second curve over the same scores) compute what depends on the
+        scores alone once a frame."""
+        if key not in self._memo:
+            self._memo[key] = compute()
+        return self._memo[key]
 
     def count(self, values: np.ndarray, side: str = "left") -> np.ndarray:
         """How many scores are below each of ``values`` (``side="right"``: at most it), as
