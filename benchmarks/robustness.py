@@ -249,7 +249,7 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                                                             "update": False,
                                                             "tracks": "tracked"},),
                           "noise_per": "detection"})
-       for v in (0.6, 0.7, 0.8)},
+       for v in (0.6, 0.7, 0.8, 0.9)},
     # the same with the process noise the step of a box's irregular displacement per
     # detection, in the video's pixels at any frame rate (a rate's variance unchanged too)
     "ocsort-colour quantile 0.2 s30 birth0.3 tentative-prediction recover3 fill0.5 births "
@@ -267,7 +267,7 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
 }
 #: the candidate the multi-target default (``pgm.models.ocsort_colour.Params()``) is
 #: (``tests/test_benchmarks.py`` holds the two equal)
-DEFAULT = ("ocsort-colour+presence-tracked placed0.7 0.2 s30 birth0.3 tentative-prediction "
+DEFAULT = ("ocsort-colour+presence-tracked placed0.8 0.2 s30 birth0.3 tentative-prediction "
            "recover3 fill0.5 births noise-per-detection")
 #: what every ``ocsort_colour`` candidate starts from: OC-SORT's core reporting its
 #: filtered boxes with the colour model — not the module's defaults, which are the

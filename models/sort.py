@@ -164,7 +164,7 @@ class Params:
         their units.
     placed_level : float
         With ``score_map="placed"``, the placement relative to the best-scored
-        detections' from which a detection below the threshold is lifted to it
+        detections' at which a detection below the threshold is lifted to it
         (:data:`~pgm.factors.persistent_quantiles.PLACED_LEVEL`,
         :class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`).
     score_threshold : float, optional

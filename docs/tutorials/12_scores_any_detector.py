@@ -34,23 +34,27 @@ The tutorial
    scene it costs MOTA both as drawn and under the lower threshold. The suite where the
    choice was made has no such sequence (``docs/results.md`` has the numbers).
 5. runs the detector "at a higher threshold" (``high-scores``: its lowest 40 % of scores
-   removed) and tracks with the default's core as it is — the detections below its 0.2
-   quantile kept for the **presence round**, which keeps a track matched in the previous
-   frame without updating it (``"update": false``) — without that round, and with
-   ByteTrack's low round in its place (the same detections, updating the track). Here
-   the lowest fifth left is all targets: without the round the default loses them
+   removed) and tracks with the default's core, its lowest fifth always cut — the
+   detections below its 0.2 quantile kept for the **presence round**, which keeps a
+   track matched in the previous frame without updating it (``"update": false``) —
+   without that round, and with ByteTrack's low round in its place (the same
+   detections, updating the track). Here the lowest fifth left is all targets: without
+   the round the core loses them
    (MOTA 0.533 against 0.394 at 120 frames). The scene's boxes are all good (2 px
    noise), so updating from them gives the same metrics; the shared detectors' lowest
    boxes are mostly off their people, and there updating costs (TUD-Campus MOTA 0.579
    with the presence round, 0.524 updating; ``docs/results.md``). Last, the ``placed``
-   score map (``--scores placed``): the quantile gated as the default's, with the
+   score map (``--scores placed``): the gated quantile, with the
    detections below the threshold used as the others wherever the tracker's own
    tracks show them on their people (IoU 0.5 with a tracked person's predicted box) at
-   least 0.7 as often as the best-scored ones — so the cut gives way on a detector run
-   at a higher threshold, and stays on one whose lowest boxes are beside their people.
-   On this scene's 120 frames it gives MOTA 0.535 at the higher threshold (the presence
-   round alone 0.533) and 0.588 as drawn, the gated quantile's: the curve learns from
-   the few hundred boxes near a track, and lifts only once it has seen enough of them.
+   least 0.8 as often as the best-scored ones, as a group — so the cut gives way on a
+   detector run at a higher threshold, and stays on one whose lowest boxes are beside
+   their people.
+   It is the default's map. On this scene's 120 frames it gives the same metrics as
+   the fifth always cut, at the higher threshold (MOTA 0.533) and as drawn (0.588): the
+   bin just below the threshold holds a handful of labels near a track, so the lift
+   comes and goes and changes little (on the shared sequences under ``high-scores`` it
+   pays: PETS09-S2L1 MOTA 0.618 → 0.709, ``docs/results.md``).
 
 Run it as a script::
 
@@ -193,11 +197,12 @@ print("\n".join(lines))
 high = perturb_detections(rows, "high-scores", np.random.default_rng(0), image_size=(640, 480))
 kept = PublicDetections(MotTable(high[:, 0].astype(np.int64), high[:, 1].astype(np.int64),
                                  high[:, 2:6], high[:, 6]))
-base = replace(ocsort_colour.Params(), appearance=None, fps=30.0)
+default = replace(ocsort_colour.Params(), appearance=None, fps=30.0)
+base = replace(default, score_map="quantile-gated")  # the fifth always cut
 presence = base.rounds[2]
 lines = [f"{len(rows)} detections, {len(high)} with the higher threshold",
          f"{'below the threshold':<34} {'MOTA':>6} {'IDF1':>6}"]
-for name, rounds in (("presence round (the default)", base.rounds),
+for name, rounds in (("presence round", base.rounds),
                      ("unused", base.rounds[:2]),
                      ("low round, updating the track", base.rounds[:2] + ({**presence,
                                                                            "update": True},))):
@@ -205,8 +210,8 @@ for name, rounds in (("presence round (the default)", base.rounds),
     lines.append(f"{name:<34} {m['mota']:>6.3f} {m['idf1']:>6.3f}")
 # the "placed" map: the detections below the threshold used as the others where the
 # tracks show them on their people about as often as the best-scored ones
-for name, d in (("placed, higher threshold", kept), ("placed, as drawn", det)):
-    m = track(ocsort_colour.build_graph(replace(base, score_map="placed")), d)[0]
+for name, d in (("placed (the default), higher", kept), ("placed (the default), as drawn", det)):
+    m = track(ocsort_colour.build_graph(default), d)[0]
     lines.append(f"{name:<34} {m['mota']:>6.3f} {m['idf1']:>6.3f}")
 print("\n".join(lines))
 (out / "higher_threshold.txt").write_text("\n".join(lines) + "\n")

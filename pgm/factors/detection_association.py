@@ -197,6 +197,10 @@ class DetectionAssociation(Factor):
         frame); ``f`` and ``g`` are functions defined at module level (given, or named
         ``"module:function"``; saved by name, found again as rules are), e.g.
         :func:`pgm.inference.association_terms.mahalanobis_gate`.
+    placed_level : float
+        With ``"placed"``: the placement, relative to the best-scored detections', at
+        which the detections below the threshold are lifted to it
+        (:class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`, 0.8).
     """
 
     kind = "association"

@@ -21,9 +21,9 @@ _SHIFTS = CHANCE_SHIFT * np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1
 #: the IoU with a tracked object's box at which a detection is on it (the MOT metrics'
 #: criterion for a box to count as the object's)
 PLACED_IOU = 0.5
-#: the placement, relative to the best-scored detections', from which ``"placed"`` lifts
+#: the placement, relative to the best-scored detections', at which ``"placed"`` lifts
 #: the detections below the threshold to it
-PLACED_LEVEL = 0.7
+PLACED_LEVEL = 0.8
 
 
 class PersistentQuantiles:
@@ -77,12 +77,17 @@ class PersistentQuantiles:
     box, passed as ``references``; near: the persistence model's buffered IoU gate) are
     labelled on it when their IoU with that box is at least :data:`PLACED_IOU`, and a
     second curve over the same score quantiles is fitted to those labels (pooled
-    non-decreasing, each bin shrunk towards 0 with the model's pseudo-detections: a
-    bin with few labels counts as placed badly). ``u_p`` is where that curve over its top
-    first reaches ``level`` (1 before any label); the detections from ``u_p`` up to
-    ``share`` (the threshold the association puts on ``q``) are lifted to ``share``, so
-    the threshold keeps them. Where the low ranks are misplaced (``u_p ≥ share``) this
-    is the gated quantile exactly.
+    non-decreasing, each bin shrunk towards 0 with the model's pseudo-detections).
+    ``u_p`` is found going down from ``share`` (the threshold the association puts on
+    ``q``) one bin at a time: the labelled detections from the bin reached up to
+    ``share``, taken as one group, must be on their objects at least ``level`` times as
+    often as the curve's top, and ``u_p`` is the last edge reached so (1 when the bin
+    just below ``share`` is not; 1 before any label). The group's rate is shrunk
+    towards 0 by the same pseudo-detections, so that a few labels lift nothing, and it
+    is a group rather than each bin, so that a short video's few labels still decide.
+    The detections from ``u_p`` up to ``share`` are lifted to ``share``, so the
+    threshold keeps them. Where the low ranks are misplaced (``u_p ≥ share``) this is
+    the gated quantile exactly.
 
     Online and deterministic; one instance per video.
 
@@ -99,8 +104,8 @@ class PersistentQuantiles:
     share : float
         The threshold on ``q`` that ``placed`` lifts detections to.
     level : float
-        The placement, relative to the best-scored detections', from which ``placed``
-        lifts.
+        The placement, relative to the best-scored detections', at which ``placed``
+        lifts (:data:`PLACED_LEVEL`).
     **model_options
         The persistence model's settings (:class:`~pgm.factors.scores.PersistenceScoreModel`).
     """
@@ -163,13 +168,25 @@ class PersistentQuantiles:
         return _reaches(np.clip((m.curve - rho) / (top - rho), 0.0, 1.0), self.floor)
 
     def placed_quantile(self) -> float:
-        """``u_p``: the mid-rank quantile from which the placement curve over its top
-        reaches ``level`` (1 before any detection is labelled or without ``placed``)."""
+        """``u_p``: the lowest bin edge from which the labelled detections up to ``share``,
+        as one group, are on their objects at least ``level`` times as often as the
+        placement curve's top (their rate shrunk towards 0 by the model's
+        ``prior_weight`` pseudo-detections, once for the group), and so is every group
+        between it and ``share``; 1 where the bin just below ``share`` is not, before any
+        detection is labelled, or without ``placed``."""
         p = self.placement
         if p is None or not p.labelled:
             return 1.0
         top = float(p.curve[-1])
-        return _reaches(p.curve / top, self.level) if top > 0 else 1.0
+        below = min(int(np.ceil(self.share * p.bins - 1e-9)), p.bins)  # bins under share
+        if top <= 0 or below == 0:
+            return 1.0
+        # the bins from b up to the share's, as one group, b from the share's down: each
+        # group placed in turn (a sequential test, every step on its own evidence)
+        hits = np.cumsum(p.hits[:below][::-1])
+        placed = hits / (np.cumsum(p.counts[:below][::-1]) + p.prior_weight) >= self.level * top
+        k = below if placed.all() else int(np.argmin(placed))  # groups placed, nearest first
+        return (below - k) / p.bins if k else 1.0
 
     def _label_placed(self, boxes: np.ndarray, scores: np.ndarray,
                       references: np.ndarray) -> None:

@@ -493,6 +493,7 @@ class PersistenceScoreModel:
                                                              np.zeros(0, dtype=bool))
         self._previous: tuple[np.ndarray, np.ndarray] | None = None  # boxes, scores
         self.curve = np.ones(self.bins)  # the fitted probability at each bin's centre
+        self.counts, self.hits = np.zeros(self.bins), np.zeros(self.bins)  # labelled, found
 
     @property
     def history(self) -> np.ndarray:
@@ -602,6 +603,7 @@ class PersistenceScoreModel:
                                  [self._older_found[-1] + recent_hits[-1]]])
         count = np.diff(at).astype(float)
         hits = np.diff(hit_at).astype(float)
+        self.counts, self.hits = count, hits
         overall = (hits.sum() + 1.0) / (n + 1.0) if self.prior_rate is None else self.prior_rate
         w = self.prior_weight
         rate = (hits + w * overall) / np.maximum(count + w, 1e-12)
