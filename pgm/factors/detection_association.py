@@ -457,8 +457,9 @@ class DetectionAssociation(Factor):
         if self.score_map == "learned":
             return PersistenceScoreModel()
         if self.score_map == "placed":  # lifted to the threshold of the updating rounds
-            return PersistentQuantiles(placed=True, level=self.placed_level, share=max(
-                r["min_score"] for r in self.rounds if r["update"]))
+            share = max((r["min_score"] for r in self.rounds if r["update"]), default=0.0)
+            return PersistentQuantiles(placed=True, level=self.placed_level,
+                                       share=min(max(share, 0.0), 1.0))  # none: nothing cut
         if self.score_map in ("quantile-gated", "quantile-rebased"):
             return PersistentQuantiles(rebase=self.score_map == "quantile-rebased")
         return ScoreQuantiles() if self.score_map == "quantile" else None

@@ -115,6 +115,8 @@ def test_placed_settings_are_checked_and_kept_with_the_factor():
     assert g.placed_level == 0.6 and g.score_map == "placed"
     m = g.score_model()
     assert (m.level, m.share) == (0.6, 0.25)
+    # a core without a score threshold cuts nothing, and so lifts nothing
+    assert DetectionAssociation("box", score_map="placed").score_model().share == 0.0
     assert "placed_level" not in DetectionAssociation("box").to_dict()["params"]
     assert DetectionAssociation("box").placed_level == PLACED_LEVEL
 
