@@ -300,11 +300,15 @@ def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> Associat
         model = state.score_model
         if model is None:
             model = state.score_model = factor.score_model()
-    references = None
-    if factor.score_map == "placed":  # the tracks confirmed and matched last frame
+    pools: dict[str, Any] = {}
+    if factor.uses_pools or factor.score_map == "placed":
+        # which replicas have an identity, which were matched last frame
         tracks = ctx.replicas.tracks
-        references = pred[np.array([t.track_id is not None and t.misses == 0 for t in tracks],
-                                   dtype=bool)]
+        pools.update(confirmed=np.array([t.track_id is not None for t in tracks], dtype=bool),
+                     tracked=np.array([t.misses == 0 for t in tracks], dtype=bool))
+    # "placed" learns from the predicted boxes of the tracks confirmed and matched last frame
+    references = (pred[pools["confirmed"] & pools["tracked"]] if factor.score_map == "placed"
+                  else None)
     scores = factor.scores(frame, model, boxes, references)
     fields: dict[str, Any] = {}
     if APPEARANCE in factor.term_fns:
@@ -331,12 +335,8 @@ def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> Associat
             prev = [h.previous(h.age) for h in histories]
             fields["reference"] = np.array([fields["last"][k] if p is None else p
                                             for k, p in enumerate(prev)], dtype=float)
-    pools: dict[str, Any] = {}
-    if factor.uses_pools:  # which replicas have an identity, which were matched last frame
-        tracks = ctx.replicas.tracks
-        pools.update(confirmed=np.array([t.track_id is not None for t in tracks], dtype=bool),
-                     tracked=np.array([t.misses == 0 for t in tracks], dtype=bool))
-    a = assign(AssociationInputs(pred, boxes, scores, **fields), factor.plans, **pools,
+    a = assign(AssociationInputs(pred, boxes, scores, **fields), factor.plans,
+               **(pools if factor.uses_pools else {}),
                owner=f"factor {factor.name!r}")
     if factor.presence_rounds:  # their matches keep a replica, its state left as it is
         a.update = ~np.isin(a.rounds, factor.presence_rounds)

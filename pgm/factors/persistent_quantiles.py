@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pgm.core.boxes import iou_matrix, iou_xywh
+from pgm.core.boxes import iou_matrix
 from pgm.core.numerics import check_finite_param
 from pgm.factors.scores import PersistenceScoreModel
 
@@ -195,9 +195,7 @@ class PersistentQuantiles:
         ok = np.isfinite(scores)
         if not references.shape[0] or not ok.any():
             return
-        m = self.model
-        near = iou_xywh(m.widened(boxes[ok])[:, None, :],
-                        m.widened(references)[None, :, :]).max(axis=1) >= m.gate
+        near = self.model.near(boxes[ok], references)
         if near.any():
             on = iou_matrix(boxes[ok][near], references).max(axis=1) >= PLACED_IOU
             self.placement.add_labels(scores[ok][near], on)

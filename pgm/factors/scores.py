@@ -506,8 +506,7 @@ class PersistenceScoreModel:
         return self._older.size + self._recent.size
 
     def _label(self, scores: np.ndarray, found: np.ndarray) -> None:
-        """Add labelled detections to the recent part; merge it into the older one once it
-        outgrows ``max(RECENT, 4 sqrt(n))``."""
+        """Add labelled detections to the recent part, merged into the older one when due."""
         self.last_labelled = (scores, found)
         order = np.argsort(scores, kind="stable")  # np.insert places a sorted batch
         scores, found = scores[order], found[order]
@@ -529,11 +528,16 @@ class PersistenceScoreModel:
         self._label(np.asarray(scores, dtype=float), np.asarray(found, dtype=bool))
         self._fit()
 
-    def widened(self, boxes: np.ndarray) -> np.ndarray:
-        """Centre boxes ``(N, 4)`` as ``xywh``, widened by :attr:`buffer` on each side."""
-        b = cxcywh_to_xywh(np.asarray(boxes, dtype=float).reshape(-1, 4))
+    def near(self, boxes: np.ndarray, others: np.ndarray) -> np.ndarray:
+        """``(N,)`` whether each centre box reaches one of the centre boxes ``others``:
+        both widened by :attr:`buffer` on each side, an IoU of at least :attr:`gate`."""
+        if not len(others):
+            return np.zeros(len(boxes), dtype=bool)
         k = self.buffer
-        return np.concatenate([b[:, :2] - k * b[:, 2:], b[:, 2:] * (1.0 + 2.0 * k)], axis=1)
+        a, b = (cxcywh_to_xywh(np.asarray(c, dtype=float).reshape(-1, 4)) for c in (boxes, others))
+        a, b = (np.concatenate([x[:, :2] - k * x[:, 2:], x[:, 2:] * (1 + 2 * k)], axis=1)
+                for x in (a, b))  # widened by k of their size on each side
+        return iou_xywh(a[:, None, :], b[None, :, :]).max(axis=1) >= self.gate
 
     def update(self, boxes: np.ndarray, scores: np.ndarray) -> np.ndarray:
         """:meth:`observe`, then this frame's target probabilities ``(M,)``."""
@@ -550,9 +554,7 @@ class PersistenceScoreModel:
         self.last_labelled = (np.zeros(0), np.zeros(0, dtype=bool))
         if self._previous is not None and self._previous[1].size:
             pb, ps = self._previous
-            again = (iou_xywh(self.widened(pb)[:, None, :], self.widened(b)[None, :, :])
-                     .max(axis=1) >= self.gate) if b.shape[0] else np.zeros(ps.size, dtype=bool)
-            ok = ~np.isnan(ps)
+            again, ok = self.near(pb, b), ~np.isnan(ps)
             self._label(ps[ok], again[ok])
         self.seen.add(s)
         self._previous = (b, s)
@@ -577,8 +579,7 @@ class PersistenceScoreModel:
         return self.seen.memo(("bin_starts", self.bins), self._find_bin_starts)
 
     def _find_bin_starts(self) -> np.ndarray:
-        seen, bins = self.seen, self.bins
-        n = seen.size
+        seen, bins, n = self.seen, self.bins, self.seen.size
         base = np.floor(np.arange(1, bins) * (n / bins)).astype(np.intp)
         at_pos = seen.at(np.clip(np.concatenate([base - 1, base, base + 1]), 0, n - 1))
         after = np.minimum(seen.count(at_pos, side="right"), n - 1)
