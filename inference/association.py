@@ -339,7 +339,7 @@ def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> Associat
                **(pools if factor.uses_pools else {}),
                owner=f"factor {factor.name!r}")
     if factor.presence_rounds:  # their matches keep a replica, its state left as it is
-        a.update = ~np.isin(a.rounds, factor.presence_rounds)
+        a.update = ~np.logical_or.reduce([a.rounds == r for r in factor.presence_rounds])
     u = a.updating()
     if histories is not None:
         for k, j in zip(u.rows, u.cols, strict=True):

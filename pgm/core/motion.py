@@ -17,6 +17,7 @@ A variable whose labels name no position is left alone.
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -33,7 +34,8 @@ def _index(labels: Sequence[str], name: str) -> int | None:
 
 def motion_scale(affine: np.ndarray) -> float:
     """The scale ``sqrt(|det M|)`` of an image motion ``[M | t]``."""
-    return float(np.sqrt(abs(np.linalg.det(np.asarray(affine, dtype=float)[:, :2]))))
+    (a, b), (c, d) = np.asarray(affine, dtype=float)[:, :2].tolist()
+    return math.sqrt(abs(a * d - b * c))
 
 
 def warp_states(x: np.ndarray, labels: Sequence[str] | None,

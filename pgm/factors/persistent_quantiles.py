@@ -151,10 +151,9 @@ class PersistentQuantiles:
                         & (centre + size / 2 <= self._extent[1]), axis=1)
         if not inside.any():
             return
-        # both buffered by the model's share of their size on each side, as it labels
-        grow = np.array([1.0, 1.0, 1.0 + 2.0 * self.model.buffer, 1.0 + 2.0 * self.model.buffer])
-        moved = np.concatenate([centre[inside], size[inside]], axis=1) * grow
-        found = iou_matrix(moved, boxes * grow).max(axis=1) >= self.model.gate
+        # found again as the model labels a detection (buffered reach)
+        moved = np.concatenate([centre[inside], size[inside]], axis=1)
+        found = self.model.near(moved, boxes)
         self.chance_found += int(np.count_nonzero(found))
         self.chance_labelled += int(moved.shape[0])
 

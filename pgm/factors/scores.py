@@ -47,7 +47,7 @@ from typing import Any
 
 import numpy as np
 
-from pgm.core.boxes import cxcywh_to_xywh, iou_xywh, xywh_to_cxcywh
+from pgm.core.boxes import iou_matrix, iou_xywh, xywh_to_cxcywh
 from pgm.core.numerics import check_finite_param
 from pgm.factors.sorted_scores import RECENT_SCORES, SortedScores, _merge_due
 
@@ -396,7 +396,9 @@ def mid_ranks(sorted_scores: np.ndarray, scores: np.ndarray) -> np.ndarray:
 
 def _pool_adjacent(p: np.ndarray, w: np.ndarray) -> np.ndarray:
     """The weighted least-squares non-decreasing fit to ``p`` (pool adjacent violators;
-    a few bins, so a loop over blocks)."""
+    a few bins, so a loop over blocks; none where ``p`` is already non-decreasing)."""
+    if np.all(p[1:] >= p[:-1]):
+        return p.astype(float)
     vals, wts, sizes = [], [], []
     for v, x in zip(p.tolist(), w.tolist(), strict=True):
         vals.append(v)
@@ -531,13 +533,11 @@ class PersistenceScoreModel:
     def near(self, boxes: np.ndarray, others: np.ndarray) -> np.ndarray:
         """``(N,)`` whether each centre box reaches one of the centre boxes ``others``:
         both widened by :attr:`buffer` on each side, an IoU of at least :attr:`gate`."""
-        if not len(others):
+        if not len(others) or not len(boxes):
             return np.zeros(len(boxes), dtype=bool)
-        k = self.buffer
-        a, b = (cxcywh_to_xywh(np.asarray(c, dtype=float).reshape(-1, 4)) for c in (boxes, others))
-        a, b = (np.concatenate([x[:, :2] - k * x[:, 2:], x[:, 2:] * (1 + 2 * k)], axis=1)
-                for x in (a, b))  # widened by k of their size on each side
-        return iou_xywh(a[:, None, :], b[None, :, :]).max(axis=1) >= self.gate
+        grow = np.array([1.0, 1.0, 1.0 + 2.0 * self.buffer, 1.0 + 2.0 * self.buffer])
+        a, b = (np.asarray(c, dtype=float).reshape(-1, 4) * grow for c in (boxes, others))
+        return iou_matrix(a, b).max(axis=1) >= self.gate  # widened about their centres
 
     def update(self, boxes: np.ndarray, scores: np.ndarray) -> np.ndarray:
         """:meth:`observe`, then this frame's target probabilities ``(M,)``."""

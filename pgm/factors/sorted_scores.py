@@ -3,6 +3,8 @@ the video (:class:`SortedScores`: the score maps that read a score's rank)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = ["RECENT_SCORES", "SortedScores"]
@@ -16,7 +18,7 @@ RECENT_SCORES = 4096
 def _merge_due(recent: int, older: int, least: int) -> bool:
     """Whether a recent part of ``recent`` scores joins the ``older`` ones now (more than
     ``least`` and more than ``4 sqrt(older)``)."""
-    return recent > max(least, 4.0 * np.sqrt(older))
+    return recent > max(least, 4.0 * math.sqrt(older))
 
 
 class SortedScores:
