@@ -128,6 +128,9 @@ def chroma_frame(image: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(lab[:, :, 1:] / CHROMA_UNIT, dtype=np.float32)
 
 
+_PI32 = np.float32(np.pi)
+
+
 def patch_features(patch: np.ndarray, n_orient: int) -> np.ndarray:
     """Features ``(1 + n_orient, h, w)`` of a grey ``float32`` patch: its grey level
     (contrast-normalised) and ``n_orient`` locally normalised gradient orientations."""
@@ -135,7 +138,10 @@ def patch_features(patch: np.ndarray, n_orient: int) -> np.ndarray:
     gx = cv2.Sobel(patch, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(patch, cv2.CV_32F, 0, 1, ksize=3)
     mag = np.sqrt(gx * gx + gy * gy)
-    theta = np.mod(np.arctan2(gy, gx), np.pi) * (n_orient / np.pi)  # [0, n_orient)
+    # the angle modulo pi, as np.mod gives it (bit for bit) at a tenth of its cost
+    t = np.arctan2(gy, gx)
+    theta = np.where(t < 0, t + _PI32, np.where(t >= _PI32, t - _PI32, t))
+    theta *= np.float32(n_orient / np.pi)  # [0, n_orient)
     feats = np.empty((1 + n_orient, th, tw), np.float32)
     energy = np.sqrt(np.maximum(cv2.boxFilter(mag * mag, -1, (5, 5)), 0)) + 1e-3 * 255
     for c in range(n_orient):  # soft (linear) binning on the circle of orientations

@@ -19,10 +19,20 @@ class RedetectionScan:
     """The re-detection scan of :class:`~pgm.observation.appearance.correlation.
     CorrelationFilterLikelihood` (a mixin: it reads that class's filters and settings)."""
 
+    def _scan_cells(self) -> tuple[int, int, int, int]:
+        """The rows ``r0:r1`` and columns ``c0:c1`` of the filter's cells over the
+        object's box (a rectangle of ``box_cells``): the scan's kernel."""
+        rows = np.flatnonzero(self.box_cells.any(axis=1))
+        cols = np.flatnonzero(self.box_cells.any(axis=0))
+        return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+
     def _scan_spectrum(self, fshape: tuple[int, int]) -> np.ndarray:
-        """The spectrum, at the scan's FFT size ``fshape``, of the long-term filter's cells
-        over the object's box; kept while the filter is unchanged (it changes only on the
-        frames it learns from, which a lost object's are not)."""
+        """The spectrum (single precision, as the features'), at the scan's FFT size
+        ``fshape``, of the long-term filter's cells over the object's box
+        (:meth:`_scan_cells`, cut out: a kernel of the box's size, not the window's, so
+        the scan's FFT pads the frame by the box, not the window); kept while the filter
+        is unchanged (it changes only on the frames it learns from, which a lost
+        object's are not)."""
         cached = self._scan_filter
         if cached is not None and cached[0] is self.memory and cached[1] == fshape:
             return cached[2]
@@ -31,8 +41,9 @@ class RedetectionScan:
         h = sfft.irfft2(np.conj(num) / self._regularised(den), s=(th, tw))
         # the filter's cells over the object's box only: its context (padding) learned the
         # background around the object, which stays where the object was
-        h = np.fft.fftshift(h, axes=(-2, -1)) * self.box_cells
-        hf = sfft.rfft2(h, s=fshape, axes=(-2, -1))
+        r0, r1, c0, c1 = self._scan_cells()
+        h = np.fft.fftshift(h, axes=(-2, -1))[:, r0:r1, c0:c1]
+        hf = sfft.rfft2(h, s=fshape, axes=(-2, -1)).astype(np.complex64)
         self._scan_filter = (self.memory, fshape, hf)
         return hf
 
@@ -67,14 +78,17 @@ class RedetectionScan:
             # the scanned region: the frame, or a window around the estimate within it
             lo = np.clip(c - size / 2, -0.5, np.array([W, H]) - 0.5 - size)
             rc = np.where(size >= np.array([W, H]), mid, lo + size / 2)
-            feats = self._window_features(ctx, rc, size, (ow, oh))
+            feats = self._window_features(ctx, rc, size, (ow, oh)).astype(np.float32)
             th, tw = self.hann.shape
-            full = (oh + th - 1, ow + tw - 1)
-            fshape = (sfft.next_fast_len(full[0], real=True),
-                      sfft.next_fast_len(full[1], real=True))
+            r0, r1, c0, c1 = self._scan_cells()
+            # linear (not circular) convolution with the box's kernel: padded by its size
+            fshape = (sfft.next_fast_len(oh + r1 - r0 - 1, real=True),
+                      sfft.next_fast_len(ow + c1 - c0 - 1, real=True))
             zf = sfft.rfft2(feats, s=fshape, axes=(-2, -1))
             best = sfft.irfft2(np.sum(self._scan_spectrum(fshape) * zf, axis=0), s=fshape)
-            best = best[th // 2:th // 2 + oh, tw // 2:tw // 2 + ow] / self.memory[2]
+            # the kernel's centre cell (th // 2, tw // 2) is at (th // 2 - r0, tw // 2 - c0)
+            best = best[th // 2 - r0:th // 2 - r0 + oh,
+                        tw // 2 - c0:tw // 2 - c0 + ow].astype(float) / self.memory[2]
             # only where the whole box is in the frame: a box across the border reads
             # the border's replicated pixels
             half = self.ref_size * float(scale) / (1 + self.padding) / 2
