@@ -64,7 +64,7 @@ from pgm.io.video import open_source  # noqa: E402
 from pgm.models import part_graph, single_object  # noqa: E402
 
 DEFAULT = dict(appearance=single_object.APPEARANCE, scale_noise=single_object.SCALE_NOISE,
-               jump_prob=single_object.JUMP_PROB)
+               jump_prob=single_object.JUMP_PROB, redetect=single_object.REDETECT)
 OLD = dict(appearance="contrast+template", scale_noise=0.005)
 #: the option for a still camera over a textured background (docs/results.md, "A long video")
 CONTEXT = "  + context learned from motion (cf(context_rate=0.05))"
@@ -79,9 +79,9 @@ CONFIGS = [
     ("contrast", dict(appearance="contrast")),
     ("template (NCC)", dict(appearance="template")),
     ("previous default: contrast+template, scale", OLD),
-    ("DEFAULT: cf, scale, jumps", DEFAULT),
-    ("  + re-detection (--redetect 0.5)", DEFAULT | dict(redetect=0.5)),
-    ("  + re-detection after 10 low frames", DEFAULT | dict(redetect=0.5, redetect_patience=10)),
+    ("DEFAULT: cf, scale, jumps, re-detection", DEFAULT),
+    ("  - re-detection (--redetect 0)", DEFAULT | dict(redetect=0.0)),
+    ("  re-detection after 10 low frames", DEFAULT | dict(redetect_patience=10)),
     ("  + in-plane angle (rotation_noise 0.005)", DEFAULT | dict(rotation_noise=0.005)),
     ("  + in-plane angle (rotation_noise 0.01)", DEFAULT | dict(rotation_noise=0.01)),
     ("  + in-plane angle (rotation_noise 0.02)", DEFAULT | dict(rotation_noise=0.02)),
@@ -98,18 +98,18 @@ CONFIGS = [
     ("  + contrast", DEFAULT | dict(appearance="cf+contrast")),
 ]
 QUICK = {"colour PF (Pérez et al. 2002)", "previous default: contrast+template, scale",
-         "DEFAULT: cf, scale, jumps", CONTEXT, CONTEXT_FAST}
+         "DEFAULT: cf, scale, jumps, re-detection", "  - re-detection (--redetect 0)",
+         CONTEXT, CONTEXT_FAST}
 #: candidates for the default, chosen leave-one-sequence-out (--loso)
-GRID = ([(f"cf(lam={lam},padding={pad}), jumps {jp}",
-          dict(appearance=f"cf(lam={lam},padding={pad})", scale_noise=0.005, jump_prob=jp))
-         for lam in (20, 60) for pad in (1.5, 2) for jp in (0.1, 0.4)]
-        + [("cf(lam=60,padding=2)+template, jumps 0.4",
-            dict(appearance="cf(lam=60,padding=2)+template", scale_noise=0.005, jump_prob=0.4)),
+GRID = ([(f"cf(lam={lam},padding={pad}), jumps {jp}" + (", re-detection" if rd else ""),
+          dict(appearance=f"cf(lam={lam},padding={pad})", scale_noise=0.005, jump_prob=jp,
+               redetect=rd))
+         for lam in (20, 60) for pad in (1.5, 2) for jp in (0.1, 0.4)
+         for rd in (0.0, single_object.REDETECT)]
+        + [("cf(lam=60,padding=2)+template, jumps 0.4, re-detection",
+            DEFAULT | dict(appearance="cf(lam=60,padding=2)+template")),
            ("previous default: contrast+template", OLD),
-           ("DEFAULT + re-detection (share 0.5, re-appearance 0.01)",
-            DEFAULT | dict(redetect=0.5)),
-           ("DEFAULT + re-detection (share 0.5, re-appearance 0.001)",
-            DEFAULT | dict(redetect=0.5, reappear_prob=0.001)),
+           ("DEFAULT, re-appearance 0.001", DEFAULT | dict(reappear_prob=0.001)),
            ("DEFAULT + context learned from motion (context_rate 0.05)",
             DEFAULT | dict(appearance="cf(context_rate=0.05)")),
            ("DEFAULT + scale filter (cf+scale)", DEFAULT | dict(appearance="cf+scale"))])

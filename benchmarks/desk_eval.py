@@ -35,7 +35,7 @@ from pgm.app.runner import init_box_from_gt  # noqa: E402
 from pgm.io.annotations import SingleTrack  # noqa: E402
 from pgm.synthetic.scenes import desk_scene  # noqa: E402
 
-CONFIGS = [("DEFAULT: cf, scale levels, jumps", ae.DEFAULT),
+CONFIGS = [("DEFAULT: cf, scale levels, jumps, re-detection", ae.DEFAULT),
            (ae.CONTEXT, ae.DEFAULT | dict(appearance="cf(context_rate=0.05)")),
            ("  + scale filter (cf+scale)", ae.DEFAULT | dict(appearance="cf+scale")),
            ("  size by the scale filter alone (cf(scales=1)+scale)",

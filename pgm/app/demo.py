@@ -29,7 +29,8 @@ def cmd_demo(args) -> int:
             ("part graph (two nodes)", out / "part-graph",
              part_graph.build_graph(part_graph.Params(init_box=box, n_parts=2))),
             ("single-object (the default)", out / "single-object",
-             single_object.build_graph(single_object.Params(init_box=box)))]
+             single_object.build_graph(single_object.Params(   # as pgm track builds it
+                 init_box=box, frame_size=seq.frames[0].shape[1::-1])))]
     results = []
     for label, folder, graph in runs:
         folder = prepare_run_folder(folder)

@@ -153,3 +153,29 @@ def test_default_beats_the_paper_on_crossing(shared_data, tmp_path, capsys):
         model = json.loads((out / "model.json").read_text())
         assert model["meta"]["engine"]["num_particles"] == (100 if label == "default" else 10)
     assert auc["default"] > 0.6 and auc["paper"] < auc["default"]
+
+
+def _redetection(graph) -> list[float]:
+    return [f.fraction for f in graph.factors.values()
+            if type(f).__name__ == "RedetectionProposal"]
+
+
+def test_single_object_redetects_by_default_where_the_frame_size_is_known():
+    """Re-detection is the single-object default (every leave-one-sequence-out fold picks
+    it, docs/results.md) wherever the region a lost object comes back in is known: the
+    application passes the frame's size; the API without one keeps it off rather than
+    fail; ``redetect=0`` (``--redetect 0``) turns it off."""
+    assert _redetection(single_object.build_graph(single_object.Params(init_box=BOX))) == []
+    sized = single_object.Params(init_box=BOX, frame_size=(320, 240))
+    assert _redetection(single_object.build_graph(sized)) == [single_object.REDETECT]
+    off = single_object.Params(init_box=BOX, frame_size=(320, 240), redetect=0.0)
+    assert _redetection(single_object.build_graph(off)) == []
+    video = VideoInfo(320, 240, init_box=BOX)
+    config = get_config("single-object")
+    assert _redetection(config.graph_for({}, video)) == [single_object.REDETECT]
+    assert _redetection(config.graph_for({"redetect": 0.0}, video)) == []
+    with pytest.raises(ValueError, match="frame_size"):
+        single_object.build_graph(single_object.Params(init_box=BOX, redetect=0.5))
+    # another cue has no response to scan: off, not an error
+    colour = single_object.Params(init_box=BOX, frame_size=(320, 240), appearance="colour")
+    assert _redetection(single_object.build_graph(colour)) == []
