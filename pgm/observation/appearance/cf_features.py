@@ -144,10 +144,16 @@ def patch_features(patch: np.ndarray, n_orient: int) -> np.ndarray:
     theta *= np.float32(n_orient / np.pi)  # [0, n_orient)
     feats = np.empty((1 + n_orient, th, tw), np.float32)
     energy = np.sqrt(np.maximum(cv2.boxFilter(mag * mag, -1, (5, 5)), 0)) + 1e-3 * 255
+    w = np.empty_like(theta)
     for c in range(n_orient):  # soft (linear) binning on the circle of orientations
-        d = np.abs(theta - c)
-        d = np.minimum(d, n_orient - d)
-        feats[1 + c] = cv2.boxFilter(mag * np.maximum(1 - d, 0), -1, (3, 3)) / energy
+        np.subtract(theta, c, out=w)
+        np.abs(w, out=w)
+        if c == 0:  # the one bin the circle wraps onto (theta in [0, n_orient))
+            np.minimum(w, n_orient - w, out=w)
+        np.subtract(1, w, out=w)
+        np.maximum(w, 0, out=w)
+        w *= mag
+        np.divide(cv2.boxFilter(w, -1, (3, 3)), energy, out=feats[1 + c])
     mean, std = float(patch.mean()), float(patch.std()) + 1e-3 * 255
     feats[0] = (patch - mean) / std * 0.5  # grey, contrast-normalised
     return feats
