@@ -225,3 +225,34 @@ def test_context_is_dropped_when_the_camera_moves():
         else:
             assert f.context is not None and f.camera_moved_at is None
             assert f.context[_ring(f)].mean() < 0.3
+
+
+def _soft_binned_reference(patch, n_orient):
+    """patch_features written as the formula reads (np.mod, the circle's distance for
+    every bin): what the in-place version must equal bit for bit."""
+    gx = cv2.Sobel(patch, cv2.CV_32F, 1, 0, ksize=3)
+    gy = cv2.Sobel(patch, cv2.CV_32F, 0, 1, ksize=3)
+    mag = np.sqrt(gx * gx + gy * gy)
+    theta = np.mod(np.arctan2(gy, gx), np.pi) * (n_orient / np.pi)
+    energy = np.sqrt(np.maximum(cv2.boxFilter(mag * mag, -1, (5, 5)), 0)) + 1e-3 * 255
+    out = [(patch - float(patch.mean())) / (float(patch.std()) + 1e-3 * 255) * 0.5]
+    for c in range(n_orient):
+        d = np.abs(theta - c)
+        d = np.minimum(d, n_orient - d)
+        out.append(cv2.boxFilter(mag * np.maximum(1 - d, 0), -1, (3, 3)) / energy)
+    return np.stack(out).astype(np.float32)
+
+
+@pytest.mark.parametrize("n_orient", [1, 3, 6, 9])
+def test_patch_features_are_the_soft_binning_formula_bit_for_bit(n_orient):
+    from pgm.observation.appearance.cf_features import patch_features
+
+    rng = np.random.default_rng(n_orient)
+    for k in range(12):
+        p = (rng.random((int(rng.integers(5, 90)), int(rng.integers(5, 90)))) * 255)
+        p = p.astype(np.float32)
+        if k % 3 == 0:  # flat areas: zero gradients, angles of exactly 0 and pi
+            p = np.round(p / 64) * 64
+        elif k % 3 == 1:
+            p = cv2.GaussianBlur(p, (5, 5), 2)
+        assert np.array_equal(patch_features(p, n_orient), _soft_binned_reference(p, n_orient))
