@@ -42,7 +42,7 @@ class RedetectionScan:
         # the filter's cells over the object's box only: its context (padding) learned the
         # background around the object, which stays where the object was
         r0, r1, c0, c1 = self._scan_cells()
-        h = np.fft.fftshift(h, axes=(-2, -1))[:, r0:r1, c0:c1]
+        h = (np.fft.fftshift(h, axes=(-2, -1)) * self.box_cells)[:, r0:r1, c0:c1]
         hf = sfft.rfft2(h, s=fshape, axes=(-2, -1)).astype(np.complex64)
         self._scan_filter = (self.memory, fshape, hf)
         return hf

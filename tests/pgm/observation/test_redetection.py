@@ -352,3 +352,21 @@ def test_an_angle_in_the_single_object_state_saves_and_runs():
         single_object.build_graph(single_object.Params(init_box=(50, 50, 20, 20),
                                                        appearance="colour",
                                                        rotation_noise=0.01))
+
+
+def test_the_scan_with_the_box_kernel_equals_the_scan_with_the_whole_window(monkeypatch):
+    """The scan convolves the frame with the filter's cells over the box, cut out of its
+    window (the rest of the window is masked to zero): the same peaks, values and scores
+    as the uncut window's kernel (a larger FFT), to single precision."""
+    img = scene(np.random.default_rng(9), (190, 120))
+    cut = _trained(np.random.default_rng(5)).detect(FrameContext(2, img), (80, 90), 1.0)
+    g = _trained(np.random.default_rng(5))
+    th, tw = g.hann.shape
+    r0, r1, c0, c1 = g._scan_cells()
+    assert (r1 - r0, c1 - c0) < (th, tw)  # the box is smaller than its window
+    monkeypatch.setattr(type(g), "_scan_cells", lambda self: (0, th, 0, tw))
+    whole = g.detect(FrameContext(2, img), (80, 90), 1.0)
+    assert len(cut.centres) == len(whole.centres) >= 1
+    np.testing.assert_allclose(cut.centres, whole.centres)
+    np.testing.assert_allclose(cut.values, whole.values, rtol=1e-4, atol=1e-5)
+    np.testing.assert_allclose(cut.z, whole.z, rtol=1e-3)
