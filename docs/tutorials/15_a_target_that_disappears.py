@@ -71,9 +71,12 @@ print(f"{len(gt)} frames with a box, {gt.absent.size} annotated absent "
       f"(frames {gt.absent.min()}-{gt.absent.max()})")
 
 # %%
-# 2. The default tracker, the lost signal at even odds.
+# 2. The default tracker, the lost signal at even odds. Given the frame's size, as ``pgm
+# track`` gives it, the default also re-detects while its confidence is low (the region a
+# lost object may come back in is the frame).
 x, y, w, h = gt.boxes[0]
-graph = single_object.build_graph(single_object.Params(init_box=(x + w / 2, y + h / 2, w, h)))
+graph = single_object.build_graph(single_object.Params(init_box=(x + w / 2, y + h / 2, w, h),
+                                                       frame_size=seq.scene.size))
 source = open_source(folder)
 run = track(source, graph, rng=np.random.default_rng(0), gt=gt, progress=False,
             out_dir=out / "run", write_video=False, lost_below=0.5)
