@@ -113,9 +113,13 @@ class RedetectionAndAngle:
         draw (``AR2Transition(reappear_drawn=False)``).
     redetect_below, redetect_patience, redetect_false_alarm
         The proposal's ``below``, ``patience`` and ``false_alarm``
-        (:class:`~pgm.observation.appearance.redetection.RedetectionProposal`).
+        (:class:`~pgm.observation.appearance.redetection.RedetectionProposal`;
+        ``redetect_false_alarm`` per frame at the reference rate, converted as
+        ``reappear_prob`` is).
     reappear_prob : float
-        See :class:`~pgm.factors.AR2Transition` (used with ``redetect`` only).
+        See :class:`~pgm.factors.AR2Transition` (used with ``redetect`` only): a
+        probability per frame at the reference rate, given to the video's frames as
+        ``1 − (1 − p)^τ`` (``frame_step``), the same chance per *second*.
     rotation_noise : float
         One node with a correlation filter only: an in-plane angle (radians) as a fifth
         state component ``angle``, with this standard deviation per frame, which the
@@ -363,6 +367,10 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
     check_finite_param("pos_noise", pos, nonneg=True)
     step = float(check_finite_param("frame_step", params.frame_step, positive=True))
     walk = np.sqrt(step)  # a random walk's step over `frame_step` reference frames
+
+    def per_step(p: float) -> float:  # a chance per reference frame, over `frame_step` of them
+        # (as given at the reference rate, and where it is no probability: the factor says so)
+        return p if step == 1.0 or not 0.0 <= p <= 1.0 else float(1.0 - (1.0 - p) ** step)
     pos = pos * walk
     c_pos = (params.coupling_pos_std if params.coupling_pos_std is not None
              else 0.03 * np.sqrt(box[2] * box[3]))
@@ -391,7 +399,7 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
                           scale_noise=params.scale_noise * walk,
                           reference_size=pb[2:] if params.scale_noise > 0 else None,
                           jump_prob=params.jump_prob, jump_scale=params.jump_scale,
-                          reappear_prob=params.reappear_prob if redetect else 0.0,
+                          reappear_prob=per_step(params.reappear_prob) if redetect else 0.0,
                           region=region, reappear_drawn=not redetect),
         ]
         for k, (cue, opts) in enumerate(cues):
@@ -407,7 +415,8 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
             factors.append(RedetectionProposal(nm, cue=cf_name, fraction=params.redetect,
                                                  below=params.redetect_below,
                                                  patience=params.redetect_patience,
-                                                 false_alarm=params.redetect_false_alarm))
+                                                 false_alarm=per_step(
+                                                     params.redetect_false_alarm)))
     if params.topology == "chain":
         pairs = [(k, k + 1) for k in range(n - 1)]
     else:

@@ -96,3 +96,28 @@ def test_the_rate_reaches_the_model_only_where_the_video_declares_it(tmp_path: P
     assert noise[("--fps", "10")] == pytest.approx(np.sqrt(3.0) * noise[()])
     code, _, err = run_cli(capsys, "track", otb, "--out", tmp_path / "bad", "--fps", "0")
     assert code != 0 and "frame rate" in err
+
+
+def test_redetection_chances_are_per_second():
+    """Re-detection's re-appearance chance and its scan's false-alarm rate are read per
+    frame at the reference rate and given to a video's frames as ``1 − (1 − p)^τ``: the
+    same chance over a second (oracle: one second at 10 frames/s against three frames at
+    30 of the same chance); at the reference rate they are the values given, exactly."""
+    box, size = (100.0, 80.0, 40.0, 60.0), (320, 240)
+
+    def chances(fps):
+        g = single_object.build_graph(single_object.Params(init_box=box, frame_size=size,
+                                                           fps=fps))
+        proposal = next(f for f in g.factors.values()
+                        if type(f).__name__ == "RedetectionProposal")
+        return _transition(g).reappear_prob, proposal.false_alarm
+
+    ref = part_graph.RedetectionAndAngle()
+    assert chances(None) == chances(30.0) == (ref.reappear_prob, ref.redetect_false_alarm)
+    for fps in (10.0, 7.0):
+        tau = 30.0 / fps
+        for got, p in zip(chances(fps), (ref.reappear_prob, ref.redetect_false_alarm),
+                          strict=True):
+            # the chance of no event over a second is the same at both rates
+            assert (1 - got) ** fps == pytest.approx((1 - p) ** 30.0, rel=1e-12)
+            assert got == pytest.approx(1 - (1 - p) ** tau, rel=1e-12)
