@@ -346,6 +346,12 @@ def _check(params: Params) -> np.ndarray:
     return box
 
 
+def has_cf(appearance: str) -> bool:
+    """Whether the correlation filter (``"cf"``) is among the cues of ``appearance``: what
+    re-detection and an in-plane angle need."""
+    return any(cue == "cf" for cue, _ in appearance_cues(appearance))
+
+
 def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
     """Build the part graph of ``params`` (one node: the colour particle filter); fields
     left at ``None`` take their defaults (:meth:`Params.resolved`)."""
@@ -376,7 +382,7 @@ def build_graph(params: Params, name: str = "part-graph") -> FactorGraph:
              else 0.03 * np.sqrt(box[2] * box[3]))
     variables, factors = [], []
     cues = appearance_cues(params.appearance)
-    one_cf = n == 1 and any(c == "cf" for c, _ in cues)
+    one_cf = n == 1 and has_cf(params.appearance)
     check_finite_param("rotation_noise", params.rotation_noise, nonneg=True)
     redetect, rotate = params.redetect > 0, params.rotation_noise > 0
     for option, on in (("redetect", redetect), ("rotation_noise", rotate)):

@@ -72,7 +72,6 @@ from dataclasses import dataclass
 
 from pgm.core.graph import FactorGraph
 from pgm.core.numerics import check_finite_param
-from pgm.observation.appearance.cues import appearance_cues
 
 from . import colour_pf, part_graph
 from . import config as _config
@@ -122,8 +121,7 @@ def build_graph(params: Params, name: str = "object") -> FactorGraph:
         raise ValueError("the single-object model's variable is called 'object'")
     if params.redetect is None:  # on where the region a lost object comes back in is
         # known and a correlation filter reads the frame for it
-        on = params.frame_size is not None and any(
-            cue == "cf" for cue, _ in appearance_cues(params.appearance))
+        on = params.frame_size is not None and part_graph.has_cf(params.appearance)
         params = dataclasses.replace(params, redetect=REDETECT if on else 0.0)
     if params.fps is not None:
         fps = float(check_finite_param("fps", params.fps, positive=True))

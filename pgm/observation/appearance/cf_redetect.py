@@ -26,12 +26,13 @@ class RedetectionScan:
         cols = np.flatnonzero(self.box_cells.any(axis=0))
         return int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
 
-    def _scan_spectrum(self, fshape: tuple[int, int]) -> np.ndarray:
+    def _scan_spectrum(self, fshape: tuple[int, int],
+                       cells: tuple[int, int, int, int]) -> np.ndarray:
         """The spectrum (single precision, as the features'), at the scan's FFT size
-        ``fshape``, of the long-term filter's cells over the object's box
-        (:meth:`_scan_cells`, cut out: a kernel of the box's size, not the window's, so
-        the scan's FFT pads the frame by the box, not the window); kept while the filter
-        is unchanged (it changes only on the frames it learns from, which a lost
+        ``fshape``, of the long-term filter's cells over the object's box (``cells``,
+        :meth:`_scan_cells`, cut out: a kernel of the box's size, not the window's, so the
+        scan's FFT pads the frame by the box, not the window); kept while the filter is
+        unchanged (it changes only on the frames it learns from, which a lost
         object's are not)."""
         cached = self._scan_filter
         if cached is not None and cached[0] is self.memory and cached[1] == fshape:
@@ -41,7 +42,7 @@ class RedetectionScan:
         h = sfft.irfft2(np.conj(num) / self._regularised(den), s=(th, tw))
         # the filter's cells over the object's box only: its context (padding) learned the
         # background around the object, which stays where the object was
-        r0, r1, c0, c1 = self._scan_cells()
+        r0, r1, c0, c1 = cells
         h = (np.fft.fftshift(h, axes=(-2, -1)) * self.box_cells)[:, r0:r1, c0:c1]
         hf = sfft.rfft2(h, s=fshape, axes=(-2, -1)).astype(np.complex64)
         self._scan_filter = (self.memory, fshape, hf)
@@ -80,12 +81,13 @@ class RedetectionScan:
             rc = np.where(size >= np.array([W, H]), mid, lo + size / 2)
             feats = self._window_features(ctx, rc, size, (ow, oh)).astype(np.float32)
             th, tw = self.hann.shape
-            r0, r1, c0, c1 = self._scan_cells()
+            cells = self._scan_cells()
+            r0, r1, c0, c1 = cells
             # linear (not circular) convolution with the box's kernel: padded by its size
             fshape = (sfft.next_fast_len(oh + r1 - r0 - 1, real=True),
                       sfft.next_fast_len(ow + c1 - c0 - 1, real=True))
             zf = sfft.rfft2(feats, s=fshape, axes=(-2, -1))
-            best = sfft.irfft2(np.sum(self._scan_spectrum(fshape) * zf, axis=0), s=fshape)
+            best = sfft.irfft2(np.sum(self._scan_spectrum(fshape, cells) * zf, axis=0), s=fshape)
             # the kernel's centre cell (th // 2, tw // 2) is at (th // 2 - r0, tw // 2 - c0)
             best = best[th // 2 - r0:th // 2 - r0 + oh,
                         tw // 2 - c0:tw // 2 - c0 + ow].astype(float) / self.memory[2]
