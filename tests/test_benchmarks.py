@@ -316,3 +316,25 @@ def test_speed_benchmark_prints_its_tables():
     equal = [ln for ln in lines if ln.strip().startswith("1000 ")
              and ln.count("N=") + ln.count("not reached") == 4]
     assert equal, out
+
+
+def test_appearance_eval_bar_rows_give_the_margin_and_mark_a_verdict_the_seeds_carry():
+    """The single-object bar summary: margin = the default's mean AUC over seeds − the best
+    peer's; within the bar at ≥ −0.05; "(seeds)" where the margin is within two standard
+    errors of the bar."""
+    import appearance_eval as ae
+
+    def scores(aucs):
+        s = ae.Scores()
+        s.aucs = list(aucs)
+        return s
+
+    peers = {"MIL": scores([0.60]), "CSRT": scores([0.50])}
+    rows = ae.bar_rows({"far": (scores([0.70, 0.72, 0.71]), peers),  # +0.11, sure
+                        "below": (scores([0.40, 0.41, 0.42]), peers),  # -0.19, sure
+                        "luck": (scores([0.46, 0.66, 0.56]), peers)})  # -0.04 ± 0.058
+    by = {r[0]: r for r in rows}
+    assert by["far"][2] == "MIL 0.600" and by["far"][3] == "+0.110" and by["far"][4] == "yes"
+    assert by["below"][4] == "no"
+    assert by["luck"][3] == "-0.040" and by["luck"][4] == "yes (seeds)"
+    assert by["far"][1] == "0.710 ± 0.006"
