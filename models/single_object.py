@@ -53,7 +53,8 @@ probability ``reappear_prob`` per frame, so the weights stay those of the model.
 a target that jumped across the frame while hidden
 (``tests/pgm/observation/test_redetection.py``). On the eight sequences (six seeds each,
 ``docs/results.md``) it gives the same boxes as without it on six, Tiger1 +0.0004 and
-UAV10-group3 (the target leaves the view) 0.118 → 0.183: every leave-one-sequence-out
+UAV10-group3 (the target leaves the view) 0.118 → 0.183 (0.112 → 0.176 over twelve
+seeds: whether the person is found again varies by seed): every leave-one-sequence-out
 fold picks it. Without a frame size (``Params(frame_size=None)``, the API's default) the
 region a lost object may come back in is unknown, and without a correlation filter among
 the cues (``--appearance colour``) there is no response to scan: it stays off.
