@@ -96,6 +96,14 @@ def test_the_rate_reaches_the_model_only_where_the_video_declares_it(tmp_path: P
     assert noise[("--fps", "10")] == pytest.approx(np.sqrt(3.0) * noise[()])
     code, _, err = run_cli(capsys, "track", otb, "--out", tmp_path / "bad", "--fps", "0")
     assert code != 0 and "frame rate" in err
+    # a folder that does not say its rate gets a note naming --fps; not once it is given
+    notes = {}
+    for extra in ((), ("--fps", "10")):
+        code, _, err = run_cli(capsys, "track", otb, "--out", tmp_path / ("note" + "".join(extra)),
+                               "--no-video", "--max-frames", "2", *extra)
+        assert code == 0, err
+        notes[extra] = "does not say its own" in err and "--fps F" in err
+    assert notes == {(): True, ("--fps", "10"): False}
 
 
 def test_redetection_chances_are_per_second():
