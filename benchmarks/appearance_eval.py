@@ -315,10 +315,6 @@ def peer_scores(tasks, skip_start: float = 0.0) -> dict[str, Scores]:
             else run_mil_here(tasks, skip_start))
 
 
-def peer_rows(tasks, skip_start: float = 0.0) -> list[list]:
-    return [s.row(f"OpenCV {n}") for n, s in peer_scores(tasks, skip_start).items()]
-
-
 #: the issue's bar: the default no more than this below the best peer on any sequence
 BAR = 0.05
 
