@@ -321,22 +321,20 @@ BAR = 0.05
 
 def bar_rows(results: dict[str, tuple[Scores, dict[str, Scores]]]) -> list[list]:
     """Per sequence, the default's mean AUC over seeds with its standard error, the best
-    peer's, the margin and whether it is within :data:`BAR`: the margin is
-    ``default − best``, and it passes when the margin is at least ``−BAR``; ``sure`` when
-    that holds (or fails) by more than two standard errors of the default's mean, so a
-    verdict carried by the seeds' luck is marked ``seeds``."""
+    peer's, the margin ``default − best`` and whether it is at least ``−BAR``; a verdict
+    within two standard errors of the default's mean of the bar is marked ``(seeds)``:
+    the seeds' luck carries it."""
     rows = []
     for name, (ours, peers) in results.items():
         auc = np.array(ours.aucs)
         se = float(auc.std(ddof=1) / np.sqrt(auc.size)) if auc.size > 1 else float("nan")
-        best = max(peers, key=lambda k: float(np.mean(peers[k].aucs))) if peers else None
-        b = float(np.mean(peers[best].aucs)) if best else float("nan")
-        margin = float(auc.mean()) - b
-        passes = margin >= -BAR
-        sure = np.isfinite(se) and abs(margin + BAR) > 2 * se
-        rows.append([name, f"{auc.mean():.3f} ± {se:.3f}", f"{best} {b:.3f}" if best else "-",
-                     f"{margin:+.3f}", ("yes" if passes else "no")
-                     + ("" if sure or not np.isfinite(b) else " (seeds)")])
+        means = {k: float(np.mean(v.aucs)) for k, v in peers.items()}
+        best = max(means, key=means.get) if means else None
+        margin = float(auc.mean()) - (means[best] if best else float("nan"))
+        luck = best is not None and not abs(margin + BAR) > 2 * se  # NaN s.e.: luck
+        rows.append([name, f"{auc.mean():.3f} ± {se:.3f}",
+                     f"{best} {means[best]:.3f}" if best else "-", f"{margin:+.3f}",
+                     ("yes" if margin >= -BAR else "no") + (" (seeds)" if luck else "")])
     return rows
 
 

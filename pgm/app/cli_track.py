@@ -267,8 +267,7 @@ def cmd_track(args) -> int:
         source.declare_fps(args.fps)
     elif not source.fps_declared and not args.quiet:
         print(f"pgm: using the model's reference frame rate ({args.source} does not say its "
-              f"own: give --fps F where it differs; UAV10-group3, 10 frames/s, scores 0.116 "
-              f"without --fps 10 and 0.176 with it)", file=sys.stderr)
+              f"own: give --fps F where it differs, docs/usage.md)", file=sys.stderr)
     saved = None
     if args.model is None:
         args.model = args.model_config.name
