@@ -135,6 +135,37 @@ def test_a_1080p_camera_is_estimated_on_a_halved_frame_with_followed_corners(mon
     assert max(errs) < 0.5, errs
 
 
+def test_a_colour_frame_is_shrunk_before_its_grey_is_taken():
+    """The analysed grey image of a colour frame: its first halvings are one bilinear
+    shrink, each pixel the mean of the 2x2 at the centre of its block (at one halving
+    the whole block), then the grey conversion, then halvings of the grey by averaging;
+    within a grey level of taking the grey first and averaging whole blocks."""
+    from pgm.observation.camera_motion import COLOUR_HALVINGS, _grey
+
+    rng = np.random.default_rng(0)
+    img = rng.integers(0, 256, (64, 96, 3), dtype=np.uint8)
+    grey = lambda a: cv2.cvtColor(a, cv2.COLOR_BGR2GRAY)  # noqa: E731
+    f = img.astype(float)
+    half = (f[0::2, 0::2] + f[1::2, 0::2] + f[0::2, 1::2] + f[1::2, 1::2]) / 4
+    assert np.abs(_grey(img, halvings=1).astype(int)
+                  - grey(np.rint(half).astype(np.uint8)).astype(int)).max() <= 1
+    assert COLOUR_HALVINGS == 2
+    centre = (f[1::4, 1::4] + f[2::4, 1::4] + f[1::4, 2::4] + f[2::4, 2::4]) / 4
+    assert np.abs(_grey(img, halvings=2).astype(int)
+                  - grey(np.rint(centre).astype(np.uint8)).astype(int)).max() <= 1
+    g3 = _grey(img, halvings=3)  # the third halving averages the grey
+    g2 = _grey(img, halvings=2).astype(float)
+    assert g3.shape == (8, 12)
+    np.testing.assert_allclose(g3, (g2[0::2, 0::2] + g2[1::2, 0::2] + g2[0::2, 1::2]
+                                    + g2[1::2, 1::2]) / 4, atol=0.5)
+    # a grey frame is averaged whole, as before
+    gimg = grey(img)
+    gf = gimg.astype(float)
+    np.testing.assert_allclose(_grey(gimg, halvings=1), (gf[0::2, 0::2] + gf[1::2, 0::2]
+                                                         + gf[0::2, 1::2] + gf[1::2, 1::2]) / 4,
+                               atol=0.5)
+
+
 def test_the_pyramid_follows_a_pan_stated_in_frame_widths_per_second():
     """The default pyramid's reach, ``win_size // 2 · 2**levels`` analysed pixels, covers
     ``MAX_PAN`` frame widths a second at the video's frame rate: deeper at 10 frames/s
