@@ -91,10 +91,8 @@ def _grey(image: np.ndarray, scale: float = 1.0, halvings: int = 0) -> np.ndarra
     A colour frame's first ``k = min(halvings, COLOUR_HALVINGS)`` halvings are one
     bilinear shrink by ``2^k`` before its grey is taken: each pixel the mean of the 2x2
     at the centre of its ``2^k`` block (at ``k = 1`` the whole block, as a halving), so
-    the colour conversion reads a sixteenth of a 1080p frame's pixels, not every one
-    (the conversion of the whole frame was most of the estimate's time: 1.0 of 1.8 ms a
-    frame on MOT16-11; now 1.2 ms in all, its corners' error against a finer estimate
-    the same, ``python benchmarks/speed.py --sections camera``)."""
+    the colour conversion reads a ``4^k``-th of the frame's pixels, not every one (its
+    cost and accuracy: ``docs/results.md``, issue 39)."""
     if image.ndim == 3 and halvings > 0:
         k = min(halvings, COLOUR_HALVINGS)
         h, w = image.shape[:2]

@@ -142,28 +142,25 @@ def test_a_colour_frame_is_shrunk_before_its_grey_is_taken():
     within a grey level of taking the grey first and averaging whole blocks."""
     from pgm.observation.camera_motion import COLOUR_HALVINGS, _grey
 
+    def mean2x2(a, first=0, step=2):  # the mean of the 2x2 at (first, first) of each block
+        a = a.astype(float)
+        return sum(a[first + i::step, first + j::step] for i in (0, 1) for j in (0, 1)) / 4
+
     rng = np.random.default_rng(0)
     img = rng.integers(0, 256, (64, 96, 3), dtype=np.uint8)
     grey = lambda a: cv2.cvtColor(a, cv2.COLOR_BGR2GRAY)  # noqa: E731
-    f = img.astype(float)
-    half = (f[0::2, 0::2] + f[1::2, 0::2] + f[0::2, 1::2] + f[1::2, 1::2]) / 4
+    as_u8 = lambda a: np.rint(a).astype(np.uint8)  # noqa: E731
     assert np.abs(_grey(img, halvings=1).astype(int)
-                  - grey(np.rint(half).astype(np.uint8)).astype(int)).max() <= 1
+                  - grey(as_u8(mean2x2(img))).astype(int)).max() <= 1
     assert COLOUR_HALVINGS == 2
-    centre = (f[1::4, 1::4] + f[2::4, 1::4] + f[1::4, 2::4] + f[2::4, 2::4]) / 4
     assert np.abs(_grey(img, halvings=2).astype(int)
-                  - grey(np.rint(centre).astype(np.uint8)).astype(int)).max() <= 1
+                  - grey(as_u8(mean2x2(img, 1, 4))).astype(int)).max() <= 1
     g3 = _grey(img, halvings=3)  # the third halving averages the grey
-    g2 = _grey(img, halvings=2).astype(float)
     assert g3.shape == (8, 12)
-    np.testing.assert_allclose(g3, (g2[0::2, 0::2] + g2[1::2, 0::2] + g2[0::2, 1::2]
-                                    + g2[1::2, 1::2]) / 4, atol=0.5)
+    np.testing.assert_allclose(g3, mean2x2(_grey(img, halvings=2)), atol=0.5)
     # a grey frame is averaged whole, as before
     gimg = grey(img)
-    gf = gimg.astype(float)
-    np.testing.assert_allclose(_grey(gimg, halvings=1), (gf[0::2, 0::2] + gf[1::2, 0::2]
-                                                         + gf[0::2, 1::2] + gf[1::2, 1::2]) / 4,
-                               atol=0.5)
+    np.testing.assert_allclose(_grey(gimg, halvings=1), mean2x2(gimg), atol=0.5)
 
 
 def test_the_pyramid_follows_a_pan_stated_in_frame_widths_per_second():
