@@ -250,6 +250,17 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                                                             "tracks": "tracked"},),
                           "noise_per": "detection"})
        for v in (0.6, 0.7, 0.8, 0.9)},
+    # the same over the rebased quantile: the share cut from the detections above the
+    # clutter the video shows (a detector run at a lower threshold adds clutter below its
+    # usual output; the share of that output cut stays what it was)
+    "ocsort-colour+presence-tracked placed-rebased0.8 0.2 s30 birth0.3 tentative-prediction "
+    "recover3 fill0.5 births noise-per-detection": (
+        "ocsort_colour", {**LIFE_S30, "score_map": "placed-rebased", "placed_level": 0.8,
+                          "score_threshold": 0.2,
+                          "rounds": OCSORT_LOW_GATED[:2] + ({**OCSORT_LOW_GATED[2],
+                                                            "update": False,
+                                                            "tracks": "tracked"},),
+                          "noise_per": "detection"}),
     # the same with the process noise the step of a box's irregular displacement per
     # detection, in the video's pixels at any frame rate (a rate's variance unchanged too)
     "ocsort-colour quantile 0.2 s30 birth0.3 tentative-prediction recover3 fill0.5 births "

@@ -51,6 +51,7 @@ from pgm.factors.association import (
     RoundPlan,
 )
 from pgm.factors.multitarget import VBNoise
+from pgm.factors.persistent_quantiles import PLACED_SCORE_MAPS
 
 from .association_terms import (
     AssociationInputs,
@@ -301,14 +302,14 @@ def assign_detections(ctx: RuleContext, factor, frame: FrameContext) -> Associat
         if model is None:
             model = state.score_model = factor.score_model()
     pools: dict[str, Any] = {}
-    if factor.uses_pools or factor.score_map == "placed":
+    placed = factor.score_map in PLACED_SCORE_MAPS
+    if factor.uses_pools or placed:
         # which replicas have an identity, which were matched last frame
         tracks = ctx.replicas.tracks
         pools.update(confirmed=np.array([t.track_id is not None for t in tracks], dtype=bool),
                      tracked=np.array([t.misses == 0 for t in tracks], dtype=bool))
     # "placed" learns from the predicted boxes of the tracks confirmed and matched last frame
-    references = (pred[pools["confirmed"] & pools["tracked"]] if factor.score_map == "placed"
-                  else None)
+    references = pred[pools["confirmed"] & pools["tracked"]] if placed else None
     scores = factor.scores(frame, model, boxes, references)
     fields: dict[str, Any] = {}
     if APPEARANCE in factor.term_fns:

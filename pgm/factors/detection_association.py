@@ -26,7 +26,7 @@ from pgm.core.numerics import check_finite_param
 from pgm.core.resolution import BOX_PIXELS
 from pgm.core.variable import Variable
 from pgm.factors.kinds import LikelihoodFactor
-from pgm.factors.persistent_quantiles import PLACED_LEVEL, PersistentQuantiles
+from pgm.factors.persistent_quantiles import PLACED_LEVEL, PLACED_SCORE_MAPS, PersistentQuantiles
 from pgm.factors.scores import (
     LEARNED_SCORE_MAPS,
     SCORE_MAPS,
@@ -448,7 +448,7 @@ class DetectionAssociation(Factor):
             boxes = (np.zeros((0, 4)) if d is None
                      else xywh_to_cxcywh(np.asarray(d.boxes, dtype=float)))
         s = np.zeros(0) if d is None else d.scores
-        if self.score_map == "placed":
+        if self.score_map in PLACED_SCORE_MAPS:
             return model.update(boxes, s, references)
         return model.update(boxes, s)
 
@@ -456,9 +456,10 @@ class DetectionAssociation(Factor):
         """A new run's score model (the maps of :data:`LEARNED_SCORE_MAPS`), or None."""
         if self.score_map == "learned":
             return PersistenceScoreModel()
-        if self.score_map == "placed":  # lifted to the threshold of the updating rounds
+        if self.score_map in PLACED_SCORE_MAPS:  # lifted to the updating rounds' threshold
             share = max((r["min_score"] for r in self.rounds if r["update"]), default=0.0)
             return PersistentQuantiles(placed=True, level=self.placed_level,
+                                       rebase=self.score_map == "placed-rebased",
                                        share=min(max(share, 0.0), 1.0))  # none: nothing cut
         if self.score_map in ("quantile-gated", "quantile-rebased"):
             return PersistentQuantiles(rebase=self.score_map == "quantile-rebased")

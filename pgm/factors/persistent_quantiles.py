@@ -1,6 +1,6 @@
 """A score's quantile with the clutter the video itself shows cut out
-(:class:`PersistentQuantiles`: the ``"quantile-gated"``, ``"quantile-rebased"`` and
-``"placed"`` score maps)."""
+(:class:`PersistentQuantiles`: the ``"quantile-gated"``, ``"quantile-rebased"``,
+``"placed"`` and ``"placed-rebased"`` score maps)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pgm.core.boxes import iou_matrix
 from pgm.core.numerics import check_finite_param
 from pgm.factors.scores import PersistenceScoreModel
 
-__all__ = ["PLACED_IOU", "PLACED_LEVEL", "PersistentQuantiles"]
+__all__ = ["PLACED_IOU", "PLACED_LEVEL", "PLACED_SCORE_MAPS", "PersistentQuantiles"]
 
 #: where a box is moved to measure the chance level: by this many of its widths (left,
 #: right) and heights (up, down) — past the reach of its own buffered box (1.5 of its
@@ -24,6 +24,8 @@ PLACED_IOU = 0.5
 #: the placement, relative to the best-scored detections', at which ``"placed"`` lifts
 #: the detections below the threshold to it
 PLACED_LEVEL = 0.8
+#: the score maps that learn from the tracks' predicted boxes too (``placed=True``)
+PLACED_SCORE_MAPS = ("placed", "placed-rebased")
 
 
 class PersistentQuantiles:
@@ -89,6 +91,14 @@ class PersistentQuantiles:
     threshold keeps them. Where the low ranks are misplaced (``u_p ≥ share``) this is
     the gated quantile exactly.
 
+    With both (``"placed-rebased"``) the lift works on the rebased quantile: the share
+    ``share`` is cut from the detections above ``u*`` (at ``u = u* + share (1 − u*)``,
+    where ``u_p`` is searched down from), and the detections from ``u_p`` up keep
+    ``max(q, share)``. A detector run at a lower threshold adds clutter below its usual
+    output; the gated quantile then reads the lowest share of the usual output as above
+    the cut (the clutter took the share), the rebased one cuts it as it was. Where the
+    video shows no clutter (``u* = 0``) this is ``"placed"`` exactly.
+
     Online and deterministic; one instance per video.
 
     Parameters
@@ -100,7 +110,8 @@ class PersistentQuantiles:
         Take the quantile among the detections above ``u*`` (False: among all).
     placed : bool
         Lift the detections above ``u_p`` to ``share``, ``u_p`` learned from
-        ``references`` (False: the gated or rebased quantile).
+        ``references`` (False: the gated or rebased quantile); with ``rebase``, over the
+        rebased quantile.
     share : float
         The threshold on ``q`` that ``placed`` lifts detections to.
     level : float
@@ -113,8 +124,6 @@ class PersistentQuantiles:
     def __init__(self, floor: float = 0.5, rebase: bool = False, placed: bool = False,
                  share: float = 0.2, level: float = PLACED_LEVEL, **model_options):
         self.rebase = bool(rebase)
-        if self.rebase and placed:
-            raise ValueError("rebase and placed are two maps: choose one")
         self.chance_found = 0  # moved copies found again, and copies labelled
         self.chance_labelled = 0
         self._previous: np.ndarray | None = None  # the previous frame's centre boxes
@@ -166,21 +175,22 @@ class PersistentQuantiles:
             return 0.0
         return _reaches(np.clip((m.curve - rho) / (top - rho), 0.0, 1.0), self.floor)
 
-    def placed_quantile(self) -> float:
-        """``u_p``: the lowest bin edge from which the labelled detections up to ``share``,
-        as one group, are on their objects at least ``level`` times as often as the
-        placement curve's top (their rate shrunk towards 0 by the model's
-        ``prior_weight`` pseudo-detections, once for the group), and so is every group
-        between it and ``share``; 1 where the bin just below ``share`` is not, before any
-        detection is labelled, or without ``placed``."""
+    def placed_quantile(self, cut: float | None = None) -> float:
+        """``u_p``: the lowest bin edge from which the labelled detections up to ``cut``
+        (the share's quantile, ``share`` by default), as one group, are on their objects
+        at least ``level`` times as often as the placement curve's top (their rate shrunk
+        towards 0 by the model's ``prior_weight`` pseudo-detections, once for the group),
+        and so is every group between it and ``cut``; 1 where the bin just below ``cut``
+        is not, before any detection is labelled, or without ``placed``."""
         p = self.placement
         if p is None or not p.labelled:
             return 1.0
         top = float(p.curve[-1])
-        below = min(int(np.ceil(self.share * p.bins - 1e-9)), p.bins)  # bins under share
+        cut = self.share if cut is None else float(cut)
+        below = min(int(np.ceil(cut * p.bins - 1e-9)), p.bins)  # bins under the cut
         if top <= 0 or below == 0:
             return 1.0
-        # the bins from b up to the share's, as one group, b from the share's down: each
+        # the bins from b up to the cut's, as one group, b from the cut's down: each
         # group placed in turn (a sequential test, every step on its own evidence)
         hits = np.cumsum(p.hits[:below][::-1])
         placed = hits / (np.cumsum(p.counts[:below][::-1]) + p.prior_weight) >= self.level * top
@@ -214,8 +224,13 @@ class PersistentQuantiles:
         if self.placement is not None:
             if references is not None:
                 self._label_placed(b, s, np.asarray(references, dtype=float).reshape(-1, 4))
-            lift = u >= self.placed_quantile()
-            q = np.where(u >= star, np.where(lift, np.maximum(u, self.share), u), 0.0)
+            v, cut = u, self.share
+            if self.rebase:  # the share cut from the detections above u* (u* = 0: as is)
+                v = (np.clip((u - star) / (1.0 - star), 0.0, 1.0) if star < 1.0
+                     else np.zeros(s.size))
+                cut = star + self.share * (1.0 - star)
+            lift = u >= self.placed_quantile(cut)
+            q = np.where(u >= star, np.where(lift, np.maximum(v, self.share), v), 0.0)
         elif not self.rebase:
             q = np.where(u >= star, u, 0.0)
         elif star < 1.0:

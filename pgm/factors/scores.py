@@ -668,21 +668,21 @@ class ScoreQuantiles:
 #: background subtraction's fill fractions — as the ``trackers`` package treats
 #: detections without scores), ``"learned"`` (the probability that the detection is of a
 #: target, learned on the video from which detections are found again and read from the
-#: score's rank: :class:`PersistenceScoreModel`; the same for any
-#: strictly increasing map of the detector's scores, so thresholds are statements about
-#: the detections, not about a number on the detector's scale), ``"quantile"`` (the
-#: score's quantile among the video's scores so far: a threshold is a share of the
-#: detections, :class:`ScoreQuantiles`; also the same for any
-#: strictly increasing map), ``"quantile-gated"`` (that quantile, 0 where the learned
-#: model shows the detections more likely clutter than of a target: a detector run at a
-#: lower threshold adds no detections a threshold lets through), ``"quantile-rebased"``
-#: (the quantile among the detections above that clutter) and ``"placed"`` (above that
+#: score's rank: :class:`PersistenceScoreModel`; the same for any strictly increasing
+#: map of the detector's scores, so thresholds are statements about the detections, not
+#: about a number on the detector's scale), ``"quantile"`` (the score's quantile among
+#: the video's scores so far: a threshold is a share of the detections,
+#: :class:`ScoreQuantiles`; the same for any such map), ``"quantile-gated"`` (that
+#: quantile, 0 where the learned model shows the detections more likely clutter than of a
+#: target: a lower detector threshold adds no detections a threshold lets through),
+#: ``"quantile-rebased"`` (the quantile among the detections above it), ``"placed"`` (above that
 #: clutter, the probability that a detection is on the tracked object it is near, learned
-#: from the tracks), :class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`
+#: from the tracks; ``"placed-rebased"`` over the rebased quantile),
+#: :class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`
 SCORE_MAPS = ("none", "logistic", "constant", "learned", "quantile", "quantile-gated",
-              "quantile-rebased", "placed")
+              "quantile-rebased", "placed", "placed-rebased")
 #: the score maps learned on the video (kept per run by the association rule)
-LEARNED_SCORE_MAPS = ("learned", "quantile", "quantile-gated", "quantile-rebased", "placed")
+LEARNED_SCORE_MAPS = SCORE_MAPS[3:]
 
 
 def map_scores(scores: np.ndarray, score_map: str) -> np.ndarray:
