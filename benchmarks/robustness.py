@@ -278,8 +278,8 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
 }
 #: the candidate the multi-target default (``pgm.models.ocsort_colour.Params()``) is
 #: (``tests/test_benchmarks.py`` holds the two equal)
-DEFAULT = ("ocsort-colour+presence-tracked placed0.8 0.2 s30 birth0.3 tentative-prediction "
-           "recover3 fill0.5 births noise-per-detection")
+DEFAULT = ("ocsort-colour+presence-tracked placed-rebased0.8 0.2 s30 birth0.3 "
+           "tentative-prediction recover3 fill0.5 births noise-per-detection")
 #: what every ``ocsort_colour`` candidate starts from: OC-SORT's core reporting its
 #: filtered boxes with the colour model — not the module's defaults, which are the
 #: choice made here and move with it (a candidate is what its own fields say, whenever

@@ -14,19 +14,20 @@ cores, each one setting:
   detection (``exp(ρ − 1)``, weight 1) to the IoU and OC-SORT's momentum term, so that
   people who cross keep their identities (each detection's histogram read once per frame
   from between 1 024 and 4 096 of its pixels, :mod:`pgm.core.resolution`);
-* ``score_map="placed"``, ``score_threshold=0.2`` — a detection's score is read as its
-  quantile among the video's scores so far, and as 0 where the video shows the
-  detections at that score to be more likely clutter than of a target, by how seldom
-  they are found again in the next frame above the scene's chance level
-  (:class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`): the lowest fifth of
-  the detections, and that clutter, are neither used nor start tracks — unless the
-  tracker's own tracks show that fifth, as a group, on their people (IoU 0.5 with a
-  tracked person's predicted box) at least 0.8 times as often as the best-scored
-  detections are, and then it is used as the rest. That is a statement about the
-  detections, so any strictly increasing map of the scores (a probability, a logit, a
-  margin) gives the same tracks; a detector run at a lower threshold, whose added
-  clutter fills the lowest fifth and more, does not let the rest of it through (the
-  plain quantile, ``"quantile"``, did); and one run at a higher threshold, whose lowest
+* ``score_map="placed-rebased"``, ``score_threshold=0.2`` — a detection's score is read
+  as 0 where the video shows the detections at that score to be more likely clutter
+  than of a target, by how seldom they are found again in the next frame above the
+  scene's chance level, and above that clutter as its quantile among the video's scores
+  above it (:class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`): that
+  clutter, and the lowest fifth of the rest, are neither used nor start tracks —
+  unless the tracker's own tracks show that fifth, as a group, on their people (IoU 0.5
+  with a tracked person's predicted box) at least 0.8 times as often as the
+  best-scored detections are, and then it is used as the rest. That is a statement
+  about the detections, so any strictly increasing map of the scores (a probability, a
+  logit, a margin) gives the same tracks; a detector run at a lower threshold, whose
+  added clutter lies below its usual output, has the same fifth of that output cut as
+  before (the gated quantile, ``"placed"``, read the clutter as the fifth and let the
+  lowest of the usual output through); and one run at a higher threshold, whose lowest
   fifth is people, keeps them (on the shared detectors the lowest fifth is mostly boxes
   beside a person — a part, a box too large, one off by half a width — and stays cut:
   ``python benchmarks/detection_errors.py``);
@@ -103,7 +104,7 @@ frames (for the colour models) and, where the camera moves, compensates its moti
 >>> build_graph(Params(fps=7.0)).plates[0].lifecycle.confirm_hits
 1
 >>> g.factors["association"].score_map, [r["min_score"] for r in g.factors["association"].rounds]
-('placed', [0.2, 0.2, 1e-09])
+('placed-rebased', [0.2, 0.2, 1e-09])
 >>> [(r["max_score"], r["tracks"], r["update"]) for r in g.factors["association"].rounds][2]
 (0.2, 'tracked', False)
 >>> import numpy as np  # at a third of 30 frames/s: the rates' variance times 9, not 27
@@ -127,7 +128,7 @@ __all__ = ["ABOVE_GATE", "CONFIG", "Params", "build_graph", "rounds"]
 
 #: the least mapped score of a detection the presence round takes: above the gated
 #: quantile's 0 (a detection the video shows more likely clutter), below any quantile a
-#: detection kept has (``u >= u* > 0``, a mid-rank)
+#: detection kept has (above ``u*``)
 ABOVE_GATE = 1e-9
 
 
@@ -144,8 +145,8 @@ def rounds(threshold: float = 0.6) -> tuple[dict, ...]:
 @dataclass(frozen=True)
 class Params(ocsort.Params):
     """:class:`pgm.models.ocsort.Params` reporting the filtered boxes, with colour
-    appearance in the association, score quantiles gated by the detections found again
-    (the lowest fifth cut unless the tracks show it on its people), the detections
+    appearance in the association, score quantiles above the clutter the detections found
+    again show (the lowest fifth cut unless the tracks show it on its people), the detections
     below the threshold keeping a track without updating it (the presence
     round of :func:`rounds`), SORT's confirmation count, its per-frame
     constants read at 30 frames/s, a track found again reported after three matches in
@@ -156,7 +157,7 @@ class Params(ocsort.Params):
     report: str = "estimate"
     appearance: str | None = "colour"
     appearance_weight: float = 1.0
-    score_map: str = "placed"
+    score_map: str = "placed-rebased"
     score_threshold: float | None = 0.2
     rounds: tuple[dict, ...] = field(default_factory=rounds)
     recover_hits: int = 3

@@ -63,8 +63,8 @@ def test_the_cores_with_learned_scores_give_the_same_tracks_under_any_score_map(
         shared_data, name):
     """``sort``, ``bytetrack``, ``ocsort``, ``botsort`` and ``ocsort-colour``'s core (colour
     aside), each with the learned score map, and ``ocsort`` with the quantile map, plain,
-    gated and rebased by the detections found again, and placed by its own tracks, on the
-    whole sequence."""
+    gated and rebased by the detections found again, and placed by its own tracks (over the
+    gated and the rebased quantile), on the whole sequence."""
     from pgm.models import botsort, bytetrack, ocsort, ocsort_colour, sort
 
     det, src = _detections(shared_data, name)
@@ -74,7 +74,8 @@ def test_the_cores_with_learned_scores_give_the_same_tracks_under_any_score_map(
              ("ocsort quantile", ocsort, {"score_map": "quantile"}),
              ("ocsort quantile-gated", ocsort, {"score_map": "quantile-gated"}),
              ("ocsort quantile-rebased", ocsort, {"score_map": "quantile-rebased"}),
-             ("ocsort placed", ocsort, {"score_map": "placed"})]
+             ("ocsort placed", ocsort, {"score_map": "placed"}),
+             ("ocsort placed-rebased", ocsort, {"score_map": "placed-rebased"})]
     for label, module, extra in cores:
         p = replace(module.Params(), fps=float(src.fps), **{"score_map": "learned", **extra})
         graph = module.build_graph(p)
@@ -107,7 +108,7 @@ def test_the_default_gives_the_same_tracks_under_any_score_map(shared_data, name
             reads = [f.score_map for f in graph.factors.values() if hasattr(f, "score_map")] + [
                 f.scores.model for f in graph.factors.values()
                 if hasattr(f, "scores") and hasattr(f.scores, "model")]
-            assert reads in (["placed"], ["learned"]), reads
+            assert reads in (["placed-rebased"], ["learned"]), reads
             result = track_multi(open_source(shared_data / name), graph, d, rng=0,
                                  write_video=False, progress=False, max_frames=60)
             table = result.table
