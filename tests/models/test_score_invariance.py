@@ -61,16 +61,18 @@ def _same(a, b, what):
 @pytest.mark.parametrize("name", SEQUENCES)
 def test_the_cores_with_learned_scores_give_the_same_tracks_under_any_score_map(
         shared_data, name):
-    """``sort``, ``bytetrack``, ``ocsort``, ``botsort`` and ``ocsort-colour``'s core (colour
-    aside), each with the learned score map, and ``ocsort`` with the quantile map, plain,
+    """``sort``, ``bytetrack``, ``ocsort``, ``botsort``, ``cbiou``, ``vb-sort`` and
+    ``ocsort-colour``'s core (colour aside), each with the learned score map, and ``ocsort``
+    with the quantile map, plain,
     gated and rebased by the detections found again, and placed by its own tracks (over the
     gated and the rebased quantile), on the whole sequence."""
-    from pgm.models import botsort, bytetrack, ocsort, ocsort_colour, sort
+    from pgm.models import botsort, bytetrack, cbiou, ocsort, ocsort_colour, sort, vb_sort
 
     det, src = _detections(shared_data, name)
     n = len(src)
     cores = [("sort", sort, {}), ("bytetrack", bytetrack, {}), ("ocsort", ocsort, {}),
-             ("botsort", botsort, {}), ("ocsort-colour", ocsort_colour, {"appearance": None}),
+             ("botsort", botsort, {}), ("cbiou", cbiou, {}), ("vb-sort", vb_sort, {}),
+             ("ocsort-colour", ocsort_colour, {"appearance": None}),
              ("ocsort quantile", ocsort, {"score_map": "quantile"}),
              ("ocsort quantile-gated", ocsort, {"score_map": "quantile-gated"}),
              ("ocsort quantile-rebased", ocsort, {"score_map": "quantile-rebased"}),
@@ -89,15 +91,15 @@ def test_the_cores_with_learned_scores_give_the_same_tracks_under_any_score_map(
 def test_the_default_gives_the_same_tracks_under_any_score_map(shared_data, name):
     """The multi-target default as ``pgm track`` builds and runs it for the sequence
     (:func:`pgm.app.runner.track_multi`: the frames decoded for its colour models, the
-    camera's motion estimated), on its first 60 frames; and the PHD filter with the
-    learned score model."""
+    camera's motion estimated), on its first 60 frames; and the PHD and VB-PHD filters with
+    the learned score model."""
     from pgm.app.runner import track_multi
     from pgm.io.video import open_source
     from pgm.models import DEFAULT_MULTI_TARGET, get_config
     from pgm.models.config import VideoInfo
 
     det, src = _detections(shared_data, name)
-    for model in (DEFAULT_MULTI_TARGET, "phd"):
+    for model in (DEFAULT_MULTI_TARGET, "phd", "vb-phd"):
         config = get_config(model)
         ref = None
         for kind in ("none",) + SCORE_KINDS:
