@@ -163,7 +163,7 @@ class Params:
         strictly increasing map of the scores, and every threshold below is then in
         their units.
     placed_level : float
-        With ``score_map="placed"``, the placement relative to the best-scored
+        With ``score_map="placed"`` or ``"placed-rebased"``, the placement relative to the best-scored
         detections' at which a detection below the threshold is lifted to it
         (:data:`~pgm.factors.persistent_quantiles.PLACED_LEVEL`,
         :class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`).
@@ -560,11 +560,12 @@ OPTIONS = (
                         "quantile-gated (that quantile, 0 where the video shows detections "
                         "more likely clutter than not: a detector run at a lower threshold) "
                         "quantile-rebased (the quantile among the detections above that "
-                        "clutter) or placed (the gated quantile, the detections below the "
+                        "clutter), placed (the gated quantile, the detections below the "
                         "threshold kept where the tracks show them on their people as "
                         "often as the best-scored ones: a detector run at a higher "
-                        "threshold); all but detector give the same tracks for any increasing "
-                        "map of the scores. Default: the model's"),
+                        "threshold) or placed-rebased (the same over the rebased quantile: "
+                        "either threshold); all but detector give the same tracks for any "
+                        "increasing map of the scores. Default: the model's"),
     _config.Option("--reference-fps", "reference_fps",
                    type=_config.finite_float("--reference-fps"), metavar="FPS",
                    help="read the per-frame constants (confirmation, OC-SORT's momentum "
