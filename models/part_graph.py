@@ -120,7 +120,7 @@ class RedetectionAndAngle:
         default) asks nothing of its response, None asks it to reach the filter's
         learning gate. Chosen on the eight single-object sequences (six seeds,
         ``docs/results.md``): a person blurred by a drone's pan still stands out of the
-        map (7 standard deviations and more) at under half the filter's typical peak, and
+        map (6 to 8.5 standard deviations) at under half the filter's typical peak, and
         a rate of 1e-3 with no response test took a man's shirt for his face (David).
     reappear_prob : float
         See :class:`~pgm.factors.AR2Transition` (used with ``redetect`` only): a

@@ -48,8 +48,8 @@ is below one half, a
 the particles near the peaks of the filter's response over ten object sizes around the
 last estimate (its long-term memory) that stand out of the response's own noise (a
 false-alarm rate of 1e-7 per frame; their response need not reach the filter's
-learning gate: a person blurred by a drone's pan stands out at seven standard
-deviations and more with under half the filter's typical peak), and the transition's
+learning gate: a person blurred by a drone's pan stands out at 6 to 8.5 standard
+deviations with under half the filter's typical peak), and the transition's
 density gives a re-appearance anywhere in the frame probability ``reappear_prob`` per
 frame, so the weights stay those of the model. It finds a target that jumped across the
 frame while hidden (``tests/pgm/observation/test_redetection.py``). It was first chosen
