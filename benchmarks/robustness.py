@@ -240,27 +240,19 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                           for g in (0.3, 0.7)))},
     # the default with the share cut relaxed where its own tracks show the detections
     # below it placed as well as the best-scored ones (at least `level` of their rate of
-    # IoU >= 0.5 with a tracked person's predicted box): lifted to the threshold
-    **{f"ocsort-colour+presence-tracked placed{v:g} 0.2 s30 birth0.3 tentative-prediction "
+    # IoU >= 0.5 with a tracked person's predicted box): lifted to the threshold; and the
+    # same over the rebased quantile ("placed-rebased": the share cut from the detections
+    # above the clutter the video shows, so a detector run at a lower threshold, which
+    # adds clutter below its usual output, has the same share of that output cut)
+    **{f"ocsort-colour+presence-tracked {m}{v:g} 0.2 s30 birth0.3 tentative-prediction "
        f"recover3 fill0.5 births noise-per-detection": (
-        "ocsort_colour", {**LIFE_S30, "score_map": "placed", "placed_level": v,
+        "ocsort_colour", {**LIFE_S30, "score_map": m, "placed_level": v,
                           "score_threshold": 0.2,
                           "rounds": OCSORT_LOW_GATED[:2] + ({**OCSORT_LOW_GATED[2],
                                                             "update": False,
                                                             "tracks": "tracked"},),
                           "noise_per": "detection"})
-       for v in (0.6, 0.7, 0.8, 0.9)},
-    # the same over the rebased quantile: the share cut from the detections above the
-    # clutter the video shows (a detector run at a lower threshold adds clutter below its
-    # usual output; the share of that output cut stays what it was)
-    "ocsort-colour+presence-tracked placed-rebased0.8 0.2 s30 birth0.3 tentative-prediction "
-    "recover3 fill0.5 births noise-per-detection": (
-        "ocsort_colour", {**LIFE_S30, "score_map": "placed-rebased", "placed_level": 0.8,
-                          "score_threshold": 0.2,
-                          "rounds": OCSORT_LOW_GATED[:2] + ({**OCSORT_LOW_GATED[2],
-                                                            "update": False,
-                                                            "tracks": "tracked"},),
-                          "noise_per": "detection"}),
+       for m, v in [("placed", v) for v in (0.6, 0.7, 0.8, 0.9)] + [("placed-rebased", 0.8)]},
     # the same with the process noise the step of a box's irregular displacement per
     # detection, in the video's pixels at any frame rate (a rate's variance unchanged too)
     "ocsort-colour quantile 0.2 s30 birth0.3 tentative-prediction recover3 fill0.5 births "

@@ -221,23 +221,23 @@ class PersistentQuantiles:
         self._label_chance(b)
         u = self.model.seen.mid_ranks(np.where(np.isfinite(s), s, -np.inf))
         star = self.threshold_quantile()
-        if self.placement is not None:
+        v = _rebased(u, star) if self.rebase else u  # rebased: 0 below u* already
+        if self.placement is None:
+            q = v if self.rebase else np.where(u >= star, u, 0.0)
+        else:
             if references is not None:
                 self._label_placed(b, s, np.asarray(references, dtype=float).reshape(-1, 4))
-            v, cut = u, self.share
-            if self.rebase:  # the share cut from the detections above u* (u* = 0: as is)
-                v = (np.clip((u - star) / (1.0 - star), 0.0, 1.0) if star < 1.0
-                     else np.zeros(s.size))
-                cut = star + self.share * (1.0 - star)
+            # the share cut from the detections above u* when rebased (u* = 0: as is)
+            cut = star + self.share * (1.0 - star) if self.rebase else self.share
             lift = u >= self.placed_quantile(cut)
             q = np.where(u >= star, np.where(lift, np.maximum(v, self.share), v), 0.0)
-        elif not self.rebase:
-            q = np.where(u >= star, u, 0.0)
-        elif star < 1.0:
-            q = np.clip((u - star) / (1.0 - star), 0.0, 1.0)
-        else:
-            q = np.zeros(s.size)
         return np.where(np.isfinite(s), q, 0.0)
+
+
+def _rebased(u: np.ndarray, star: float) -> np.ndarray:
+    """Quantiles ``u`` as quantiles among the detections above ``u*``: ``(u − u*) / (1 −
+    u*)`` clipped to [0, 1] (0 below ``u*``; 0 everywhere when ``u*`` is 1)."""
+    return np.clip((u - star) / (1.0 - star), 0.0, 1.0) if star < 1.0 else np.zeros(u.size)
 
 
 def _reaches(ratio: np.ndarray, level: float) -> float:

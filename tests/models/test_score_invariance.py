@@ -63,9 +63,9 @@ def test_the_cores_with_learned_scores_give_the_same_tracks_under_any_score_map(
         shared_data, name):
     """``sort``, ``bytetrack``, ``ocsort``, ``botsort``, ``cbiou``, ``vb-sort`` and
     ``ocsort-colour``'s core (colour aside), each with the learned score map, and ``ocsort``
-    with the quantile map, plain,
-    gated and rebased by the detections found again, and placed by its own tracks (over the
-    gated and the rebased quantile), on the whole sequence."""
+    with the quantile map, plain, gated and rebased by the detections found again, and
+    placed by its own tracks (over the gated and the rebased quantile), on the whole
+    sequence."""
     from pgm.models import botsort, bytetrack, cbiou, ocsort, ocsort_colour, sort, vb_sort
 
     det, src = _detections(shared_data, name)
