@@ -163,8 +163,9 @@ class Params:
         strictly increasing map of the scores, and every threshold below is then in
         their units.
     placed_level : float
-        With ``score_map="placed"`` or ``"placed-rebased"``, the placement relative to the best-scored
-        detections' at which a detection below the threshold is lifted to it
+        With ``score_map="placed"``, ``"placed-rebased"`` or ``"placed-over"``, the
+        placement relative to the best-scored detections' at which a detection below the
+        threshold is lifted to it
         (:data:`~pgm.factors.persistent_quantiles.PLACED_LEVEL`,
         :class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`).
     score_threshold : float, optional
@@ -563,8 +564,10 @@ OPTIONS = (
                         "clutter), placed (the gated quantile, the detections below the "
                         "threshold kept where the tracks show them on their people as "
                         "often as the best-scored ones: a detector run at a higher "
-                        "threshold) or placed-rebased (the same over the rebased quantile: "
-                        "either threshold); all but detector give the same tracks for any "
+                        "threshold), placed-rebased (the same over the rebased quantile: "
+                        "either threshold) or placed-over (that, and the boxes on a tracked "
+                        "person kept where the video reads their score as clutter: a "
+                        "crowd); all but detector give the same tracks for any "
                         "increasing map of the scores. Default: the model's"),
     _config.Option("--reference-fps", "reference_fps",
                    type=_config.finite_float("--reference-fps"), metavar="FPS",

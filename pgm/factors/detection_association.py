@@ -459,7 +459,8 @@ class DetectionAssociation(Factor):
         if self.score_map in PLACED_SCORE_MAPS:  # lifted to the updating rounds' threshold
             share = max((r["min_score"] for r in self.rounds if r["update"]), default=0.0)
             return PersistentQuantiles(placed=True, level=self.placed_level,
-                                       rebase=self.score_map == "placed-rebased",
+                                       rebase=self.score_map != "placed",
+                                       over_clutter=self.score_map == "placed-over",
                                        share=min(max(share, 0.0), 1.0))  # none: nothing cut
         if self.score_map in ("quantile-gated", "quantile-rebased"):
             return PersistentQuantiles(rebase=self.score_map == "quantile-rebased")

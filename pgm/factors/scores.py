@@ -677,10 +677,10 @@ class ScoreQuantiles:
 #: target: a lower detector threshold adds no detections a threshold lets through),
 #: ``"quantile-rebased"`` (the quantile among the detections above it), ``"placed"`` (above that
 #: clutter, the probability that a detection is on the tracked object it is near, learned
-#: from the tracks; ``"placed-rebased"`` over the rebased quantile),
-#: :class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`
+#: from the tracks; ``"placed-rebased"`` over the rebased quantile; ``"placed-over"`` lifted
+#: below that clutter too), :class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`
 SCORE_MAPS = ("none", "logistic", "constant", "learned", "quantile", "quantile-gated",
-              "quantile-rebased", "placed", "placed-rebased")
+              "quantile-rebased", "placed", "placed-rebased", "placed-over")
 #: the score maps learned on the video (kept per run by the association rule)
 LEARNED_SCORE_MAPS = SCORE_MAPS[3:]
 

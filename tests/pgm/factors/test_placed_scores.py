@@ -213,3 +213,49 @@ def test_placed_rebased_is_placed_where_the_video_shows_no_clutter():
             q, r = placed.update(boxes, scores, truth), rebased.update(boxes, scores, truth)
             assert rebased.threshold_quantile() == 0.0
             np.testing.assert_array_equal(r, q)
+
+
+def test_placed_over_lifts_the_boxes_on_a_track_that_the_clutter_gate_cuts():
+    """``"placed-over"``: with the clutter gate held at ``u* = 0.3`` (a stand-in for the
+    crowd's bias: people alone, every box on a person, none clutter) and the placement
+    showing every score placed (``u_p = 0``), a box below ``u*`` on a reference box is
+    kept at the threshold (``q = 0.2``) where ``"placed-rebased"`` reads it as 0; a box
+    below ``u*`` on no reference box (clutter far from everyone) stays 0; above ``u*``
+    the two maps are equal, exactly."""
+    from pgm.factors.persistent_quantiles import PersistentQuantiles
+
+    class Held(PersistentQuantiles):
+        def threshold_quantile(self) -> float:
+            return 0.3
+
+    scene = with_clutter(placed_scene(np.random.default_rng(37), frames=150),
+                         np.random.default_rng(38), per_frame=2)
+    over = Held(placed=True, rebase=True, share=0.2, over_clutter=True)
+    rebased = Held(placed=True, rebase=True, share=0.2)
+    below_on, below_off = [], []
+    for t, (boxes, scores, truth, _, clutter) in enumerate(scene):
+        q, r = over.update(boxes, scores, truth), rebased.update(boxes, scores, truth)
+        u = over.model.seen.mid_ranks(scores)
+        np.testing.assert_array_equal(q[u >= 0.3], r[u >= 0.3])
+        assert np.all(r[u < 0.3] == 0.0) and np.all(q[clutter] == 0.0)
+        if t >= 50:
+            below_on.append(q[(u < 0.3) & ~clutter])
+            below_off.append(q[(u < 0.3) & clutter])
+    assert over.placed_quantile(0.3 + 0.2 * 0.7) == 0.0
+    on, off = np.concatenate(below_on), np.concatenate(below_off)
+    assert on.size > 100 and np.all(on == 0.2)
+    assert off.size > 100 and np.all(off == 0.0)
+
+
+def test_placed_over_is_checked_and_made_by_the_factor():
+    from pgm.factors.detection_association import DetectionAssociation
+    from pgm.factors.persistent_quantiles import PersistentQuantiles
+
+    with pytest.raises(ValueError, match="over_clutter needs placed"):
+        PersistentQuantiles(over_clutter=True)
+    m = DetectionAssociation("box", score_map="placed-over",
+                             rounds=[{"iou": 0.3, "min_score": 0.2}]).score_model()
+    assert m.over_clutter and m.rebase and m.placement is not None and m.share == 0.2
+    m = DetectionAssociation("box", score_map="placed-rebased",
+                             rounds=[{"iou": 0.3, "min_score": 0.2}]).score_model()
+    assert not m.over_clutter and m.rebase
