@@ -252,7 +252,8 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                                                             "update": False,
                                                             "tracks": "tracked"},),
                           "noise_per": "detection"})
-       for m, v in [("placed", v) for v in (0.6, 0.7, 0.8, 0.9)] + [("placed-rebased", 0.8)]},
+       for m, v in [("placed", v) for v in (0.6, 0.7, 0.8, 0.9)] + [("placed-rebased", 0.8),
+                                                                    ("placed-over", 0.8)]},
     # the same with the process noise the step of a box's irregular displacement per
     # detection, in the video's pixels at any frame rate (a rate's variance unchanged too)
     "ocsort-colour quantile 0.2 s30 birth0.3 tentative-prediction recover3 fill0.5 births "
@@ -270,7 +271,7 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
 }
 #: the candidate the multi-target default (``pgm.models.ocsort_colour.Params()``) is
 #: (``tests/test_benchmarks.py`` holds the two equal)
-DEFAULT = ("ocsort-colour+presence-tracked placed-rebased0.8 0.2 s30 birth0.3 "
+DEFAULT = ("ocsort-colour+presence-tracked placed-over0.8 0.2 s30 birth0.3 "
            "tentative-prediction recover3 fill0.5 births noise-per-detection")
 #: what every ``ocsort_colour`` candidate starts from: OC-SORT's core reporting its
 #: filtered boxes with the colour model — not the module's defaults, which are the

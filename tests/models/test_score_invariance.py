@@ -77,7 +77,8 @@ def test_the_cores_with_learned_scores_give_the_same_tracks_under_any_score_map(
              ("ocsort quantile-gated", ocsort, {"score_map": "quantile-gated"}),
              ("ocsort quantile-rebased", ocsort, {"score_map": "quantile-rebased"}),
              ("ocsort placed", ocsort, {"score_map": "placed"}),
-             ("ocsort placed-rebased", ocsort, {"score_map": "placed-rebased"})]
+             ("ocsort placed-rebased", ocsort, {"score_map": "placed-rebased"}),
+             ("ocsort placed-over", ocsort, {"score_map": "placed-over"})]
     for label, module, extra in cores:
         p = replace(module.Params(), fps=float(src.fps), **{"score_map": "learned", **extra})
         graph = module.build_graph(p)
@@ -110,7 +111,7 @@ def test_the_default_gives_the_same_tracks_under_any_score_map(shared_data, name
             reads = [f.score_map for f in graph.factors.values() if hasattr(f, "score_map")] + [
                 f.scores.model for f in graph.factors.values()
                 if hasattr(f, "scores") and hasattr(f.scores, "model")]
-            assert reads in (["placed-rebased"], ["learned"]), reads
+            assert reads in (["placed-over"], ["learned"]), reads
             result = track_multi(open_source(shared_data / name), graph, d, rng=0,
                                  write_video=False, progress=False, max_frames=60)
             table = result.table

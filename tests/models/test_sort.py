@@ -449,7 +449,7 @@ def test_the_score_map_follows_what_is_known_of_the_detector():
         # the default reads quantiles of the video's own scores, whatever their range...
         g = ocsort_colour.CONFIG.graph_for({}, VideoInfo(fps=25.0, score_range=score_range))
         assert g.factors["association"].score_map == (
-            "constant" if score_range is None else "placed-rebased")
+            "constant" if score_range is None else "placed-over")
         # ... and with --scores detector the detector's numbers at OC-SORT's own split,
         # the default's presence round below it
         g = ocsort_colour.CONFIG.graph_for({"scores": "detector"},

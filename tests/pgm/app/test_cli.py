@@ -411,7 +411,7 @@ def test_filled_gaps_reach_the_track_file_and_the_metrics(mot_dir, tmp_path, cap
 def test_the_sort_familys_scores_flag_reaches_the_saved_association(mot_dir, tmp_path,
                                                                      capsys):
     """``--scores`` for the multi-target default: each learned map is what the saved
-    association reads (the default's own, ``placed-rebased``, without the flag), and an
+    association reads (the default's own, ``placed-over``, without the flag), and an
     unknown map is a one-line error."""
     def score_map(out):
         model = json.loads((out / "model.json").read_text())
@@ -421,13 +421,13 @@ def test_the_sort_familys_scores_flag_reaches_the_saved_association(mot_dir, tmp
                     if f["type"] == "DetectionAssociation")
 
     for choice in (None, "quantile", "quantile-gated", "quantile-rebased", "placed",
-                   "learned"):
+                   "placed-rebased", "learned"):
         out = tmp_path / str(choice)
         flag = [] if choice is None else ["--scores", choice]
         code, _, err = run_cli(capsys, "track", mot_dir, "--out", out, "--quiet",
                                "--no-video", *flag)
         assert code == 0, err
-        assert score_map(out) == (choice or "placed-rebased")
+        assert score_map(out) == (choice or "placed-over")
     with pytest.raises(SystemExit) as exc:
         main(["track", str(mot_dir), "--out", str(tmp_path / "x"), "--scores", "quantiles"])
     assert exc.value.code == 2
