@@ -90,7 +90,8 @@ and at a higher threshold), among the candidates of every core (``python
 benchmarks/robustness.py``; numbers in ``docs/results.md``): the best mean over all six,
 0.6507 of (MOTA + IDF1 + HOTA) / 3 over the 84 cells, against 0.6505 for
 ``"placed-rebased"`` (the default before, itself the best of the 53 candidates before
-it) and 0.6443 for ``"placed"``; every fold picks it. Held out, it is below the best of
+it) and 0.6443 for ``"placed"``; every fold picks it by that mean (by the worst margin
+to the peers the TUD-Stadtmitte fold ties). Held out, it is below the best of
 the six peers in one cell of 84 (TUD-Stadtmitte with the detector at a higher
 threshold: IDF1 −0.020, HOTA −0.014). It needs the
 frames (for the colour models) and, where the camera moves, compensates its motion as
