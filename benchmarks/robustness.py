@@ -243,7 +243,9 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
     # IoU >= 0.5 with a tracked person's predicted box): lifted to the threshold; and the
     # same over the rebased quantile ("placed-rebased": the share cut from the detections
     # above the clutter the video shows, so a detector run at a lower threshold, which
-    # adds clutter below its usual output, has the same share of that output cut)
+    # adds clutter below its usual output, has the same share of that output cut); and
+    # that with the lifted boxes on a tracked person's predicted box lifted below the
+    # clutter too ("placed-over": in a crowd the found-again rate reads them as clutter)
     **{f"ocsort-colour+presence-tracked {m}{v:g} 0.2 s30 birth0.3 tentative-prediction "
        f"recover3 fill0.5 births noise-per-detection": (
         "ocsort_colour", {**LIFE_S30, "score_map": m, "placed_level": v,

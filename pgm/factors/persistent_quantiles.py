@@ -233,13 +233,14 @@ class PersistentQuantiles:
             on = iou_matrix(boxes[ok][near], references).max(axis=1) >= PLACED_IOU
             self.placement.add_labels(scores[ok][near], on)
 
-    def _on_track(self, boxes: np.ndarray, references: np.ndarray | None) -> np.ndarray | bool:
-        """``over_clutter``: which detections (centre boxes) lie on a reference box (IoU at
-        least :data:`PLACED_IOU`); False without it or without references."""
-        if not self.over_clutter or references is None or not boxes.shape[0]:
-            return False
-        ref = np.asarray(references, dtype=float).reshape(-1, 4)
-        return iou_matrix(boxes, ref).max(axis=1) >= PLACED_IOU if ref.shape[0] else False
+    def _on_reference(self, boxes: np.ndarray, references: np.ndarray | None,
+                      among: np.ndarray) -> np.ndarray:
+        """Which detections (centre boxes) ``among`` (a mask) lie on a reference box (IoU
+        at least :data:`PLACED_IOU`); the others False."""
+        on = np.zeros(boxes.shape[0], dtype=bool)
+        if references is not None and references.shape[0] and among.any():
+            on[among] = iou_matrix(boxes[among], references).max(axis=1) >= PLACED_IOU
+        return on
 
     def update(self, boxes: np.ndarray, scores: np.ndarray,
                references: np.ndarray | None = None) -> np.ndarray:
@@ -257,12 +258,20 @@ class PersistentQuantiles:
         if self.placement is None:
             q = v if self.rebase else np.where(u >= star, u, 0.0)
         else:
-            if references is not None:
-                self._label_placed(b, s, np.asarray(references, dtype=float).reshape(-1, 4))
+            ref = (None if references is None
+                   else np.asarray(references, dtype=float).reshape(-1, 4))
+            if ref is not None:
+                self._label_placed(b, s, ref)
             # the share cut from the detections above u* when rebased (u* = 0: as is)
             cut = star + self.share * (1.0 - star) if self.rebase else self.share
-            lift = (u >= self.placed_quantile(cut)) & ((u >= star) | self._on_track(b, references))
-            q = np.where(lift, np.maximum(v, self.share), np.where(u >= star, v, 0.0))
+            lift = u >= self.placed_quantile(cut)
+            above = u >= star
+            # over_clutter: below u*, the lifted ones on a reference box are lifted too
+            if self.over_clutter:
+                lift &= above | self._on_reference(b, ref, lift & ~above)
+            else:
+                lift &= above
+            q = np.where(lift, np.maximum(v, self.share), np.where(above, v, 0.0))
         return np.where(np.isfinite(s), q, 0.0)
 
 
