@@ -256,6 +256,18 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
                           "noise_per": "detection"})
        for m, v in [("placed", v) for v in (0.6, 0.7, 0.8, 0.9)] + [("placed-rebased", 0.8),
                                                                     ("placed-over", 0.8)]},
+    # the same with the clutter gate cutting only what the found-again rates show with a
+    # stated confidence (a one-sided test: PersistentQuantiles(confidence=c)); not kept:
+    # held out it lowers the mean (docs/results.md, "The clutter gate as a test")
+    **{f"ocsort-colour+presence-tracked {m}0.8 conf{c:g} 0.2 s30 birth0.3 tentative-prediction "
+       f"recover3 fill0.5 births noise-per-detection": (
+        "ocsort_colour", {**LIFE_S30, "score_map": m, "gate_confidence": c,
+                          "score_threshold": 0.2,
+                          "rounds": OCSORT_LOW_GATED[:2] + ({**OCSORT_LOW_GATED[2],
+                                                            "update": False,
+                                                            "tracks": "tracked"},),
+                          "noise_per": "detection"})
+       for m in ("placed-over",) for c in (0.75, 0.84, 0.9, 0.95)},
     # the same with the process noise the step of a box's irregular displacement per
     # detection, in the video's pixels at any frame rate (a rate's variance unchanged too)
     "ocsort-colour quantile 0.2 s30 birth0.3 tentative-prediction recover3 fill0.5 births "

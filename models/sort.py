@@ -168,6 +168,9 @@ class Params:
         threshold is lifted to it
         (:data:`~pgm.factors.persistent_quantiles.PLACED_LEVEL`,
         :class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`).
+    gate_confidence : float, optional
+        With a gated score map, the confidence with which the video must show detections
+        to be clutter before they are cut (None: the point estimate alone).
     score_threshold : float, optional
         Set every score threshold — the rounds' split between confident and other
         detections and ``activation`` — to this value (:func:`with_score_threshold`;
@@ -282,6 +285,7 @@ class Params:
     activation: float = 0.25
     score_map: str = "none"
     placed_level: float = PLACED_LEVEL
+    gate_confidence: float | None = None
     score_threshold: float | None = None
     recover_hits: int = 1
     keep_tentative: bool = False
@@ -478,8 +482,8 @@ def _association(p: Params) -> DetectionAssociation:
     return DetectionAssociation(
         "box", rounds=[dict(r, appearance=True) if p.appearance and r.get(
             "against", "prediction") == "prediction" else r for r in p.rounds],
-        score_map=p.score_map, placed_level=p.placed_level, direction_weight=p.direction_weight,
-        delta_t=int(p.delta_t),
+        score_map=p.score_map, placed_level=p.placed_level, gate_confidence=p.gate_confidence,
+        direction_weight=p.direction_weight, delta_t=int(p.delta_t),
         appearance=appearance_factors(p.appearance), appearance_weight=p.appearance_weight,
         name="association")
 

@@ -201,6 +201,11 @@ class DetectionAssociation(Factor):
         With ``"placed"``: the placement, relative to the best-scored detections', at
         which the detections below the threshold are lifted to it
         (:class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`, 0.8).
+    gate_confidence : float or None
+        With a gated map (``"quantile-gated"``, ``"quantile-rebased"``, ``"placed-rebased"``,
+        ``"placed-over"``): cut as clutter only what the video shows to be clutter with
+        this confidence (a one-sided test on the found-again rates); None: the point
+        estimate alone (:class:`~pgm.factors.persistent_quantiles.PersistentQuantiles`).
     """
 
     kind = "association"
@@ -214,7 +219,7 @@ class DetectionAssociation(Factor):
                  appearance_pixels: float = BOX_PIXELS,
                  terms: list[dict[str, Any]] | None = None,
                  gates: list[dict[str, Any]] | None = None, placed_level: float = PLACED_LEVEL,
-                 name: str | None = None):
+                 gate_confidence: float | None = None, name: str | None = None):
         super().__init__(variable, name=name)
         self.terms = [self._extension(t, "term") for t in (terms or [])]
         self.gates = [self._extension(g, "gate") for g in (gates or [])]
@@ -244,6 +249,14 @@ class DetectionAssociation(Factor):
         if self.placed_level > 1.0:
             raise ValueError(f"factor {self.name!r}: placed_level must be in [0, 1], got "
                              f"{placed_level!r}")
+        self.gate_confidence = gate_confidence
+        if gate_confidence is not None:
+            c = float(check_finite_param(f"{self.name}.gate_confidence", gate_confidence,
+                                         nonneg=True))
+            if not 0.5 <= c < 1.0:
+                raise ValueError(f"factor {self.name!r}: gate_confidence must be in [0.5, 1), "
+                                 f"got {gate_confidence!r}")
+            self.gate_confidence = c
         self.direction_weight = float(check_finite_param(f"{self.name}.direction_weight",
                                                          direction_weight, nonneg=True))
         if isinstance(delta_t, bool) or int(delta_t) != delta_t or delta_t < 1:
@@ -406,6 +419,8 @@ class DetectionAssociation(Factor):
         p: dict[str, Any] = {"rounds": rounds, "score_map": self.score_map}
         if self.placed_level != PLACED_LEVEL:
             p["placed_level"] = self.placed_level
+        if self.gate_confidence is not None:
+            p["gate_confidence"] = self.gate_confidence
         if self.keeps_observations:
             p.update(direction_weight=self.direction_weight, delta_t=self.delta_t)
         if self.appearance is not None:
@@ -461,7 +476,9 @@ class DetectionAssociation(Factor):
             return PersistentQuantiles(placed=True, level=self.placed_level,
                                        rebase=self.score_map != "placed",
                                        over_clutter=self.score_map == "placed-over",
+                                       confidence=self.gate_confidence,
                                        share=min(max(share, 0.0), 1.0))  # none: nothing cut
         if self.score_map in ("quantile-gated", "quantile-rebased"):
-            return PersistentQuantiles(rebase=self.score_map == "quantile-rebased")
+            return PersistentQuantiles(rebase=self.score_map == "quantile-rebased",
+                                       confidence=self.gate_confidence)
         return ScoreQuantiles() if self.score_map == "quantile" else None

@@ -136,14 +136,26 @@ class PersistentQuantiles:
     over_clutter : bool
         With ``placed``: the lifted detections that lie on a reference box are lifted
         below ``u*`` too (False: read as 0 there, the gate first).
+    confidence : float or None
+        Cut only what the video shows to be clutter with this confidence (a one-sided
+        test, :meth:`threshold_quantile`); None: the point estimate decides alone.
     **model_options
         The persistence model's settings (:class:`~pgm.factors.scores.PersistenceScoreModel`).
     """
 
     def __init__(self, floor: float = 0.5, rebase: bool = False, placed: bool = False,
                  share: float = 0.2, level: float = PLACED_LEVEL, over_clutter: bool = False,
-                 **model_options):
+                 confidence: float | None = None, **model_options):
         self.rebase = bool(rebase)
+        self.confidence = confidence
+        self._z: float | None = None  # the one-sided test's normal quantile
+        if confidence is not None:
+            c = float(check_finite_param("confidence", confidence, nonneg=True))
+            if not 0.5 <= c < 1.0:
+                raise ValueError(f"confidence must be in [0.5, 1), got {confidence!r}")
+            from scipy.stats import norm
+
+            self._z = float(norm.ppf(c))
         self.over_clutter = bool(over_clutter)
         if self.over_clutter and not placed:
             raise ValueError("over_clutter needs placed=True: it is the lift that outranks "
@@ -192,12 +204,45 @@ class PersistentQuantiles:
 
     def threshold_quantile(self) -> float:
         """``u*``: the mid-rank quantile from which the model's probability above
-        chance reaches ``floor`` (0: everywhere)."""
+        chance reaches ``floor`` (0: everywhere); with ``confidence``, only as far as the
+        evidence reaches (:meth:`_evident`)."""
         m = self.model
         top, rho = float(m.curve[-1]), self.chance()
         if top <= rho:
             return 0.0
-        return _reaches(np.clip((m.curve - rho) / (top - rho), 0.0, 1.0), self.floor)
+        star = _reaches(np.clip((m.curve - rho) / (top - rho), 0.0, 1.0), self.floor)
+        return star if self._z is None or star == 0.0 else self._evident(star, top, rho)
+
+    def _evident(self, star: float, top: float, rho: float) -> float:
+        """``u*`` cut back to what the labels show with :attr:`confidence`.
+
+        The bins below ``u*`` are read as clutter because their found-again rate is below
+        the gate's level ``ρ_m = ρ_c + floor (ρ_top − ρ_c)``, a difference of estimates.
+        In a crowd the chance level ``ρ_c`` is high and ``ρ_top − ρ_c`` small, and a
+        detector's lowest scores, the frames a person is partly hidden in, are found again
+        a little less often than its best: a few dozen labels then put the lowest bins
+        below ``ρ_m`` by less than their own standard error. Grouped from the bottom
+        (bins ``[0, k)`` as one), a group is cut when its rate ``r`` (``(h + ½) / (n +
+        1)``) is below ``ρ_m`` by at least ``z`` standard errors of the difference
+        (``z`` the normal quantile of :attr:`confidence`; the binomial variances of
+        ``r``, of ``ρ_c`` over its copies and of ``ρ_top`` over the top bin's labels),
+        and ``u*`` becomes the edge of the largest such group (``u*`` itself when it is
+        every bin below ``u*``; 0 when there is none). A detector that adds clutter
+        below its usual output puts many labels at the chance level, far below ``ρ_m``:
+        cut as before, a few frames later."""
+        m, f = self.model, self.floor
+        b = min(max(int(np.ceil(star * m.bins - 0.5 - 1e-9)), 1), m.bins)  # centres below
+        n, h = np.cumsum(m.counts[:b]), np.cumsum(m.hits[:b])
+        r = (h + 0.5) / (n + 1.0)
+        mid = rho + f * (top - rho)
+        var_mid = ((1.0 - f) ** 2 * rho * (1.0 - rho) / max(self.chance_labelled, 1)
+                   + f ** 2 * top * (1.0 - top) / max(float(m.counts[-1]), 1.0))
+        evident = np.flatnonzero(mid - r >= self._z * np.sqrt(r * (1.0 - r) / (n + 1.0)
+                                                              + var_mid))
+        if not evident.size:
+            return 0.0
+        k = int(evident[-1]) + 1
+        return star if k == b else k / m.bins
 
     def placed_quantile(self, cut: float | None = None) -> float:
         """``u_p``: the lowest bin edge from which the labelled detections up to ``cut``

@@ -123,6 +123,15 @@ def test_placed_settings_are_checked_and_kept_with_the_factor():
                              rounds=[{"iou": 0.3, "min_score": 0.2}])
     m = factor_from_dict(r.to_dict()).score_model()
     assert m.rebase and m.placement is not None and (m.level, m.share) == (0.7, 0.2)
+    # the gate's confidence: checked, kept, passed to every gated map's model
+    for bad in (0.3, 1.0, float("nan")):
+        with pytest.raises(ValueError, match="gate_confidence"):
+            DetectionAssociation("box", score_map="placed-over", gate_confidence=bad)
+    assert "gate_confidence" not in DetectionAssociation("box").to_dict()["params"]
+    for score_map in ("quantile-gated", "quantile-rebased", "placed-rebased", "placed-over"):
+        c = factor_from_dict(DetectionAssociation("box", score_map=score_map,
+                                                  gate_confidence=0.9).to_dict())
+        assert c.gate_confidence == 0.9 and c.score_model().confidence == 0.9
 
 
 def test_placed_goes_down_from_the_threshold_one_bin_at_a_time():

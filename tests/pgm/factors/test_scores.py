@@ -448,7 +448,8 @@ def test_persistent_quantiles_cut_the_clutter_a_lower_threshold_adds():
     plus the 20 bins' half-width) and the clutter maps to 0. Gated, a true detection
     keeps its plain quantile among all the scores; rebased, it reads its quantile among
     the true detections alone (within the same tolerance) — what the plain quantile
-    gave it before the clutter came."""
+    gave it before the clutter came. A 95 % test on the cut changes none of it: the
+    clutter is found again far below the gate's level."""
     from pgm.factors.persistent_quantiles import PersistentQuantiles
     from pgm.factors.scores import mid_ranks
 
@@ -463,8 +464,8 @@ def test_persistent_quantiles_cut_the_clutter_a_lower_threshold_adds():
     share = 0.5  # as many false detections as true ones
     n = sum(k for *_, k in frames) * 2
     tol = 4 * np.sqrt(share * (1 - share) / n) + 0.5 / 20
-    for rebase in (False, True):
-        pq = PersistentQuantiles(rebase=rebase)
+    for rebase, confidence in ((False, None), (True, None), (True, 0.95)):
+        pq = PersistentQuantiles(rebase=rebase, confidence=confidence)
         got = [pq.update(b, s) for b, s, _ in frames]
         assert abs(pq.threshold_quantile() - share) < tol
         is_true = np.concatenate([np.arange(len(s)) < k for _, s, k in frames[-50:]])
@@ -491,10 +492,10 @@ def test_persistent_quantiles_are_invariant_to_the_detectors_scale():
     scene = persistent_scene(np.random.default_rng(13), frames=60)
     all_scores = np.concatenate([s for _, s, _ in scene]) * 20 + 40
     split = np.cumsum([len(s) for _, s, _ in scene])[:-1]
-    for rebase in (False, True):
+    for rebase, confidence in ((False, None), (True, None), (True, 0.95)):
         ref = None
         for name, f in [("none", lambda s: s)] + list(MAPS.items()):
-            m = PersistentQuantiles(rebase=rebase)
+            m = PersistentQuantiles(rebase=rebase, confidence=confidence)
             q = np.concatenate([m.update(b, s) for (b, _, _), s in
                                 zip(scene, np.split(f(all_scores), split), strict=True)])
             if ref is None:
@@ -541,3 +542,64 @@ def test_the_chance_level_is_the_rate_a_false_box_near_people_is_found_again():
     assert raw[0] >= 0.5  # the raw curve sees no clutter...
     tol = 4 * np.sqrt(0.25 / (2 * labelled.size)) + 0.5 / pq.model.bins
     assert abs(pq.threshold_quantile() - 0.5) < tol  # ... the curve above chance does
+
+
+def _gate_with_labels(per_bin: int, rates: np.ndarray, chance: float, copies: int,
+                      confidence: float | None):
+    """A gate whose model holds ``per_bin`` labelled scores in each of its bins, the
+    first ``round(rate · per_bin)`` of each found again, and a chance level measured on
+    ``copies`` moved copies."""
+    from pgm.factors.persistent_quantiles import PersistentQuantiles
+
+    pq = PersistentQuantiles(confidence=confidence)
+    bins = pq.model.bins
+    assert rates.size == bins
+    scores = np.arange(bins * per_bin, dtype=float)
+    found = np.concatenate([np.arange(per_bin) < round(r * per_bin) for r in rates])
+    pq.model.seen.add(scores)
+    pq.model.add_labels(scores, found)
+    pq.chance_found, pq.chance_labelled = round(chance * (copies + 1)), copies
+    return pq
+
+
+def test_the_clutter_gate_cuts_only_what_the_labels_show_with_the_confidence():
+    """Oracle, the one-sided test by hand: the two lowest of 20 bins found again at 0.77,
+    the rest at 0.99, the chance level 0.62 (a crowd) — the gate's level about 0.805.
+    With 30 labels a bin the two bins' shortfall is under one of its standard errors:
+    the point estimate cuts them, a 95 % test does not. With 3 000 a bin it is over six,
+    and the test cuts exactly what the point estimate does. Far below the level (a lower
+    threshold's clutter, found again at chance) 30 labels a bin suffice; found short only
+    in part, the cut goes as far as the evidence does."""
+
+    def z(pq, rates, per_bin, k):
+        """The shortfall of bins [0, k) below the gate's level, in standard errors."""
+        top, rho = float(pq.model.curve[-1]), pq.chance()
+        n, h = per_bin * k, sum(round(x * per_bin) for x in rates[:k])
+        r = (h + 0.5) / (n + 1)
+        mid = rho + 0.5 * (top - rho)
+        return (mid - r) / np.sqrt(r * (1 - r) / (n + 1) + 0.25 * rho * (1 - rho) / 4000
+                                   + 0.25 * top * (1 - top) / per_bin)
+
+    rates = np.r_[0.77, 0.77, np.full(18, 0.99)]
+    for per_bin, cut in ((30, False), (3000, True)):
+        point = _gate_with_labels(per_bin, rates, 0.62, 4000, None).threshold_quantile()
+        assert 0.05 < point < 0.15
+        pq = _gate_with_labels(per_bin, rates, 0.62, 4000, 0.95)
+        assert (z(pq, rates, per_bin, 2) >= 1.645) == cut
+        assert pq.threshold_quantile() == (point if cut else 0.0)
+    clutter = np.r_[np.full(4, 0.62), np.full(16, 0.99)]
+    tested = _gate_with_labels(30, clutter, 0.62, 4000, 0.95).threshold_quantile()
+    assert tested == _gate_with_labels(30, clutter, 0.62, 4000, None).threshold_quantile() > 0.15
+    # in part: the edge of the largest group of bins from the bottom (of those below the
+    # point estimate's u*) whose shortfall is 1.645 errors or more
+    mixed = np.r_[0.70, 0.70, np.full(12, 0.77), np.full(6, 0.99)]
+    point = _gate_with_labels(30, mixed, 0.62, 4000, None).threshold_quantile()
+    pq = _gate_with_labels(30, mixed, 0.62, 4000, 0.95)
+    tested = pq.threshold_quantile()
+    k, below = round(tested * 20), int(np.ceil(point * 20 - 0.5))
+    assert 0 < tested < point and tested == k / 20
+    assert z(pq, mixed, 30, k) >= 1.645
+    assert all(z(pq, mixed, 30, j) < 1.645 for j in range(k + 1, below + 1))
+    for bad in (0.4, 1.0, float("nan")):
+        with pytest.raises(ValueError, match="confidence"):
+            _gate_with_labels(30, rates, 0.62, 4000, bad)
