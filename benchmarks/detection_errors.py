@@ -19,7 +19,7 @@ sequence the script prints, in units of the ground-truth box's height ``h``:
 A second table asks what a detection's score says, by the decile of its quantile among
 the sequence's scores: the share of the detections that overlap a scored ground-truth box
 by IoU >= 0.5 (a true positive as the MOT metrics count one), and the share that the
-persistence model (:class:`pgm.factors.scores.PersistenceScoreModel`, its buffer and gate)
+persistence model (:class:`pgm.factors.persistence.PersistenceScoreModel`, its buffer and gate)
 labels found again in the next frame — what the score gate of the multi-target default
 reads instead of the truth.
 

@@ -157,7 +157,7 @@ class Params:
         detector's own numbers (:func:`score_map_for` picks ``"none"`` or ``"logistic"``
         for a video; ``"constant"`` when the detector's scores have no known scale);
         ``"learned"`` makes each score the probability that its detection is of a
-        target, learned on the video (:class:`~pgm.factors.scores.PersistenceScoreModel`),
+        target, learned on the video (:class:`~pgm.factors.persistence.PersistenceScoreModel`),
         and ``"quantile"`` its quantile among the video's scores
         (:class:`~pgm.factors.scores.ScoreQuantiles`): both give the same tracks for any
         strictly increasing map of the scores, and every threshold below is then in

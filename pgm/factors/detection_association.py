@@ -162,7 +162,7 @@ class DetectionAssociation(Factor):
         Map applied to the detection scores first (:data:`SCORE_MAPS`); the mapped scores
         are also what the plate's ``birth_min_score`` compares. ``"learned"``: each
         score becomes the probability that its detection is of a target, learned on the
-        run's video (:class:`~pgm.factors.scores.PersistenceScoreModel`), and every
+        run's video (:class:`~pgm.factors.persistence.PersistenceScoreModel`), and every
         threshold is on that probability.
     direction_weight : float
         Weight of the momentum term (OC-SORT: 0.2).

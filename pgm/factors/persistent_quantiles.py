@@ -8,7 +8,7 @@ import numpy as np
 
 from pgm.core.boxes import iou_matrix
 from pgm.core.numerics import check_finite_param
-from pgm.factors.scores import PersistenceScoreModel
+from pgm.factors.persistence import PersistenceScoreModel
 
 __all__ = ["PLACED_IOU", "PLACED_LEVEL", "PLACED_SCORE_MAPS", "PersistentQuantiles"]
 
@@ -40,7 +40,7 @@ class PersistentQuantiles:
     clutter above them passes. What the video shows of each score is how often the
     detections at it are found again in the next frame: the probability that a
     detection is of a target (:meth:`PersistenceScoreModel.probability
-    <pgm.factors.scores.PersistenceScoreModel.probability>`). That probability is
+    <pgm.factors.persistence.PersistenceScoreModel.probability>`). That probability is
     non-decreasing in the score's mid-rank quantile ``u`` (the model's curve is pooled to
     be), so the detections more likely clutter than not, below ``floor``, are the scores
     below one quantile ``u*``: where the probability, interpolated as the model reads
@@ -140,7 +140,7 @@ class PersistentQuantiles:
         Cut only what the video shows to be clutter with this confidence (a one-sided
         test, :meth:`threshold_quantile`); None: the point estimate decides alone.
     **model_options
-        The persistence model's settings (:class:`~pgm.factors.scores.PersistenceScoreModel`).
+        The persistence model's settings (:class:`~pgm.factors.persistence.PersistenceScoreModel`).
     """
 
     def __init__(self, floor: float = 0.5, rebase: bool = False, placed: bool = False,

@@ -7,12 +7,32 @@ import math
 
 import numpy as np
 
-__all__ = ["RECENT_SCORES", "SortedScores"]
+__all__ = ["RECENT_SCORES", "SortedScores", "insert_sorted"]
 
 #: a sorted score store's recent part joins the rest past this many scores (and past
 #: four times the square root of the rest's count): each frame's insertion then costs the
 #: recent part, not the whole video, and the merges cost the video now and then
 RECENT_SCORES = 4096
+
+
+def insert_sorted(at: np.ndarray, size: int, *arrays_values: tuple[np.ndarray, np.ndarray]
+                  ) -> list[np.ndarray]:
+    """Each ``(array, values)`` pair's ``np.insert(array, at, values)`` for one
+    non-decreasing ``at`` (``(m,)`` places in arrays of ``size`` elements; a batch sorted
+    and placed by ``np.searchsorted``): value ``k`` lands at ``at[k] + k`` and the array's
+    own elements fill the rest in order — the same arrays, the places found once for all
+    the pairs and without ``np.insert``'s general path (a frame's handful of scores)."""
+    m = at.size
+    slots = at + np.arange(m)
+    keep = np.ones(size + m, dtype=bool)
+    keep[slots] = False
+    out = []
+    for array, values in arrays_values:
+        merged = np.empty(size + m, dtype=array.dtype)
+        merged[slots] = values
+        merged[keep] = array
+        out.append(merged)
+    return out
 
 
 def _merge_due(recent: int, older: int, least: int) -> bool:
@@ -65,10 +85,12 @@ class SortedScores:
             return
         self._memo.clear()
         at = np.searchsorted(self._recent, new)
-        self._recent = np.insert(self._recent, at, new)
         if self._older.size:
-            self._place = np.insert(self._place, at,
-                                    np.searchsorted(self._older, new, side="right"))
+            self._recent, self._place = insert_sorted(
+                at, self._recent.size, (self._recent, new),
+                (self._place, np.searchsorted(self._older, new, side="right")))
+        else:
+            (self._recent,) = insert_sorted(at, self._recent.size, (self._recent, new))
         if _merge_due(self._recent.size, self._older.size, self.RECENT):
             self._older = self.sorted()
             self._recent = np.zeros(0)

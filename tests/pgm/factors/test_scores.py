@@ -375,6 +375,25 @@ def test_sorted_scores_answer_as_the_one_sorted_array():
     assert merges >= 3 and store._recent.size > 0  # both parts in use at the end
 
 
+def test_insert_sorted_is_np_insert_for_a_sorted_batch():
+    """Oracle: ``np.insert`` itself, for batches placed by ``np.searchsorted`` (ties with
+    the array and within the batch, empty batches and arrays, a boolean array beside)."""
+    from pgm.factors.sorted_scores import insert_sorted
+
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        arr = np.sort(np.round(rng.normal(size=rng.integers(0, 15)), 1))
+        new = np.sort(np.round(rng.normal(size=rng.integers(0, 6)), 1))
+        flags = rng.random(arr.size) < 0.5
+        new_flags = rng.random(new.size) < 0.5
+        for side in ("left", "right"):
+            at = np.searchsorted(arr, new, side=side)
+            got, got_flags = insert_sorted(at, arr.size, (arr, new), (flags, new_flags))
+            np.testing.assert_array_equal(got, np.insert(arr, at, new))
+            np.testing.assert_array_equal(got_flags, np.insert(flags, at, new_flags))
+            assert got.dtype == arr.dtype and got_flags.dtype == bool
+
+
 def test_persistence_model_refits_as_binning_every_labelled_score():
     """Oracle: the curve refitted each frame from the bins' starts and the two sorted
     parts is the curve of binning every labelled score by its quantile among every score
