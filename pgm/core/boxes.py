@@ -16,7 +16,7 @@ import functools
 import numpy as np
 
 __all__ = ["bounding_box", "place_parts", "xywh_to_cxcywh", "cxcywh_to_xywh", "iou_xywh",
-           "iou_matrix", "centre_xywh", "BOX_LABELS",
+           "iou_matrix", "box_corners", "iou_corners", "centre_xywh", "BOX_LABELS",
            "box_columns", "BOX_CODINGS", "box_coding", "box_code_columns", "encode_boxes",
            "decode_boxes", "state_boxes", "mean_box_size"]
 
@@ -198,7 +198,19 @@ def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     >>> iou_matrix(np.array([[5.0, 5.0, 10.0, 10.0]]), np.array([[10.0, 5.0, 10.0, 10.0]]))
     array([[0.33333333]])
     """
-    ha, hb = a[:, 2:] * 0.5, b[:, 2:] * 0.5
-    return _overlap((a[:, :2] - ha)[:, None], (a[:, :2] + ha)[:, None],
-                    (a[:, 2] * a[:, 3])[:, None], (b[:, :2] - hb)[None], (b[:, :2] + hb)[None],
-                    (b[:, 2] * b[:, 3])[None])
+    return iou_corners(box_corners(a), box_corners(b))
+
+
+def box_corners(b: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Centre boxes ``(N, 4)`` as :func:`iou_corners` reads them: low corners ``(N, 2)``,
+    high corners ``(N, 2)`` and areas ``(N,)`` (computed once for boxes compared more than
+    once)."""
+    h = b[:, 2:] * 0.5
+    return b[:, :2] - h, b[:, :2] + h, b[:, 2] * b[:, 3]
+
+
+def iou_corners(a: tuple[np.ndarray, np.ndarray, np.ndarray],
+                b: tuple[np.ndarray, np.ndarray, np.ndarray]) -> np.ndarray:
+    """:func:`iou_matrix` ``(K, M)`` of two sets of boxes given by :func:`box_corners`."""
+    return _overlap(a[0][:, None], a[1][:, None], a[2][:, None], b[0][None], b[1][None],
+                    b[2][None])

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pgm.core.boxes import iou_matrix
+from pgm.core.boxes import box_corners, iou_corners
 from pgm.core.numerics import check_finite_param
 from pgm.factors.sorted_scores import RECENT_SCORES, SortedScores, _merge_due, insert_sorted
 
@@ -113,7 +113,10 @@ class PersistenceScoreModel:
         #: that wants every label collects these (the model keeps only their counts)
         self.last_labelled: tuple[np.ndarray, np.ndarray] = (np.zeros(0),
                                                              np.zeros(0, dtype=bool))
-        self._previous: tuple[np.ndarray, np.ndarray] | None = None  # boxes, scores
+        # the previous frame's scores and its boxes' reach
+        self._previous: tuple[np.ndarray, tuple] | None = None
+        #: the latest frame's boxes' :meth:`reach` (for others comparing them that frame)
+        self.last_reach = self.reach(np.zeros((0, 4)))
         self.curve = np.ones(self.bins)  # the fitted probability at each bin's centre
         self.counts, self.hits = np.zeros(self.bins), np.zeros(self.bins)  # labelled, found
 
@@ -150,14 +153,23 @@ class PersistenceScoreModel:
         self._label(np.asarray(scores, dtype=float), np.asarray(found, dtype=bool))
         self._fit()
 
-    def near(self, boxes: np.ndarray, others: np.ndarray) -> np.ndarray:
+    def reach(self, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Centre boxes ``(N, 4)`` widened by :attr:`buffer` on each side about their
+        centres, as corners (:func:`~pgm.core.boxes.box_corners`): what :meth:`near`
+        compares, computed once for boxes compared more than once."""
+        g = 1.0 + 2.0 * self.buffer
+        return box_corners(np.asarray(boxes, dtype=float).reshape(-1, 4)
+                           * np.array([1.0, 1.0, g, g]))
+
+    def near(self, boxes: np.ndarray | tuple, others: np.ndarray | tuple) -> np.ndarray:
         """``(N,)`` whether each centre box reaches one of the centre boxes ``others``:
-        both widened by :attr:`buffer` on each side, an IoU of at least :attr:`gate`."""
-        if not len(others) or not len(boxes):
-            return np.zeros(len(boxes), dtype=bool)
-        grow = np.array([1.0, 1.0, 1.0 + 2.0 * self.buffer, 1.0 + 2.0 * self.buffer])
-        a, b = (np.asarray(c, dtype=float).reshape(-1, 4) * grow for c in (boxes, others))
-        return iou_matrix(a, b).max(axis=1) >= self.gate  # widened about their centres
+        both widened by :attr:`buffer` on each side, an IoU of at least :attr:`gate`
+        (either given as centre boxes or as their :meth:`reach`)."""
+        a = boxes if isinstance(boxes, tuple) else self.reach(boxes)
+        b = others if isinstance(others, tuple) else self.reach(others)
+        if not a[2].size or not b[2].size:
+            return np.zeros(a[2].size, dtype=bool)
+        return iou_corners(a, b).max(axis=1) >= self.gate
 
     def update(self, boxes: np.ndarray, scores: np.ndarray) -> np.ndarray:
         """:meth:`observe`, then this frame's target probabilities ``(M,)``."""
@@ -172,18 +184,19 @@ class PersistenceScoreModel:
             raise ValueError(f"{b.shape[0]} boxes but {s.size} scores")
         s = np.where(np.isfinite(s), s, np.nan)
         self.last_labelled = (np.zeros(0), np.zeros(0, dtype=bool))
-        if self._previous is not None and self._previous[1].size:
-            pb, ps = self._previous
-            again, ok = self.near(pb, b), ~np.isnan(ps)
+        self.last_reach = self.reach(b)
+        if self._previous is not None and self._previous[0].size:
+            ps, previous_reach = self._previous
+            again, ok = self.near(previous_reach, self.last_reach), ~np.isnan(ps)
             self._label(ps[ok], again[ok])
         self.seen.add(s)
-        self._previous = (b, s)
+        self._previous = (s, self.last_reach)
         self._fit()
         return s
 
     def _bin(self, scores: np.ndarray) -> np.ndarray:
         """The quantile bin of each score (of the history): ``⌊bins · u⌋``, ``u`` its
-        mid-rank quantile (:func:`mid_ranks`), at most ``bins − 1``."""
+        mid-rank quantile (:func:`~pgm.factors.scores.mid_ranks`), at most ``bins − 1``."""
         u = self.seen.mid_ranks(scores)
         return np.minimum((u * self.bins).astype(int), self.bins - 1)
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pgm.core.boxes import iou_matrix
+from pgm.core.boxes import box_corners, iou_corners
 from pgm.core.numerics import check_finite_param
 from pgm.factors.persistence import PersistenceScoreModel
 
@@ -180,8 +180,9 @@ class PersistentQuantiles:
         """``ρ_c``: the share of moved copies found again (0 before any is labelled)."""
         return self.chance_found / (self.chance_labelled + 1.0)
 
-    def _label_chance(self, boxes: np.ndarray) -> None:
-        """Label the previous frame's boxes, moved, by ``boxes`` (centre boxes)."""
+    def _label_chance(self, boxes: np.ndarray, reach: tuple | None = None) -> None:
+        """Label the previous frame's boxes, moved, by ``boxes`` (centre boxes; ``reach``:
+        their :meth:`~pgm.factors.persistence.PersistenceScoreModel.reach`, if known)."""
         if boxes.shape[0]:
             lo, hi = (boxes[:, :2] - boxes[:, 2:] / 2).min(axis=0), \
                 (boxes[:, :2] + boxes[:, 2:] / 2).max(axis=0)
@@ -198,7 +199,7 @@ class PersistentQuantiles:
             return
         # found again as the model labels a detection (buffered reach)
         moved = np.concatenate([centre[inside], size[inside]], axis=1)
-        found = self.model.near(moved, boxes)
+        found = self.model.near(moved, boxes if reach is None else reach)
         self.chance_found += int(np.count_nonzero(found))
         self.chance_labelled += int(moved.shape[0])
 
@@ -266,25 +267,30 @@ class PersistentQuantiles:
         k = below if placed.all() else int(np.argmin(placed))  # groups placed, nearest first
         return (below - k) / p.bins if k else 1.0
 
-    def _label_placed(self, boxes: np.ndarray, scores: np.ndarray,
-                      references: np.ndarray) -> None:
+    def _label_placed(self, boxes: np.ndarray, scores: np.ndarray, references: np.ndarray,
+                      reach: tuple, corners: tuple) -> None:
         """Label this frame's detections near a reference box (centre boxes) by whether
-        they are on it."""
+        they are on it (``reach``: the detections' reach, ``corners``: the references'
+        :func:`~pgm.core.boxes.box_corners`)."""
         ok = np.isfinite(scores)
         if not references.shape[0] or not ok.any():
             return
-        near = self.model.near(boxes[ok], references)
+        if not ok.all():
+            boxes, scores, reach = boxes[ok], scores[ok], tuple(x[ok] for x in reach)
+        near = self.model.near(reach, references)
         if near.any():
-            on = iou_matrix(boxes[ok][near], references).max(axis=1) >= PLACED_IOU
-            self.placement.add_labels(scores[ok][near], on)
+            on = iou_corners(box_corners(boxes[near]), corners).max(axis=1) >= PLACED_IOU
+            self.placement.add_labels(scores[near], on)
 
-    def _on_reference(self, boxes: np.ndarray, references: np.ndarray | None,
+    @staticmethod
+    def _on_reference(boxes: np.ndarray, corners: tuple | None,
                       among: np.ndarray) -> np.ndarray:
         """Which detections (centre boxes) ``among`` (a mask) lie on a reference box (IoU
-        at least :data:`PLACED_IOU`); the others False."""
+        at least :data:`PLACED_IOU`; ``corners``: the references' corners); the others
+        False."""
         on = np.zeros(boxes.shape[0], dtype=bool)
-        if references is not None and references.shape[0] and among.any():
-            on[among] = iou_matrix(boxes[among], references).max(axis=1) >= PLACED_IOU
+        if corners is not None and corners[2].size and among.any():
+            on[among] = iou_corners(box_corners(boxes[among]), corners).max(axis=1) >= PLACED_IOU
         return on
 
     def update(self, boxes: np.ndarray, scores: np.ndarray,
@@ -296,7 +302,8 @@ class PersistentQuantiles:
         s = np.asarray(scores, dtype=float).reshape(-1)
         b = np.asarray(boxes, dtype=float).reshape(-1, 4)
         self.model.observe(b, s)
-        self._label_chance(b)
+        reach = self.model.last_reach
+        self._label_chance(b, reach)
         u = self.model.seen.mid_ranks(np.where(np.isfinite(s), s, -np.inf))
         star = self.threshold_quantile()
         v = _rebased(u, star) if self.rebase else u  # rebased: 0 below u* already
@@ -305,15 +312,16 @@ class PersistentQuantiles:
         else:
             ref = (None if references is None
                    else np.asarray(references, dtype=float).reshape(-1, 4))
+            corners = None if ref is None else box_corners(ref)
             if ref is not None:
-                self._label_placed(b, s, ref)
+                self._label_placed(b, s, ref, reach, corners)
             # the share cut from the detections above u* when rebased (u* = 0: as is)
             cut = star + self.share * (1.0 - star) if self.rebase else self.share
             lift = u >= self.placed_quantile(cut)
             above = u >= star
             # over_clutter: below u*, the lifted ones on a reference box are lifted too
             if self.over_clutter:
-                lift &= above | self._on_reference(b, ref, lift & ~above)
+                lift &= above | self._on_reference(b, corners, lift & ~above)
             else:
                 lift &= above
             q = np.where(lift, np.maximum(v, self.share), np.where(above, v, 0.0))
