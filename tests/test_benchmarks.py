@@ -338,3 +338,15 @@ def test_appearance_eval_bar_rows_give_the_margin_and_mark_a_verdict_the_seeds_c
     assert by["below"][4] == "no"
     assert by["luck"][3] == "-0.040" and by["luck"][4] == "yes (seeds)"
     assert by["far"][1] == "0.710 ± 0.006"
+    assert by["far"][5] == ""  # not measured
+    s = scores([0.6])
+    s.first_size_aucs = [0.7, 0.8]
+    assert ae.bar_rows({"fixed": (s, peers)})[0][5] == "0.750"
+
+
+def test_appearance_eval_first_size_keeps_the_centres_at_the_first_frames_size():
+    """The fixed-size reading: each box's centre kept, its size the first frame's."""
+    import appearance_eval as ae
+
+    got = ae.first_size([[10.0, 20.0, 4.0, 6.0], [0.0, 0.0, 10.0, 10.0]], [1, 2, 8.0, 2.0])
+    np.testing.assert_allclose(got, [[8.0, 22.0, 8.0, 2.0], [1.0, 4.0, 8.0, 2.0]])
