@@ -89,6 +89,20 @@ LIFE_S30 = {"reference_fps": 30.0, "birth_iou": 0.3, "explain_tentative": "predi
             "fill_gaps": 0.5, "recover_hits": 3, "consecutive": False, "fill_births": True}
 
 #: candidate models: label -> (model module name, Params fields)
+
+def _presence_tracked(score_map: str, **fields) -> tuple[str, dict]:
+    """An ``ocsort_colour`` candidate with the presence round on the tracked tracks (the
+    low round keeps a track without updating it), the rates per second, a share cut of
+    0.2 and the noise per detection: the default's family, its score map and ``fields``
+    as given."""
+    return ("ocsort_colour", {**LIFE_S30, "score_map": score_map, **fields,
+                              "score_threshold": 0.2,
+                              "rounds": OCSORT_LOW_GATED[:2] + ({**OCSORT_LOW_GATED[2],
+                                                                "update": False,
+                                                                "tracks": "tracked"},),
+                              "noise_per": "detection"})
+
+
 CANDIDATES: dict[str, tuple[str, dict]] = {
     "ocsort-colour (detector scores)": ("ocsort_colour", {"score_map": "detector",
                                                           "score_threshold": None,
@@ -247,27 +261,15 @@ CANDIDATES: dict[str, tuple[str, dict]] = {
     # that with the lifted boxes on a tracked person's predicted box lifted below the
     # clutter too ("placed-over": in a crowd the found-again rate reads them as clutter)
     **{f"ocsort-colour+presence-tracked {m}{v:g} 0.2 s30 birth0.3 tentative-prediction "
-       f"recover3 fill0.5 births noise-per-detection": (
-        "ocsort_colour", {**LIFE_S30, "score_map": m, "placed_level": v,
-                          "score_threshold": 0.2,
-                          "rounds": OCSORT_LOW_GATED[:2] + ({**OCSORT_LOW_GATED[2],
-                                                            "update": False,
-                                                            "tracks": "tracked"},),
-                          "noise_per": "detection"})
+       f"recover3 fill0.5 births noise-per-detection": _presence_tracked(m, placed_level=v)
        for m, v in [("placed", v) for v in (0.6, 0.7, 0.8, 0.9)] + [("placed-rebased", 0.8),
                                                                     ("placed-over", 0.8)]},
     # the same with the clutter gate cutting only what the found-again rates show with a
     # stated confidence (a one-sided test: PersistentQuantiles(confidence=c)); not kept:
     # held out it lowers the mean (docs/results.md, "The clutter gate as a test")
-    **{f"ocsort-colour+presence-tracked {m}0.8 conf{c:g} 0.2 s30 birth0.3 tentative-prediction "
-       f"recover3 fill0.5 births noise-per-detection": (
-        "ocsort_colour", {**LIFE_S30, "score_map": m, "gate_confidence": c,
-                          "score_threshold": 0.2,
-                          "rounds": OCSORT_LOW_GATED[:2] + ({**OCSORT_LOW_GATED[2],
-                                                            "update": False,
-                                                            "tracks": "tracked"},),
-                          "noise_per": "detection"})
-       for m in ("placed-over",) for c in (0.75, 0.84, 0.9, 0.95)},
+    **{f"ocsort-colour+presence-tracked placed-over0.8 conf{c:g} 0.2 s30 birth0.3 "
+       f"tentative-prediction recover3 fill0.5 births noise-per-detection": _presence_tracked(
+           "placed-over", placed_level=0.8, gate_confidence=c) for c in (0.75, 0.84, 0.9, 0.95)},
     # the same with the process noise the step of a box's irregular displacement per
     # detection, in the video's pixels at any frame rate (a rate's variance unchanged too)
     "ocsort-colour quantile 0.2 s30 birth0.3 tentative-prediction recover3 fill0.5 births "
