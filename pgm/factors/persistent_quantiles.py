@@ -155,7 +155,7 @@ class PersistentQuantiles:
                 raise ValueError(f"confidence must be in [0.5, 1), got {confidence!r}")
             from scipy.stats import norm
 
-            self._z = float(norm.ppf(c))
+            self.confidence, self._z = c, float(norm.ppf(c))
         self.over_clutter = bool(over_clutter)
         if self.over_clutter and not placed:
             raise ValueError("over_clutter needs placed=True: it is the lift that outranks "
