@@ -26,7 +26,12 @@ from pgm.core.numerics import check_finite_param
 from pgm.core.resolution import BOX_PIXELS
 from pgm.core.variable import Variable
 from pgm.factors.kinds import LikelihoodFactor
-from pgm.factors.persistent_quantiles import PLACED_LEVEL, PLACED_SCORE_MAPS, PersistentQuantiles
+from pgm.factors.persistent_quantiles import (
+    PLACED_LEVEL,
+    PLACED_SCORE_MAPS,
+    PersistentQuantiles,
+    check_confidence,
+)
 from pgm.factors.scores import (
     LEARNED_SCORE_MAPS,
     SCORE_MAPS,
@@ -249,14 +254,8 @@ class DetectionAssociation(Factor):
         if self.placed_level > 1.0:
             raise ValueError(f"factor {self.name!r}: placed_level must be in [0, 1], got "
                              f"{placed_level!r}")
-        self.gate_confidence = gate_confidence
-        if gate_confidence is not None:
-            c = float(check_finite_param(f"{self.name}.gate_confidence", gate_confidence,
-                                         nonneg=True))
-            if not 0.5 <= c < 1.0:
-                raise ValueError(f"factor {self.name!r}: gate_confidence must be in [0.5, 1), "
-                                 f"got {gate_confidence!r}")
-            self.gate_confidence = c
+        self.gate_confidence = check_confidence(f"{self.name}.gate_confidence",
+                                                gate_confidence)
         self.direction_weight = float(check_finite_param(f"{self.name}.direction_weight",
                                                          direction_weight, nonneg=True))
         if isinstance(delta_t, bool) or int(delta_t) != delta_t or delta_t < 1:

@@ -10,7 +10,8 @@ from pgm.core.boxes import box_corners, iou_corners
 from pgm.core.numerics import check_finite_param
 from pgm.factors.persistence import PersistenceScoreModel
 
-__all__ = ["PLACED_IOU", "PLACED_LEVEL", "PLACED_SCORE_MAPS", "PersistentQuantiles"]
+__all__ = ["PLACED_IOU", "PLACED_LEVEL", "PLACED_SCORE_MAPS", "PersistentQuantiles",
+           "check_confidence"]
 
 #: where a box is moved to measure the chance level: by this many of its widths (left,
 #: right) and heights (up, down) — past the reach of its own buffered box (1.5 of its
@@ -147,15 +148,12 @@ class PersistentQuantiles:
                  share: float = 0.2, level: float = PLACED_LEVEL, over_clutter: bool = False,
                  confidence: float | None = None, **model_options):
         self.rebase = bool(rebase)
-        self.confidence = confidence
+        self.confidence = check_confidence("confidence", confidence)
         self._z: float | None = None  # the one-sided test's normal quantile
-        if confidence is not None:
-            c = float(check_finite_param("confidence", confidence, nonneg=True))
-            if not 0.5 <= c < 1.0:
-                raise ValueError(f"confidence must be in [0.5, 1), got {confidence!r}")
+        if self.confidence is not None:
             from scipy.stats import norm
 
-            self.confidence, self._z = c, float(norm.ppf(c))
+            self._z = float(norm.ppf(self.confidence))
         self.over_clutter = bool(over_clutter)
         if self.over_clutter and not placed:
             raise ValueError("over_clutter needs placed=True: it is the lift that outranks "
@@ -180,9 +178,9 @@ class PersistentQuantiles:
         """``ρ_c``: the share of moved copies found again (0 before any is labelled)."""
         return self.chance_found / (self.chance_labelled + 1.0)
 
-    def _label_chance(self, boxes: np.ndarray, reach: tuple | None = None) -> None:
+    def _label_chance(self, boxes: np.ndarray, reach: tuple) -> None:
         """Label the previous frame's boxes, moved, by ``boxes`` (centre boxes; ``reach``:
-        their :meth:`~pgm.factors.persistence.PersistenceScoreModel.reach`, if known)."""
+        their :meth:`~pgm.factors.persistence.PersistenceScoreModel.reach`)."""
         if boxes.shape[0]:
             lo, hi = (boxes[:, :2] - boxes[:, 2:] / 2).min(axis=0), \
                 (boxes[:, :2] + boxes[:, 2:] / 2).max(axis=0)
@@ -199,7 +197,7 @@ class PersistentQuantiles:
             return
         # found again as the model labels a detection (buffered reach)
         moved = np.concatenate([centre[inside], size[inside]], axis=1)
-        found = self.model.near(moved, boxes if reach is None else reach)
+        found = self.model.near(moved, reach)
         self.chance_found += int(np.count_nonzero(found))
         self.chance_labelled += int(moved.shape[0])
 
@@ -310,10 +308,10 @@ class PersistentQuantiles:
         if self.placement is None:
             q = v if self.rebase else np.where(u >= star, u, 0.0)
         else:
-            ref = (None if references is None
-                   else np.asarray(references, dtype=float).reshape(-1, 4))
-            corners = None if ref is None else box_corners(ref)
-            if ref is not None:
+            corners = None
+            if references is not None:
+                ref = np.asarray(references, dtype=float).reshape(-1, 4)
+                corners = box_corners(ref)
                 self._label_placed(b, s, ref, reach, corners)
             # the share cut from the detections above u* when rebased (u* = 0: as is)
             cut = star + self.share * (1.0 - star) if self.rebase else self.share
@@ -346,3 +344,14 @@ def _reaches(ratio: np.ndarray, level: float) -> float:
     lo, hi = ratio[b - 1], ratio[b]
     t = (level - lo) / (hi - lo) if hi > lo else 1.0
     return float(centres[b - 1] + t * (centres[b] - centres[b - 1]))
+
+
+def check_confidence(name: str, value: float | None) -> float | None:
+    """``value`` as the confidence of a one-sided test (a float in ``[0.5, 1)``), or None;
+    a ``ValueError`` naming ``name`` otherwise."""
+    if value is None:
+        return None
+    c = float(check_finite_param(name, value, nonneg=True))
+    if not 0.5 <= c < 1.0:
+        raise ValueError(f"{name} must be in [0.5, 1), got {value!r}")
+    return c

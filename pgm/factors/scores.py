@@ -49,7 +49,7 @@ import numpy as np
 
 from pgm.core.boxes import iou_xywh, xywh_to_cxcywh
 from pgm.core.numerics import check_finite_param
-from pgm.factors.persistence import PersistenceScoreModel, _pool_adjacent  # noqa: F401
+from pgm.factors.persistence import PersistenceScoreModel  # noqa: F401 (exported)
 from pgm.factors.sorted_scores import SortedScores
 
 __all__ = ["ScoreSettings", "ScoreMixture", "ScoreCalibration", "SCORE_MODELS", "PERSISTING",

@@ -399,7 +399,8 @@ def test_persistence_model_refits_as_binning_every_labelled_score():
     parts is the curve of binning every labelled score by its quantile among every score
     so far, bit for bit — with tied scores, NaN scores, empty frames and merges of the
     recent part (a small ``RECENT`` forces them)."""
-    from pgm.factors.scores import PersistenceScoreModel, _pool_adjacent, mid_ranks
+    from pgm.factors.persistence import PersistenceScoreModel, _pool_adjacent
+    from pgm.factors.scores import mid_ranks
 
     def naive(m, labelled, found):
         u = mid_ranks(np.sort(m.history), labelled)
