@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set up a virtual environment (first run only) and run the demo or the test suite.
 #   ./run.sh demo [OUT_DIR]      render a synthetic scene, track it, write every output
-#   ./run.sh test [PYTEST_ARGS]  run the test suite (e.g. ./run.sh test -m "not slow")
+#   ./run.sh test [PYTEST_ARGS]  run the test suite, a worker per core (e.g. ./run.sh test -m "not slow")
 # The demo installs the base package only; the tests install the extras they need
 # (test, learn, cluster, docs). PGM_VENV names the environment (default: .venv).
 set -euo pipefail
@@ -49,5 +49,6 @@ if [ -z "$valid" ] || [ -n "$missing" ]; then
 fi
 case "$cmd" in
   demo) exec pgm demo --out "${1:-demo_out}" ;;
-  test) exec python -m pytest -q "$@" ;;
+  # one worker per core (pytest-xdist); a later -n in PYTEST_ARGS wins (-n 0: one process)
+  test) exec python -m pytest -q -n auto --dist worksteal "$@" ;;
 esac
