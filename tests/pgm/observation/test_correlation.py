@@ -256,3 +256,28 @@ def test_patch_features_are_the_soft_binning_formula_bit_for_bit(n_orient):
         elif k % 3 == 1:
             p = cv2.GaussianBlur(p, (5, 5), 2)
         assert np.array_equal(patch_features(p, n_orient), _soft_binned_reference(p, n_orient))
+
+
+def test_the_window_has_fast_fourier_sides_and_keeps_its_extent():
+    """Each side of the window, in cells, is the even number nearest the exact size whose
+    half has no prime factor above 5 (the FFTs run on it every frame); the window still
+    covers ``(1 + padding)`` boxes of the image."""
+    from pgm.observation.appearance.correlation import _fast_even, _smooth
+
+    for cells in np.arange(8.0, 400.0, 0.5):
+        side = _fast_even(cells)
+        assert side % 2 == 0 and side >= 8 and _smooth(side // 2)
+        half = max(4, int(round(cells / 2)))
+        smooth = [k for k in range(4, 2 * half + 8) if _smooth(k)]
+        best = min(abs(k - half) for k in smooth)
+        assert abs(side // 2 - half) == best, cells
+        limit = 1 / 17 if half >= 32 else 1 / 11 if half >= 16 else 1 / 7
+        assert abs(side / (2 * half) - 1) <= limit + 1e-12, cells
+    assert [_smooth(n) for n in (1, 30, 79, 158 // 2, 81, 14)] == [True, True, False, False,
+                                                                   True, False]
+    # a drone video's person, 13 x 35.4 px: 158 x 58 cells at the exact size, 79 and 29 prime
+    f = CorrelationFilterLikelihood("object")
+    f.initialize(FrameContext(1, scene(np.random.default_rng(0), (120, 100))),
+                 np.array([120.0, 100, 13, 35.4]))
+    assert f.hann.shape == (160, 60) and f.shape == (60, 160)
+    np.testing.assert_allclose(f.ref_size, np.array([13.0, 35.4]) * (1 + f.padding))
