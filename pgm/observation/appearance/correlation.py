@@ -67,6 +67,7 @@ from pgm.observation.camera_motion import CameraMotionEstimator
 from .cf_context import LearnedContext
 from .cf_features import (
     Scan,
+    _fast_even,
     chroma_frame,
     filter_of,
     patch_features,
@@ -81,31 +82,6 @@ from .likelihoods import BoxAppearanceLikelihood, bounded_int, grey_frame
 
 __all__ = ["CorrelationFilterLikelihood", "window_features", "patch_features",
            "peak_to_sidelobe", "response_peaks", "Scan", "filter_of", "ridge"]
-
-
-def _smooth(n: int) -> bool:
-    """Whether ``n`` has no prime factor above 5."""
-    for p in (2, 3, 5):
-        while n % p == 0:
-            n //= p
-    return n == 1
-
-
-def _fast_even(cells: float) -> int:
-    """The window's side in cells: ``cells`` rounded to the nearest even number (at least
-    8) whose half has no prime factor above 5 (the larger on a tie). The FFTs of every
-    frame are of the window's size, and a side with a large prime factor costs several
-    times a 5-smooth one (158 x 58 cells, 79 and 29 prime: 1.3–1.4 ms for the seven
-    channels against 0.4–0.5 ms at 160 x 60); the window keeps its extent in the image,
-    so its cells are finer or coarser than at the exact size by at most 6 % on a side of
-    64 cells or more (the default's windows: ``target_px · (1 + padding)`` = 96 cells
-    on the box's geometric mean), 9 % from 32, a seventh below."""
-    half = max(4, int(round(cells / 2)))
-    up = sfft.next_fast_len(half, real=True)
-    down = half
-    while not _smooth(down):
-        down -= 1
-    return 2 * (up if up - half <= half - down else down)
 
 
 #: widest search window, in template pixels per side (``target_px · (1 + padding)``):

@@ -262,7 +262,7 @@ def test_the_window_has_fast_fourier_sides_and_keeps_its_extent():
     """Each side of the window, in cells, is the even number nearest the exact size whose
     half has no prime factor above 5 (the FFTs run on it every frame); the window still
     covers ``(1 + padding)`` boxes of the image."""
-    from pgm.observation.appearance.correlation import _fast_even, _smooth
+    from pgm.observation.appearance.cf_features import _fast_even, _smooth
 
     for cells in np.arange(8.0, 400.0, 0.5):
         side = _fast_even(cells)
