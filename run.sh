@@ -49,6 +49,7 @@ if [ -z "$valid" ] || [ -n "$missing" ]; then
 fi
 case "$cmd" in
   demo) exec pgm demo --out "${1:-demo_out}" ;;
-  # one worker per core (pytest-xdist); a later -n in PYTEST_ARGS wins (-n 0: one process)
-  test) exec python -m pytest -q -n auto --dist worksteal "$@" ;;
+  # one worker per core, at most 8 (pytest-xdist; each worker holds its own imports,
+  # torch's among them); a later -n in PYTEST_ARGS wins (-n 0: one process)
+  test) exec python -m pytest -q -n auto --maxprocesses 8 --dist worksteal "$@" ;;
 esac
