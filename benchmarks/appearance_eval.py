@@ -62,7 +62,7 @@ import cv2  # noqa: E402
 from _peers import SETUP_HINT, frame_paths, peer_python, run_sot_peers  # noqa: E402
 
 from pgm.app.runner import init_box_from_gt  # noqa: E402
-from pgm.core.boxes import cxcywh_to_xywh  # noqa: E402
+from pgm.core.boxes import cxcywh_to_xywh, xywh_to_cxcywh  # noqa: E402
 from pgm.evaluation.single_object import single_object_metrics  # noqa: E402
 from pgm.inference import Engine  # noqa: E402
 from pgm.io.annotations import SingleTrack, load_mot, load_single_gt  # noqa: E402
@@ -277,9 +277,9 @@ def first_size(boxes, init) -> np.ndarray:
     ``boxes``: what a tracker that follows the centre scores under an annotation that
     keeps the first frame's size (the MILTrack releases of David, Tiger1 and FaceOcc1,
     ``docs/results.md``)."""
-    b = np.asarray(boxes, dtype=float).reshape(-1, 4)
-    size = np.asarray(init, dtype=float)[2:4]
-    return np.column_stack([b[:, :2] + b[:, 2:] / 2 - size / 2, np.tile(size, (len(b), 1))])
+    c = xywh_to_cxcywh(np.asarray(boxes, dtype=float).reshape(-1, 4))
+    c[:, 2:] = np.asarray(init, dtype=float)[2:4]
+    return cxcywh_to_xywh(c)
 
 
 def run_mil_here(tasks, skip_start: float = 0.0) -> dict[str, Scores]:

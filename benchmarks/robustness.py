@@ -88,7 +88,6 @@ OCSORT_LIFE = {"recover_hits": 3, "consecutive": True}
 LIFE_S30 = {"reference_fps": 30.0, "birth_iou": 0.3, "explain_tentative": "prediction",
             "fill_gaps": 0.5, "recover_hits": 3, "consecutive": False, "fill_births": True}
 
-#: candidate models: label -> (model module name, Params fields)
 
 def _presence_tracked(score_map: str, **fields) -> tuple[str, dict]:
     """An ``ocsort_colour`` candidate with the presence round on the tracked tracks (the
@@ -103,6 +102,7 @@ def _presence_tracked(score_map: str, **fields) -> tuple[str, dict]:
                               "noise_per": "detection"})
 
 
+#: candidate models: label -> (model module name, Params fields)
 CANDIDATES: dict[str, tuple[str, dict]] = {
     "ocsort-colour (detector scores)": ("ocsort_colour", {"score_map": "detector",
                                                           "score_threshold": None,

@@ -86,14 +86,6 @@ def ridge(den: np.ndarray, reg: float) -> np.ndarray:
     return den + (reg * float(den.mean()) + 1e-12)
 
 
-def _smooth(n: int) -> bool:
-    """Whether ``n`` has no prime factor above 5."""
-    for p in (2, 3, 5):
-        while n % p == 0:
-            n //= p
-    return n == 1
-
-
 def _fast_even(cells: float) -> int:
     """The window's side in cells: ``cells`` rounded to the nearest even number (at least
     8) whose half has no prime factor above 5 (the larger on a tie). The FFTs of every
@@ -104,10 +96,8 @@ def _fast_even(cells: float) -> int:
     64 cells or more (the default's windows: ``target_px · (1 + padding)`` = 96 cells
     on the box's geometric mean), 9 % from 32, a seventh below."""
     half = max(4, int(round(cells / 2)))
-    up = sfft.next_fast_len(half, real=True)
-    down = half
-    while not _smooth(down):
-        down -= 1
+    up = sfft.next_fast_len(half, real=True)  # 5-smooth for a real transform
+    down = sfft.prev_fast_len(half, real=True)
     return 2 * (up if up - half <= half - down else down)
 
 

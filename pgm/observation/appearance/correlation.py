@@ -83,7 +83,6 @@ from .likelihoods import BoxAppearanceLikelihood, bounded_int, grey_frame
 __all__ = ["CorrelationFilterLikelihood", "window_features", "patch_features",
            "peak_to_sidelobe", "response_peaks", "Scan", "filter_of", "ridge"]
 
-
 #: widest search window, in template pixels per side (``target_px · (1 + padding)``):
 #: the window's features and spectra are ``(1 + n_orient) ·`` its area, per scale level
 MAX_WINDOW_PX = 512

@@ -258,11 +258,19 @@ def test_patch_features_are_the_soft_binning_formula_bit_for_bit(n_orient):
         assert np.array_equal(patch_features(p, n_orient), _soft_binned_reference(p, n_orient))
 
 
+def _smooth(n: int) -> bool:
+    """Whether ``n`` has no prime factor above 5."""
+    for p in (2, 3, 5):
+        while n % p == 0:
+            n //= p
+    return n == 1
+
+
 def test_the_window_has_fast_fourier_sides_and_keeps_its_extent():
     """Each side of the window, in cells, is the even number nearest the exact size whose
     half has no prime factor above 5 (the FFTs run on it every frame); the window still
     covers ``(1 + padding)`` boxes of the image."""
-    from pgm.observation.appearance.cf_features import _fast_even, _smooth
+    from pgm.observation.appearance.cf_features import _fast_even
 
     for cells in np.arange(8.0, 400.0, 0.5):
         side = _fast_even(cells)
