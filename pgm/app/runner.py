@@ -430,6 +430,8 @@ def track_multi(source: str | Path | FrameSource | Iterable, graph: FactorGraph,
     t_start = time.perf_counter()
     n, secs, number = run_frames(source.frames(), engine, outputs, max_frames=max_frames,
                                  context=context, emit=emit)
+    if outputs.writer is not None:  # a finished run's rows in frame order (some came late)
+        outputs.writer.sort_by_frame()
     wall = time.perf_counter() - t_start
     secs += motion.seconds  # the camera's motion is inference too
     table = track_rows.table()

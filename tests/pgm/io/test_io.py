@@ -352,6 +352,57 @@ def test_motwriter_roundtrip(tmp_path: Path) -> None:
         w.write(4, [1], [[0, 0, 1, 1]])  # closed
 
 
+def test_motwriter_rows_are_the_numbers_as_format_numbers_writes_them() -> None:
+    """The writer formats a frame's rows in one pass and trims them over the block; each
+    number must read as :func:`format_numbers` writes it on its own (trailing zeros and a
+    bare point dropped, negative zero as 0, an integer's own zeros kept)."""
+    from pgm.io.track_files import _mot_rows, format_numbers
+
+    assert format_numbers([350.0, -0.2, 1200.0], 0) == ["350", "0", "1200"]
+    assert format_numbers([100.0, 0.5, -0.0004, 2.0015], 3) == ["100", "0.5", "0", "2.002"]
+    rng = np.random.default_rng(0)
+    edge = [0.0, -0.0, -0.0004, 0.0005, -0.0005, 1e15, 1e-7, 10.0, 100.5, 0.1, 1.0005,
+            2.0015, -0.4, -0.6, 1000.0, 0.25]
+    for t in range(400):
+        n = int(rng.integers(1, 25))
+        values = (rng.uniform(-5, 2000, (n, 5)) if t % 3 == 0 else
+                  rng.choice(edge, (n, 5)) if t % 3 == 1 else
+                  rng.integers(-100, 100, (n, 5)) / 8.0)
+        decimals = int(rng.integers(0, 6)) if t % 5 == 0 else 3
+        ids = rng.integers(0, 10**6, n).tolist()
+        cols = [format_numbers(values[:, j], decimals) for j in range(5)]
+        expected = "".join(f"9,{i},{x},{y},{w},{h},{c},-1,-1,-1\n"
+                           for i, x, y, w, h, c in zip(ids, *cols, strict=True))
+        assert _mot_rows(9, ids, values, decimals) == expected
+
+
+def test_motwriter_sorts_rows_that_came_late(tmp_path: Path) -> None:
+    """Rows reported late (a gap filled) are put in frame order once the writer is closed,
+    each frame's rows in the order they were written; a file written in order is left
+    as it is."""
+    path = tmp_path / "tracks.txt"
+    w = MotWriter(path)
+    w.write(1, [1], [[0, 0, 5, 5]])
+    w.write(3, [2, 1], [[0, 0, 5, 5], [1, 1, 5, 5]])
+    w.write(2, [2], [[2, 2, 5, 5]])  # frame 2 of track 2, reported at frame 3
+    w.write(4, [1], [[3, 3, 5, 5]])
+    assert not w.in_frame_order
+    with pytest.raises(InputError):
+        w.sort_by_frame()  # still open
+    w.close()
+    w.sort_by_frame()
+    assert [ln.split(",")[:2] for ln in path.read_text().splitlines()] == \
+        [["1", "1"], ["2", "2"], ["3", "2"], ["3", "1"], ["4", "1"]]
+    assert not (tmp_path / "tracks.txt.sorting").exists()
+    ordered = tmp_path / "ordered.txt"
+    with MotWriter(ordered) as w2:
+        w2.write(1, [1], [[0, 0, 5, 5]])
+        w2.write(2, [1], [[0, 0, 5, 5]])
+    before = ordered.stat().st_mtime_ns
+    w2.sort_by_frame()
+    assert w2.in_frame_order and ordered.stat().st_mtime_ns == before
+
+
 def test_motwriter_bad_input(tmp_path: Path) -> None:
     with MotWriter(tmp_path / "t.txt") as w:
         with pytest.raises(InputError):
