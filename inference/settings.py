@@ -103,9 +103,12 @@ class EngineSettings:
                                _positive_int("num_particles", self.num_particles))
         if not isinstance(self.resampling, str) and not callable(self.resampling):
             raise ValueError(f"resampling must be a scheme name, got {self.resampling!r}")
-        t = float(self.ess_threshold)
+        try:
+            t = float(self.ess_threshold)
+        except (TypeError, ValueError):
+            t = float("nan")  # refused below, naming the setting
         if not np.isfinite(t) or not 0.0 <= t <= 1.0:
-            raise ValueError(f"ess_threshold must be in [0, 1], got {self.ess_threshold}")
+            raise ValueError(f"ess_threshold must be in [0, 1], got {self.ess_threshold!r}")
         object.__setattr__(self, "ess_threshold", t)
         if isinstance(self.inframe_iterations, bool) or not isinstance(
                 self.inframe_iterations, (int, np.integer)) or self.inframe_iterations < 0:

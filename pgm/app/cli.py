@@ -46,10 +46,10 @@ from .cli_args import (
     NUMBER_LIST_OPTIONS,
     HelpFormatter,
     _finite_float,
+    _frame_rate,
     _given,
     _int_at_least,
     _int_in,
-    _nonneg_int,
     _Parser,
     _path,
     _positive_int,
@@ -113,8 +113,9 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
                            "truth)")
     t.add_argument("--gt", type=_path("--gt"), metavar="FILE",
                    help="ground-truth file: initialises from frame 1 when --init is absent "
-                        "and writes metrics.json (default: the sequence's own, if any)")
-    t.add_argument("--gt-id", type=_nonneg_int, default=None, metavar="ID",
+                        "and writes metrics.json (default: the sequence's own, if any, "
+                        "unless --init gives the object: then only with --gt)")
+    t.add_argument("--gt-id", type=_int_at_least("--gt-id", 0), default=None, metavar="ID",
                    help="single object with a MOTChallenge ground truth of several people: "
                         "the identity to follow and score (default: none; with several "
                         "people and no --init the run is refused)")
@@ -123,7 +124,7 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
     t.add_argument("--particles", type=_positive_int("--particles"), default=None,
                    help="particles per variable (default: the model's)")
     add_model_options(t, model_config)
-    t.add_argument("--seed", type=_nonneg_int, default=0, metavar="S",
+    t.add_argument("--seed", type=_int_at_least("--seed", 0), default=0, metavar="S",
                    help="seed of the run's random numbers; the same seed gives the same "
                         "results")
     t.add_argument("--no-video", action="store_true", help="do not write annotated.mp4")
@@ -131,7 +132,7 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
                    help="draw particles in the annotated video")
     t.add_argument("--max-frames", type=_positive_int("--max-frames"), default=None,
                    metavar="K", help="track the first K frames only (default: every frame)")
-    t.add_argument("--fps", type=_finite_float("--fps"), default=None, metavar="F",
+    t.add_argument("--fps", type=_frame_rate("--fps"), default=None, metavar="F",
                    help="the video's frame rate, where the source does not say it (an image "
                         "folder without seqinfo.ini, e.g. UAV123@10fps: --fps 10); models "
                         "whose constants are in seconds read it (default: the source's, "
@@ -163,7 +164,7 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
                         "written to tracks.txt as empty (the target reported lost), and "
                         "metrics.json says how well that flags the frames where the box "
                         "misses the target (default: every frame written)")
-    t.add_argument("--trails", type=_nonneg_int, default=0, metavar="N",
+    t.add_argument("--trails", type=_int_at_least("--trails", 0), default=0, metavar="N",
                    help="draw each track's last N centres in annotated.mp4 (default: 0, none)")
     t.add_argument("--video-scale", type=_video_scale, default=None, metavar="S",
                    help="write annotated.mp4 at this scale of the frames, in (0, 1] "
@@ -216,7 +217,7 @@ def build_parser(model_config=None) -> argparse.ArgumentParser:
 
     d = sub.add_parser("demo", help="render a synthetic scene, track it, write every output")
     d.add_argument("--out", type=_path("--out"), required=True, help="output folder")
-    d.add_argument("--seed", type=_nonneg_int, default=0, metavar="S",
+    d.add_argument("--seed", type=_int_at_least("--seed", 0), default=0, metavar="S",
                    help="seed of the synthetic scene and of the trackers")
     d.add_argument("--frames", type=_positive_int("--frames"), default=90, metavar="K",
                    help="length of the synthetic scene")
@@ -433,6 +434,9 @@ def main(argv: list[str] | None = None) -> int:
     except InputError as exc:  # a model that cannot be found or loaded, or its options
         print(f"pgm: error: {one_line(exc)}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except KeyboardInterrupt:  # Ctrl-C while the models load: nothing has run yet
+        print("pgm: interrupted by SIGINT before anything ran", file=sys.stderr)
+        return 128 + signal.SIGINT
     args.argv = ["pgm", *(sys.argv[1:] if argv is None else [str(a) for a in argv])]
     debug = args.debug or os.environ.get("PGM_DEBUG") == "1"
     log = logging.getLogger("pgm")

@@ -98,7 +98,19 @@ def _finite_float(name: str, low: float = 0.0):
     return conv
 
 
-_nonneg_int = _int_at_least("seed", 0)
+def _frame_rate(name: str):
+    """An argparse type: a frame rate within the sources' own limits
+    (:data:`pgm.io.video.MIN_FPS`, :data:`~pgm.io.video.MAX_FPS`)."""
+    def conv(text: str) -> float:
+        from pgm.io.video import MAX_FPS, MIN_FPS
+
+        v = _number(name, text)
+        if not MIN_FPS <= v <= MAX_FPS:  # also false for NaN
+            raise argparse.ArgumentTypeError(f"{name} must be a frame rate in [{MIN_FPS:g}, "
+                                             f"{MAX_FPS:g}], got {text!r}")
+        return v
+
+    return conv
 
 
 def _path(name: str):
@@ -221,6 +233,8 @@ def import_user_code(spec: str, option: str = "--import"):
         raise InputError(f"{option} needs a module name or a .py file")
     path = Path(spec)
     if path.suffix == ".py" or path.exists():
+        if not path.exists():
+            raise InputError(f"{option} {spec}: no such file")
         if not path.is_file() or path.suffix != ".py":
             raise InputError(f"{option} {spec}: not a .py file")
         name = path.stem
@@ -281,7 +295,11 @@ def load_model_file(path: str | Path):
     if p.is_dir():
         raise InputError(f"model file {p} is a folder")
     try:
-        return FactorGraph.load(p)
+        graph = FactorGraph.load(p)
+        from pgm.inference.settings import EngineSettings
+
+        EngineSettings.from_dict(graph.meta.get("engine"))  # its engine settings, checked here
+        return graph
     except InputError:
         raise
     except ValueError as exc:

@@ -13,7 +13,6 @@ from pgm.core.errors import InputError, one_line
 from .cli_args import (
     _flag,
     _int_at_least,
-    _nonneg_int,
     _Parser,
     _path,
     _positive_int,
@@ -263,7 +262,7 @@ def add_learn_parser(sub) -> None:
     ld.add_argument("--out", type=_path("--out"), required=True, help="output .npz file")
     ld.add_argument("--every", type=_positive_int("--every"), default=3,
                     help="use every K-th annotated frame")
-    ld.add_argument("--seed", type=_nonneg_int, default=0, metavar="S",
+    ld.add_argument("--seed", type=_int_at_least("--seed", 0), default=0, metavar="S",
                     help="seed of the patch sampling and the network's initial weights")
     ld.add_argument("--epochs", type=_positive_int("--epochs"), default=40,
                     help="fine-tuning epochs")
@@ -299,7 +298,7 @@ def _learn_gpdm_options(lsub) -> None:
     lg.add_argument("--latent-dim", type=_positive_int("--latent-dim"), default=None,
                     metavar="D",
                     help=f"latent dimension d (default: {d['latent_dim']})")
-    lg.add_argument("--seed", type=_nonneg_int, default=0, metavar="S",
+    lg.add_argument("--seed", type=_int_at_least("--seed", 0), default=0, metavar="S",
                     help="seed of the subsampling of long training sets (default: "
                          "%(default)s)")
     lg.add_argument("--mirror", action=argparse.BooleanOptionalAction, default=None,

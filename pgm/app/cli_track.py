@@ -299,6 +299,11 @@ def cmd_track(args) -> int:
         gt_path = str(source.gt_path)
         if not args.quiet:
             print(f"pgm: using the sequence's ground truth {gt_path}", file=sys.stderr)
+    elif gt_path is None and source.gt_path is not None and not args.quiet:
+        # the --init box may be another object than the one annotated: said, not guessed
+        print(f"pgm: using no ground truth (--init gives the object, which the sequence's "
+              f"own {source.gt_path} may not annotate: add --gt to score against it)",
+              file=sys.stderr)
     if gt_path is not None:
         gt = _single_gt(gt_path, args)
     box_xywh, what = None, "--init box"

@@ -91,10 +91,11 @@ def scratch(owner: object, key: str, shape: tuple[int, ...]) -> np.ndarray:
 def check_finite_param(name: str, value, *, positive: bool = False, nonneg: bool = False):
     """Raise ``ValueError`` naming ``name`` if ``value`` has a NaN/inf or the wrong sign."""
     arr = np.asarray(value, dtype=float)
+    shown = value.item() if isinstance(value, np.generic) else value  # -1.0, not np.float64(-1.0)
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f"parameter {name!r} must be finite, got {value!r}")
+        raise ValueError(f"parameter {name!r} must be finite, got {shown!r}")
     if positive and np.any(arr <= 0):
-        raise ValueError(f"parameter {name!r} must be positive, got {value!r}")
+        raise ValueError(f"parameter {name!r} must be positive, got {shown!r}")
     if nonneg and np.any(arr < 0):
-        raise ValueError(f"parameter {name!r} must be non-negative, got {value!r}")
+        raise ValueError(f"parameter {name!r} must be non-negative, got {shown!r}")
     return value

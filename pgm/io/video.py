@@ -33,7 +33,6 @@ import configparser
 import itertools
 import logging
 import math
-import re
 from abc import ABC, abstractmethod
 from collections.abc import Iterator
 from pathlib import Path
@@ -42,6 +41,12 @@ import cv2
 import numpy as np
 
 from pgm.core.errors import InputError
+from pgm.io.image_files import (  # noqa: F401 - IMAGE_EXTENSIONS, natural_key: re-exported
+    IMAGE_EXTENSIONS,
+    _list_images,
+    _warn_numbering_gap,
+    natural_key,
+)
 from pgm.io.prefetch import read_ahead
 from pgm.io.track_files import format_numbers
 
@@ -60,39 +65,15 @@ __all__ = [
     "write_seqinfo",
 ]
 
-IMAGE_EXTENSIONS: frozenset[str] = frozenset({".jpg", ".jpeg", ".png", ".bmp", ".tif", ".tiff"})
-"""File-name suffixes (lower case) recognised as images in a folder."""
-
 DEFAULT_FPS: float = 25.0
 """Frame rate reported for image folders that do not declare one."""
 
-_DIGITS = re.compile(r"(\d+)")
 _log = logging.getLogger(__name__)
 
 MIN_FPS: float = 0.01
 """Lowest frame rate accepted from ``seqinfo.ini`` (one frame per 100 s)."""
 MAX_FPS: float = 10000.0
 """Highest frame rate accepted from ``seqinfo.ini`` (a high-speed camera)."""
-
-
-def natural_key(name: str) -> tuple:
-    """Sort key that orders embedded integers numerically (``a2`` < ``a10``)."""
-    parts = _DIGITS.split(name)
-    return tuple((0, int(p), p) if p.isdigit() else (1, 0, p.lower()) for p in parts)
-
-
-def _list_images(folder: Path, ext: str | None = None) -> list[Path]:
-    """Image files directly in ``folder`` (one extension, or any image one), natural order."""
-    if ext is not None:
-        want = {ext.lower()}
-    else:
-        want = IMAGE_EXTENSIONS
-    files = [p for p in folder.iterdir() if p.suffix.lower() in want and p.is_file()]
-    if not files:
-        kinds = " ".join(sorted(want))
-        raise InputError(f"no image files ({kinds}) in folder {folder}")
-    files.sort(key=lambda p: natural_key(p.name))
-    return files
 
 
 def _as_bgr(image: np.ndarray) -> np.ndarray:
@@ -257,6 +238,7 @@ class ImageSequenceSource(FrameSource):
             raise InputError(f"no image files (.jpg .png .bmp .tif) in folder {path}")
         self.files: list[Path] = files
         self._size: tuple[int, int] | None = None
+        _warn_numbering_gap(path, files)
 
     def __len__(self) -> int:
         return len(self.files)

@@ -51,6 +51,7 @@ hidden (lamp post, sign) or partly absorbed while standing.
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -66,6 +67,8 @@ from pgm.io.annotations import MotTable, load_mot
 
 from .detection_base import Detections, DetectionSource
 from .hog import HOGPeopleDetector
+
+_log = logging.getLogger(__name__)
 
 __all__ = [
     "Detections",
@@ -137,6 +140,10 @@ class PublicDetections(DetectionSource):
             self.path = Path(path_or_table)
             min_score = _check_score(min_score, str(self.path))
             table = load_mot(self.path, kind="det", min_score=min_score)
+            if not len(table):  # a run would track nothing and say nothing
+                _log.warning("%s holds no detection%s: every frame is tracked without one",
+                             self.path, "" if min_score is None
+                             else f" scored at least {min_score:g}")
         self.table: MotTable = table
         self.min_score: float | None = min_score
         self.name = "public" if min_score is None else f"public:{min_score:g}"

@@ -12,6 +12,8 @@ variable.
 
 from __future__ import annotations
 
+import re
+
 from pgm.observation.appearance.correlation import CorrelationFilterLikelihood
 from pgm.observation.appearance.likelihoods import (
     ColourContrastLikelihood,
@@ -73,7 +75,10 @@ def cue_factor(cue: str, variable: str, params, name: str | None = None,
     try:
         return _cue_factor(cue, variable, params, name, kw)
     except TypeError as e:
-        raise ValueError(f"appearance cue {cue!r}: bad option in {sorted(kw)} ({e})") from None
+        # name the option the factor refused (a model may add options of its own to kw)
+        unknown = re.search(r"unexpected keyword argument '(\w+)'", str(e))
+        what = f"unknown option {unknown.group(1)!r}" if unknown else f"bad option ({e})"
+        raise ValueError(f"appearance cue {cue!r}: {what}") from None
 
 
 def _cue_factor(cue, variable, params, name, kw):

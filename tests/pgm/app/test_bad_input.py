@@ -129,6 +129,14 @@ def files(tmp_path_factory):
         {"format": "pgm-factor-graph", "version": 1, "name": "x", "meta": {},
          "variables": [{"name": "object", "dim": 4}],
          "factors": [{"type": "GaussianPrior", "variables": ["object"], "params": 7}]}))
+    from pgm.models import colour_pf
+
+    f["model_bad_engine"] = d / "bad_engine.json"
+    colour_pf.build_graph(colour_pf.Params(init_box=(20.0, 20.0, 10.0, 10.0))).save(
+        f["model_bad_engine"])
+    saved = json.loads(f["model_bad_engine"].read_text())
+    saved["meta"]["engine"]["ess_threshold"] = "abc"
+    f["model_bad_engine"].write_text(json.dumps(saved))
     f["model_dir"] = d / "model_dir.json"
     f["model_dir"].mkdir()
     # DBN files
@@ -196,6 +204,9 @@ MATRIX = [
     ("unknown model", [T, "{seq}", "--model", "kalman-magic"], "unknown model"),
     ("--parts 100", [T, "{seq}", "--model", "part-graph", "--parts", "100"], "--parts"),
     ("--scale-noise nan", [T, "{seq}", "--scale-noise", "nan"], "--scale-noise"),
+    ("--scale-noise -1", [T, "{seq}", "--scale-noise", "-1"], "non-negative, got -1.0"),
+    ("cf(bogus=1)", [T, "{seq}", "--appearance", "cf(bogus=1)"],
+     "appearance cue 'cf': unknown option 'bogus'"),
     ("--dbn on single-object", [T, "{seq}", "--dbn", "{dbn_nan}"], "--dbn does not apply"),
     ("--per-track-noise on single-object", [T, "{seq}", "--per-track-noise"],
      "--per-track-noise does not apply"),
@@ -205,12 +216,19 @@ MATRIX = [
      "--appearance does not apply"),
     ("--init on phd", [T, "{mot}", "--model", "phd", "--init", "1,1,5,5"], "--init"),
     ("unknown detector", [T, "{mot}", "--model", "phd", "--detector", "yolo"], "yolo"),
+    ("--detector a missing file", [T, "{mot}", "--detector", "{empty_dir}/nosuch.py:f"],
+     "nosuch.py: no such file"),
+    ("--trails -1", [T, "{seq}", "--trails", "-1"], "--trails must be at least 0"),
+    ("--seed -2", [T, "{seq}", "--seed", "-2"], "--seed must be at least 0"),
+    ("--fps 0", [T, "{seq}", "--fps", "0"], "--fps must be a frame rate in [0.01, 10000]"),
     # -- track: model files
     ("model.json missing", [T, "{seq}", "--model", "{empty_dir}/model.json"], "not found"),
     ("model.json not JSON", [T, "{seq}", "--model", "{model_not_json}"], "broken.json"),
     ("model.json other format", [T, "{seq}", "--model", "{model_wrong_format}"], "format"),
     ("model.json bad factor", [T, "{seq}", "--model", "{model_bad_factor}"], "bad_factor"),
     ("model.json is a folder", [T, "{seq}", "--model", "{model_dir}"], "folder"),
+    ("model.json engine setting not a number", [T, "{seq}", "--model", "{model_bad_engine}"],
+     "bad_engine.json: ess_threshold must be in [0, 1], got 'abc'"),
     # -- track: DBN files
     ("DBN text file", [T, "{mot}", "--model", "phd", "--dbn", "{dbn_text}"],
      "not an .npz"),

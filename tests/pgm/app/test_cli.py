@@ -90,6 +90,20 @@ def test_interrupted_run_keeps_what_it_computed(scene_dir, tmp_path):
     assert (tmp_path / "annotated.mp4").stat().st_size > 0
 
 
+def test_ctrl_c_while_the_models_load_is_one_line(monkeypatch, capsys):
+    """SIGINT before the run starts (parsing the command imports the models: a second on a
+    cold start) ends as one line and 130, not a traceback."""
+    import pgm.app.cli as cli
+
+    def interrupted(argv):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "parse_args", interrupted)
+    assert main(["track", "nowhere"]) == 130
+    err = capsys.readouterr().err
+    assert err.strip() == "pgm: interrupted by SIGINT before anything ran"
+
+
 def test_graph_command(tmp_path, capsys):
     for ext in ("png", "svg", "dot"):
         code, _, _ = run_cli(capsys, "graph", "colour-pf", "--out", tmp_path / f"g.{ext}")

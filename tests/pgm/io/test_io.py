@@ -421,6 +421,29 @@ def test_load_tracks_duplicate_id(tmp_path: Path) -> None:
     _raises_one_line(e, str(path), "track 3")
 
 
+def test_a_gap_in_the_images_numbering_is_a_warning(tmp_path: Path, caplog) -> None:
+    """A file missing from a numbered image folder shifts every later frame against
+    annotations kept by frame number: said once, naming the gap; a folder numbered without
+    a gap, or not numbered, says nothing."""
+    import logging
+
+    image = np.zeros((8, 8, 3), np.uint8)
+    for folder, names in (("gap", ["img0001", "img0002", "img0004"]),
+                          ("whole", ["img0001", "img0002", "img0003"]),
+                          ("named", ["a", "b", "c"])):
+        (tmp_path / folder).mkdir()
+        for name in names:
+            cv2.imwrite(str(tmp_path / folder / f"{name}.png"), image)
+    with caplog.at_level(logging.WARNING, logger="pgm"):
+        open_source(tmp_path / "gap")
+    assert len(caplog.records) == 1
+    assert "img0002.png, then img0004.png" in caplog.text and "from frame 3 on" in caplog.text
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="pgm"):
+        assert len(open_source(tmp_path / "whole")) == len(open_source(tmp_path / "named")) == 3
+    assert not caplog.records
+
+
 def test_natural_key() -> None:
     assert sorted(["a10.png", "a2.png", "a1.png"], key=natural_key) == \
         ["a1.png", "a2.png", "a10.png"]

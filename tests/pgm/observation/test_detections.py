@@ -95,6 +95,25 @@ def test_public_min_score_in_file_units(det_file, from_table):
         PublicDetections(arg, min_score=float("nan"))
 
 
+def test_a_detection_file_without_a_detection_is_a_warning(tmp_path, det_file, caplog):
+    """An empty detection file (or one whose every score is below ``min_score``) would run
+    to a score of zero in silence: it is said once, naming the file."""
+    import logging
+
+    empty = tmp_path / "empty_det.txt"
+    empty.write_text("")
+    with caplog.at_level(logging.WARNING, logger="pgm"):
+        assert len(PublicDetections(empty)(1, None)) == 0
+    assert str(empty) in caplog.text and "holds no detection:" in caplog.text
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="pgm"):
+        PublicDetections(det_file, min_score=1000)
+        assert "scored at least 1000" in caplog.text
+        n = len(caplog.records)
+        PublicDetections(det_file)
+    assert n == 1 and len(caplog.records) == 1
+
+
 def test_public_missing_or_malformed_file_names_it(tmp_path):
     missing = tmp_path / "nope" / "det.txt"
     with pytest.raises(InputError, match="det.txt"):
