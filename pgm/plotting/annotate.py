@@ -109,6 +109,10 @@ def _dashed_box(img, xywh, colour, scale) -> None:
                      cv2.LINE_AA)
 
 
+#: what a pixel under the legend keeps of its brightness
+LEGEND_SHADE = 0.35
+
+
 def _legend(img, entries: list[tuple[str, tuple[int, int, int], str]], scale) -> None:
     """A legend at the bottom left: one line per ``(text, colour, style)``, ``style``
     ``"solid"``, ``"thin"`` or ``"dashed"``."""
@@ -119,8 +123,10 @@ def _legend(img, entries: list[tuple[str, tuple[int, int, int], str]], scale) ->
     width = swatch + _px(8, scale) + max(s[0][0] for s in sizes) + _px(8, scale)
     h_img = img.shape[0]
     x0, y0 = _px(6, scale), h_img - _px(6, scale) - line_h * len(entries)
-    cv2.rectangle(img, (x0 - _px(3, scale), y0 - _px(3, scale)),
-                  (x0 + width, h_img - _px(3, scale)), (0, 0, 0), -1)
+    # a dark see-through plate: the words read, and what lies under the legend still shows
+    plate = img[max(y0 - _px(3, scale), 0):h_img - _px(3, scale) + 1,
+                max(x0 - _px(3, scale), 0):x0 + width + 1]
+    plate[:] = (plate * LEGEND_SHADE).astype(np.uint8)
     for k, ((text, colour, style), (_, base)) in enumerate(zip(entries, sizes, strict=True)):
         yc = y0 + k * line_h + line_h // 2
         if style == "dashed":
