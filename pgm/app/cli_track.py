@@ -243,7 +243,10 @@ def _single_gt(gt_path, args):
     if ids.size <= 1:
         return load_single_gt(gt_path, "mot")
     if args.init is None:
-        raise InputError(f"{gt_path} holds {ids.size} people and model {args.model!r} "
+        # a file not named gt.txt is read as MOTChallenge rows by its column count: said
+        read_as = ("" if Path(gt_path).name.lower() == "gt.txt" else
+                   " (read as MOTChallenge rows frame,id,x,y,w,h,... for its 6 or more columns)")
+        raise InputError(f"{gt_path}{read_as} holds {ids.size} people and model {args.model!r} "
                          f"follows one: give --gt-id ID (annotated in frame 1: "
                          f"{listed(first)}) or --init X,Y,W,H, or track everyone with "
                          f"--detections FILE or --detector NAME")

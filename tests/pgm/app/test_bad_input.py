@@ -106,6 +106,8 @@ def files(tmp_path_factory):
     f["gt_text_line"] = d / "gt_bad" / "groundtruth_rect.txt"
     f["gt_text_line"].parent.mkdir()
     f["gt_text_line"].write_text("10,10,5,5\nhello world\n")
+    f["gt_six_columns"] = d / "boxes.txt"  # OTB boxes with two columns too many
+    f["gt_six_columns"].write_text("205,151,17,50,3,4\n204,150,17,50,3,4\n")
     f["gt_nan_only"] = d / "gt_nan" / "groundtruth_rect.txt"
     f["gt_nan_only"].parent.mkdir()
     f["gt_nan_only"].write_text("NaN,NaN,NaN,NaN\n0,0,0,0\n")
@@ -187,6 +189,8 @@ MATRIX = [
     ("gt with a text line", [T, "{seq}", "--gt", "{gt_text_line}"], "groundtruth_rect.txt:2"),
     ("gt without any box", [T, "{seq}", "--gt", "{gt_nan_only}"], "no annotated box"),
     ("gt empty file", [T, "{seq}", "--gt", "{empty_file}"], "no annotated box"),
+    ("gt of six columns", [T, "{seq}", "--gt", "{gt_six_columns}"],
+     "boxes.txt (read as MOTChallenge rows frame,id,x,y,w,h"),
     ("detections with NaN score", [T, "{mot}", "--model", "phd", "--detections",
                                    "{det_nan_score}"], "not finite"),
     ("detections with text", [T, "{mot}", "--model", "phd", "--detections", "{det_text}"],
