@@ -202,10 +202,29 @@ class Gaussian:
                 - 0.5 * self.dim * np.log(2 * np.pi))
 
     def kl(self, other: Gaussian) -> float:
-        """``KL(self ‖ other)``."""
-        d = self.dim
-        J0 = np.linalg.inv(other.P)
+        """``KL(self ‖ other)``. Where ``other`` is degenerate (a component known exactly:
+        a point prior, a state without process noise), the divergence is that of the two
+        restricted to ``other``'s support when ``self`` agrees with it off that support (a
+        Kalman posterior of such a prior does), and infinite when it does not."""
+        w, V = np.linalg.eigh(0.5 * (other.P + other.P.T))
+        scale = max(float(np.abs(w).max(initial=0.0)), float(np.abs(self.P).max(initial=0.0)))
+        keep = w > 1e-12 * scale if scale > 0 else np.zeros(w.size, dtype=bool)
         diff = other.m - self.m
-        _, ld1 = np.linalg.slogdet(self.P)
-        _, ld0 = np.linalg.slogdet(other.P)
-        return float(0.5 * (np.trace(J0 @ self.P) + diff @ J0 @ diff - d + ld0 - ld1))
+        if keep.all():
+            J0 = np.linalg.inv(other.P)
+            _, ld1 = np.linalg.slogdet(self.P)
+            _, ld0 = np.linalg.slogdet(other.P)
+            return float(0.5 * (np.trace(J0 @ self.P) + diff @ J0 @ diff - self.dim + ld0 - ld1))
+        null = V[:, ~keep]  # directions other holds exactly: self must hold them alike
+        tol = 1e-9 * max(scale, 1.0)
+        if (np.abs(null.T @ self.P @ null).max() > tol
+                or np.abs(null.T @ diff).max() > 1e-9 * max(float(np.abs(other.m).max()), 1.0)):
+            return float("inf")
+        basis = V[:, keep]
+        p1, d = basis.T @ self.P @ basis, basis.T @ diff
+        sign, ld1 = np.linalg.slogdet(p1) if keep.any() else (1.0, 0.0)
+        if sign <= 0:
+            return float("inf")
+        w0 = w[keep]
+        return float(0.5 * (np.sum(np.diag(p1) / w0) + np.sum(d * d / w0) - keep.sum()
+                            + np.sum(np.log(w0)) - ld1))
