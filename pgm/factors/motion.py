@@ -164,6 +164,17 @@ class MotionTransition(LinearGaussianTransition):
         self.q_static = float(q_static)
         super().__init__(variable, F=F, Q=Q, p_survive=p_survive, name=name)
 
+    def check(self, variables: dict[str, Any]) -> None:
+        """The dimension (as every linear-Gaussian transition), and the labels the motion
+        was laid out by must be the variable's own, in its order: another order would put
+        the motion on other components, silently."""
+        super().check(variables)
+        own = variables[self.variables[0]].labels
+        if own is not None and tuple(own) != self.labels:
+            raise ValueError(f"factor {self.name!r}: the motion is laid out over labels "
+                             f"{list(self.labels)} but variable {self.variables[0]!r} has "
+                             f"labels {list(own)} (give the variable's labels, in its order)")
+
     def params(self) -> dict[str, Any]:
         p: dict[str, Any] = {"model": self.model, "labels": list(self.labels),
                              "axes": [list(a) for a in self.axes], "fps": self.fps}

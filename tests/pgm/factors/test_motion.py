@@ -169,3 +169,22 @@ def test_bad_motion_declarations_are_one_line_errors():
         random_walk("s", labels=LABELS, axes=[("x",)], q=1.0, fps=0)
     with pytest.raises(ValueError, match="finite"):
         random_walk("s", labels=LABELS, axes=[("x",)], q=float("nan"), fps=10)
+
+
+def test_a_motion_laid_out_over_other_labels_than_the_variables_is_refused():
+    """Labels in another order than the variable's would move other components (the
+    velocity of x applied to y): the graph refuses it, naming both orders; the variable's
+    own order is accepted, and so is a variable without labels (dimension checked)."""
+    own, shuffled = ("x", "vx", "y", "vy"), ("x", "y", "vx", "vy")
+    axes = [("x", "vx"), ("y", "vy")]
+
+    def graph(labels, motion_labels):
+        return pgm.FactorGraph(
+            [pgm.Variable("s", 4, labels=labels)],
+            [pgm.GaussianPrior("s", mean=np.zeros(4), cov=1.0),
+             constant_velocity("s", labels=motion_labels, axes=axes, q=1.0, fps=10)])
+
+    with pytest.raises(ValueError, match=r"labels \['x', 'y', 'vx', 'vy'\] but variable 's'"):
+        graph(own, shuffled)
+    graph(None, shuffled)
+    graph(own, own)
