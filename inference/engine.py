@@ -167,7 +167,7 @@ class Engine:
         #: the typed settings this engine runs with
         self.settings = settings.replace(
             num_particles=num_particles, resampling=resampling, ess_threshold=ess_threshold,
-            inframe_iterations=inframe_iterations, fusion=fusion)
+            inframe_iterations=inframe_iterations, fusion=fusion).with_beliefs(belief_types)
         self.graph.meta["engine"] = self.settings.to_dict(full=True)  # saved with the run
         self.num_particles = self.settings.particle_counts(self.graph)
         self.resampler = get_resampler(self.settings.resampling)

@@ -166,6 +166,15 @@ class EngineSettings:
             out["resampling"] = getattr(out["resampling"], "__name__", "custom")
         return out
 
+    def with_beliefs(self, belief_types: dict[str, type] | None) -> EngineSettings:
+        """A copy whose ``beliefs`` also name the forms of ``belief_types`` (variable →
+        belief class, as ``Engine(belief_types=...)`` takes them), so that a saved model
+        holds them; a class of no registered form (:func:`register_belief_form`) is not
+        named (it runs, but a reloaded model holds the variable's default belief)."""
+        forms = {cls: form for form, cls in BELIEF_FORMS.items()}
+        named = {v: forms[c] for v, c in (belief_types or {}).items() if c in forms}
+        return self.replace(beliefs={**(self.beliefs or {}), **named}) if named else self
+
     def replace(self, **changes: Any) -> EngineSettings:
         """A copy with ``changes`` applied (``None`` values are ignored)."""
         return dataclasses.replace(self, **{k: v for k, v in changes.items() if v is not None})

@@ -31,6 +31,8 @@ the generic factors are in :mod:`pgm.factors`.
 
 from __future__ import annotations
 
+import functools
+import inspect
 from abc import ABC
 from collections.abc import Callable
 from typing import Any, ClassVar
@@ -190,7 +192,18 @@ class Factor(ABC):  # noqa: B024 - kind base classes declare the abstract method
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready declaration ``{"type", "module", "name", "kind", "variables",
         "params"}`` (``module``: where the type is defined, which a loader may import if it
-        is the toolkit's or an installed plug-in's)."""
+        is the toolkit's or an installed plug-in's). A type whose ``__init__`` takes
+        parameters that no :meth:`params` of its own returns is warned about (once): the
+        declaration would rebuild it with their defaults."""
+        unsaved = _unsaved_parameters(type(self), len(self.variables))
+        if unsaved and type(self) not in _WARNED_UNSAVED:
+            import warnings
+
+            _WARNED_UNSAVED.add(type(self))
+            warnings.warn(f"factor {self.name!r}: {type(self).__name__}.__init__ takes "
+                          f"{', '.join(unsaved)}, which no params() of it returns: a saved "
+                          f"model rebuilds it with their defaults (define params(), "
+                          f"docs/developing.md)", UserWarning, stacklevel=2)
         return {"type": type(self).__name__, "module": type(self).__module__,
                 "name": self.name, "kind": self.kind, "variables": list(self.variables),
                 "params": _jsonable(self.params())}
@@ -204,6 +217,29 @@ class Factor(ABC):  # noqa: B024 - kind base classes declare the abstract method
         return self.to_dict() == other.to_dict()
 
     __hash__ = object.__hash__
+
+
+#: factor types already warned about by :meth:`Factor.to_dict`
+_WARNED_UNSAVED: set[type] = set()
+
+
+@functools.lru_cache(maxsize=None)
+def _unsaved_parameters(cls: type, n_variables: int) -> tuple[str, ...]:
+    """The parameters of ``cls.__init__`` (beyond its variables and ``name``) that its
+    declaration cannot carry: those of a type whose only :meth:`Factor.params` is the
+    base's (which returns none)."""
+    if next(c for c in cls.__mro__ if "params" in c.__dict__) is not Factor:
+        return ()
+    init = next(c for c in cls.__mro__ if "__init__" in c.__dict__).__init__
+    if init is Factor.__init__:
+        return ()
+    kinds = inspect.Parameter
+    params = list(inspect.signature(init).parameters.values())[1:]  # after self
+    positional = [p for p in params if p.kind in (kinds.POSITIONAL_ONLY,
+                                                  kinds.POSITIONAL_OR_KEYWORD)]
+    variables = {p.name for p in positional[:n_variables]}
+    return tuple(p.name for p in params if p.name not in variables and p.name != "name"
+                 and p.kind not in (kinds.VAR_POSITIONAL, kinds.VAR_KEYWORD))
 
 
 def factor_from_dict(d: dict[str, Any]) -> Factor:

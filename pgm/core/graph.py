@@ -225,7 +225,10 @@ class FactorGraph:
 
     # -- serialisation -----------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready declaration with every factor's parameters."""
+        """JSON-ready declaration with every factor's parameters. A rule named in
+        ``meta["rules"]`` that another process could not find (defined in the running
+        script, ``__main__``, or inside a function) is warned about, once."""
+        _warn_unloadable_rules(self)
         d = {"format": "pgm-factor-graph", "version": FORMAT_VERSION, "name": self.name,
              "meta": self.meta,
              "variables": [v.to_dict() for v in self.variables.values()],
@@ -291,3 +294,32 @@ class FactorGraph:
         """Draw the graph with matplotlib; write PNG/SVG/PDF (or DOT) when ``path`` is given
         (:mod:`pgm.plotting.graph_drawing`, registered by ``pgm``)."""
         return _drawing("draw")(self, path=path, ax=ax, **kwargs)
+
+
+#: rules already warned about by :func:`_warn_unloadable_rules`
+_WARNED_RULES: set[str] = set()
+
+
+def _warn_unloadable_rules(graph: FactorGraph) -> None:
+    """Warn (once per rule) where ``graph.meta["rules"]`` names a rule that a saved model
+    could not be run with elsewhere: one of the running script's (``__main__``: found only
+    where that script has run) or one defined inside a function (never found)."""
+    rules = graph.meta.get("rules") if isinstance(graph.meta, dict) else None
+    if not isinstance(rules, dict):
+        return
+    import warnings
+
+    for factor, rule in rules.items():
+        if not isinstance(rule, str) or rule in _WARNED_RULES:
+            continue
+        module, _, qualname = rule.partition(":")
+        if "<locals>" in qualname:
+            why = "is defined inside a function: a saved model naming it cannot be loaded"
+        elif module == "__main__":
+            why = ("is defined in the running script: a saved model naming it loads only where "
+                   "that script has run")
+        else:
+            continue
+        _WARNED_RULES.add(rule)
+        warnings.warn(f"factor {factor!r}: its rule {rule!r} {why} (define it at module level "
+                      f"in a module of its own, loaded with --import)", UserWarning, stacklevel=3)

@@ -181,6 +181,30 @@ class CliTravelStretch(LikelihoodFactor):
 
 
 @declare(CliTravelStretch, Particles)
+def test_saving_a_rule_another_process_cannot_find_warns():
+    """A rule of the running script (``__main__``) or one defined inside a function is
+    saved by name, but a model naming it cannot be run elsewhere: saving it warns once per
+    rule, naming it; a rule of an importable module says nothing."""
+    import warnings
+
+    g = linear_gaussian.build_graph(linear_gaussian.Params())
+    engine = Engine(g, 0, num_particles=50)
+    lik = _lik(g)
+    for rule, why in (("__main__:my_rule", "running script"),
+                      (f"{__name__}:test_x.<locals>.inner", "inside a function")):
+        engine.graph.meta["rules"][lik] = rule
+        with pytest.warns(UserWarning, match=why) as caught:
+            engine.graph.to_dict()
+        assert rule in str(caught[0].message) and lik in str(caught[0].message)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            engine.graph.to_dict()  # once
+    engine.graph.meta["rules"][lik] = f"{__name__}:tempered"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        engine.graph.to_dict()
+
+
 def stretch_rule(ctx, factor, frame):
     return factor.log_likelihood(ctx.beliefs[factor.variables[0]].x, frame)
 '''

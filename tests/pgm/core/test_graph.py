@@ -179,3 +179,52 @@ def test_unnamed_factors_of_one_kind_get_distinct_names():
     assert list(g.factors) == ["prior:x", "likelihood:x",
                                "likelihood:x:LinearGaussianLikelihood"]
     assert FactorGraph.from_dict(g.to_dict()) == g
+
+
+def test_a_factor_whose_parameters_its_declaration_loses_is_warned_about():
+    """A factor type of one's own whose ``__init__`` takes a parameter but which has no
+    ``params()`` would be saved without it (and rebuilt with its default): saving it warns
+    once, naming the parameter; with ``params()`` it is saved whole and says nothing. No
+    type of the toolkit's is warned about."""
+    import importlib
+    import warnings
+
+    import pgm
+    from pgm.core.factor import _unsaved_parameters
+
+    class Forgetful(pgm.LikelihoodFactor):
+        def __init__(self, variable, *, lam=3.0, name=None):
+            super().__init__(variable, name=name)
+            self.lam = lam
+
+        def log_likelihood(self, x, ctx):
+            return np.zeros(len(x))
+
+    class Careful(Forgetful):
+        def params(self):
+            return {"lam": self.lam}
+
+    def graph(factor):
+        return FactorGraph([Variable("box", 4, role="part")],
+                           [GaussianPrior("box", mean=[5.0, 5.0, 2.0, 2.0]), factor])
+
+    with pytest.warns(UserWarning, match=r"Forgetful.__init__ takes lam, which no params"):
+        graph(Forgetful("box", lam=7.0)).to_dict()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        graph(Forgetful("box", lam=7.0)).to_dict()  # once per type
+        saved = graph(Careful("box", lam=7.0)).to_dict()
+    assert saved["factors"][-1]["params"] == {"lam": 7.0}
+    for module in pgm.TOOLKIT_MODULES:
+        importlib.import_module(module)
+    def concrete(cls):
+        for sub in cls.__subclasses__():
+            if not sub.__dict__.get("abstract", False) and sub.__module__.startswith("pgm."):
+                yield sub
+            yield from concrete(sub)
+
+    types = set(concrete(pgm.Factor)) | set(registered_factor_types().values())
+    assert len(types) > 25
+    flagged = {cls.__name__: _unsaved_parameters(cls, cls.arity or 1) for cls in types
+               if cls.__module__.startswith("pgm.")}
+    assert not {k: v for k, v in flagged.items() if v}
