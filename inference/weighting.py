@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from pgm.core.errors import RuleContractError
+from pgm.core.errors import DegenerateWeightsError, RuleContractError
 from pgm.core.factor import Factor
 from pgm.core.frame import FrameContext
 
@@ -62,6 +62,7 @@ def stage_weight(engine: Any, ctx: RuleContext, items, frame, record: StepRecord
     module docstring)."""
     before: dict[str, Any] = {}  # reweighted beliefs as they entered the stage
     log_lik: dict[str, np.ndarray] = {}
+    applied: dict[str, list[str]] = {}  # the likelihoods each belief was reweighted by
     for fs, rules, batched in weight_groups(engine, items):
         vs = [f.variables[0] for f in fs]
         if batched:
@@ -75,15 +76,21 @@ def stage_weight(engine: Any, ctx: RuleContext, items, frame, record: StepRecord
             b = ctx.beliefs[v]
             ll = check_log_likelihood(f, ll, b.log_weights.shape)
             before.setdefault(v, b)
+            applied.setdefault(v, []).append(f.name)
             log_lik[v] = log_lik[v] + ll if v in log_lik else ll
             ctx.beliefs[v] = b.reweight(ll)
     for v, b0 in before.items():
         b = ctx.beliefs[v]
         ctx.evidence[v] = (b0.log_weights, log_lik[v])
-        record.log_evidence[v] = b.log_mass - prior_log_mass(engine, ctx, v, b0)
-        record.ess[v] = b.ess
-        # (a replica of a plate no particle of which explains the frame keeps its prediction)
-        ctx.beliefs[v], bad = engine.runtime.normalize(ctx, v, b, b0)
+        try:
+            record.log_evidence[v] = b.log_mass - prior_log_mass(engine, ctx, v, b0)
+            record.ess[v] = b.ess
+            # (a replica of a plate no particle of which explains the frame keeps its
+            # prediction)
+            ctx.beliefs[v], bad = engine.runtime.normalize(ctx, v, b, b0)
+        except DegenerateWeightsError as exc:  # named: which variable, frame, likelihoods
+            raise DegenerateWeightsError(f"{exc}: variable {v!r} at frame {frame.index} after "
+                                         f"the likelihoods {applied[v]}") from None
         if bad is not None and bad.any():
             ctx.evidence[v] = (b0.log_weights, np.where(bad[:, None], 0.0, log_lik[v]))
             record.variable_info(v).degenerate = np.flatnonzero(bad)

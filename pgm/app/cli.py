@@ -37,6 +37,7 @@ import logging
 import os
 import signal
 import sys
+import traceback
 import warnings
 
 from pgm.core.errors import InputError, Interrupted, interrupt, one_line, user_message
@@ -472,8 +473,9 @@ def main(argv: list[str] | None = None) -> int:
               f"\"complete\": false)", file=sys.stderr)
         return 128 + (exc.signum if isinstance(exc, Interrupted) else signal.SIGINT)
     except Exception as exc:  # noqa: BLE001 - every failure ends as one line
-        if debug:
-            raise
+        if debug:  # the traceback, then the same line and exit code (the run's threads
+            # are released with the exception here, not left running at interpreter exit)
+            traceback.print_exc(file=sys.stderr)
         msg = user_message(exc)
         if msg is not None:
             print(f"pgm: error: {msg}", file=sys.stderr)

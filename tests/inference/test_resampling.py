@@ -156,3 +156,24 @@ def test_systematic_counts_equal_the_inverse_cdf_of_the_same_points():
         u = np.random.default_rng(trial).random()
         want = _inverse_cdf(w, (np.arange(m) + u) / m)
         np.testing.assert_array_equal(got, want)
+
+
+def test_a_likelihood_that_explains_no_particle_is_named():
+    """Every particle weight zero after the weight stage (a likelihood that reads NaN or
+    -inf everywhere, a NaN parameter): the error names the variable, the frame and the
+    likelihoods that weighted it."""
+    import pgm
+    from pgm.inference import Engine
+
+    class Nowhere(pgm.LikelihoodFactor):
+        def log_likelihood(self, x, ctx):
+            return np.full(len(x), np.nan)
+
+    graph = pgm.FactorGraph([pgm.Variable("box", 4, role="part")],
+                            [pgm.GaussianPrior("box", mean=[10.0, 10.0, 5.0, 5.0]),
+                             pgm.AR2Transition("box", noise_std=[2, 2, 0, 0]),
+                             Nowhere("box", name="nowhere")])
+    engine = Engine(graph, 0, num_particles=20)
+    with pytest.raises(DegenerateWeightsError,
+                       match=r"zero: variable 'box' at frame 3 after the likelihoods \['nowhere'\]"):
+        engine.step(pgm.FrameContext(3, image=np.zeros((40, 40, 3), np.uint8)))

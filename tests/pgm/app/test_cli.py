@@ -104,6 +104,18 @@ def test_ctrl_c_while_the_models_load_is_one_line(monkeypatch, capsys):
     assert err.strip() == "pgm: interrupted by SIGINT before anything ran"
 
 
+def test_debug_adds_the_traceback_and_keeps_the_exit_code(tmp_path, capsys):
+    """``--debug`` prints the traceback before the same one-line message, and exits as
+    without it (2 for bad input): the exception is not re-raised past ``main``, where the
+    run's threads would still be alive at interpreter exit."""
+    missing = tmp_path / "nowhere.mp4"
+    assert main(["--debug", "track", str(missing), "--init", "1,1,5,5", "--out",
+                 str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" in err
+    assert err.strip().splitlines()[-1].startswith("pgm: error: ") and "nowhere.mp4" in err
+
+
 def test_graph_command(tmp_path, capsys):
     for ext in ("png", "svg", "dot"):
         code, _, _ = run_cli(capsys, "graph", "colour-pf", "--out", tmp_path / f"g.{ext}")

@@ -483,6 +483,8 @@ def test_template_cache_follows_the_values_of_q():
     (np.array([[1.0, 2.0, np.inf, 4.0]]), "finite"),
     (np.array([[1.0, 2.0, 0.0, 4.0]]), "w > 0"),
     (np.array([[1.0, 2.0, 3.0, -4.0]]), "h > 0"),
+    (np.array([[1.0, 2.0, 3.0, 4.0], [5.0, 6.0, -0.5, 4.0]]),
+     r"1 of 2 boxes \(cx, cy, w, h\) do not, e.g. \[5.0, 6.0, -0.5, 4.0\]"),
 ])
 def test_bad_boxes_raise(boxes, word):
     img = np.zeros((20, 20, 3), np.uint8)

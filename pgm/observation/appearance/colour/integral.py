@@ -30,7 +30,11 @@ def _check_boxes(boxes: Any) -> np.ndarray:
     if not (np.isfinite(b).all() and (b[:, 2:] > 0).all()):
         if not np.all(np.isfinite(b)):
             raise InputError("boxes must be finite (a box has a NaN or infinite coordinate)")
-        raise InputError("boxes must have w > 0 and h > 0")
+        bad = np.flatnonzero(~(b[:, 2:] > 0).all(axis=1))
+        raise InputError(f"boxes must have w > 0 and h > 0: {bad.size} of {len(b)} boxes "
+                         f"(cx, cy, w, h) do not, e.g. {np.round(b[bad[0]], 3).tolist()} (a "
+                         f"model's particles whose size drifted through zero: give the size "
+                         f"no additive noise, or a log-scale step)")
     return b
 
 
