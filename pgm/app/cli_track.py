@@ -112,6 +112,21 @@ def source_detections(source: str | None) -> Path | None:
         return None
 
 
+def _say_saved_rates(graph, fps: float | None, args) -> None:
+    """A saved model's factors discretised at a frame rate of their own (the motion
+    library's) keep it: where the video's differs, said (rebuilding the model at the
+    video's rate is the user's call)."""
+    from pgm.factors.motion import MotionTransition
+
+    rates = sorted({float(f.fps) for f in graph.factors.values()
+                    if isinstance(f, MotionTransition)})
+    if fps is None or not rates or rates == [float(fps)] or args.quiet:
+        return
+    print(f"pgm: using the saved model's motion as discretised at "
+          f"{', '.join(f'{r:g}' for r in rates)} frames/s (the video's is {fps:g}: a saved "
+          f"model is not re-discretised; rebuild it with fps={fps:g})", file=sys.stderr)
+
+
 def _with_init_box(graph, box_cxcywh: np.ndarray, path: str):
     """A saved single-object graph moved to start on ``box_cxcywh``: every prior over a
     ``(cx, cy, w, h)`` box is re-centred as the target's box moves and scales from the
@@ -280,6 +295,7 @@ def cmd_track(args) -> int:
             print(f"pgm: using model {args.model} (no --model given; {why})", file=sys.stderr)
     if args.model.endswith(".json"):
         saved = load_model_file(args.model)
+        _say_saved_rates(saved, source.fps if source.fps_declared else None, args)
     kind = _kind(args, saved)
     if kind == "state-space":
         raise InputError(f"model {args.model!r} is a state-space model without an image "
@@ -298,7 +314,8 @@ def cmd_track(args) -> int:
                          f"target), not to the single-object model {args.model!r}")
     gt = None
     gt_path = args.gt
-    if gt_path is None and args.init is None and source.gt_path is not None:
+    own_gt = gt_path is None and args.init is None and source.gt_path is not None
+    if own_gt:
         gt_path = str(source.gt_path)
         if not args.quiet:
             print(f"pgm: using the sequence's ground truth {gt_path}", file=sys.stderr)
@@ -324,7 +341,16 @@ def cmd_track(args) -> int:
         init_c = np.array([box_xywh[0] + box_xywh[2] / 2, box_xywh[1] + box_xywh[3] / 2,
                            box_xywh[2], box_xywh[3]])
     if saved is not None:
-        graph = saved if init_c is None else _with_init_box(saved, init_c, args.model)
+        try:
+            graph = saved if init_c is None else _with_init_box(saved, init_c, args.model)
+        except InputError:
+            if not own_gt:  # a box the user gave: the refusal says how to go on
+                raise
+            graph = saved  # the sequence's own ground truth asked nothing: start as saved
+            if not args.quiet:
+                print(f"pgm: using the saved model's own start (its priors are not all "
+                      f"Gaussian priors over (cx, cy, w, h): it is not moved to the first box "
+                      f"of {gt_path})", file=sys.stderr)
     else:
         width, height = source.size
         graph = graph_from_config(args.model_config, args, VideoInfo(

@@ -553,3 +553,53 @@ def test_image_sequence_helper_still_writes(tmp_path):
     write_image_sequence(tmp_path / "img1", [np.zeros((4, 4, 3), np.uint8)])
     write_seqinfo(tmp_path, name="x", fps=30, length=1, width=4, height=4)
     assert (tmp_path / "seqinfo.ini").read_text().count("frameRate=30") == 1
+
+
+def test_a_saved_model_that_cannot_move_starts_where_saved_on_a_sequences_own_truth(
+        files, tmp_path, capsys):
+    """A saved model whose priors are not Gaussian priors over (cx, cy, w, h) (a variable
+    without labels) cannot be moved to another first box: on a sequence with its own
+    ground truth it starts where it was saved (and says so), where the user's --init asks
+    to move it the run is refused in one line."""
+    import pgm
+    from pgm.observation.appearance.likelihoods import ColourHistogramLikelihood
+
+    model = tmp_path / "unlabelled.json"
+    pgm.FactorGraph([pgm.Variable("obj", 4, role="part")],
+                    [pgm.GaussianPrior("obj", mean=[60, 60, 20, 30], cov=0.0),
+                     pgm.AR2Transition("obj", noise_std=[2, 2, 0, 0]),
+                     ColourHistogramLikelihood("obj")], name="unlabelled").save(model)
+    code, _, err = run_cli(capsys, ["track", files["seq"], "--model", model, "--out",
+                                    tmp_path / "own", "--no-video", "--max-frames", "3"])
+    assert code == 0, err
+    assert "using the saved model's own start" in err
+    code, _, err = run_cli(capsys, ["track", files["seq"], "--model", model, "--init",
+                                    "31,101,20,20", "--out", tmp_path / "moved", "--quiet"])
+    assert_one_line_error(code, err, "cannot move saved model")
+
+
+def test_a_saved_motion_at_another_frame_rate_is_said(files, tmp_path, capsys):
+    """The motion library's factors are discretised at their own frame rate and a saved
+    model keeps it: run on a video of another rate, the run says so (it is not
+    re-discretised); at the same rate, nothing."""
+    import pgm
+    from pgm.factors.motion import constant_velocity
+    from pgm.observation.appearance.likelihoods import ColourHistogramLikelihood
+
+    labels = ("cx", "cy", "w", "h", "vx", "vy")
+    model = tmp_path / "cv30.json"
+    pgm.FactorGraph([pgm.Variable("box", 6, role="part", labels=labels)],
+                    [pgm.GaussianPrior("box", mean=[60, 60, 20, 30, 0, 0],
+                                       cov=np.diag([1, 1, 0, 0, 100, 100.0])),
+                     constant_velocity("box", labels=labels, axes=[("cx", "vx"), ("cy", "vy")],
+                                       q=2000.0, fps=30.0),
+                     ColourHistogramLikelihood("box")], name="cv-colour",
+                    meta={"output": "box"}).save(model)
+    said = {}
+    for fps in ("10", "30"):
+        code, _, err = run_cli(capsys, ["track", files["seq"], "--model", model, "--fps", fps,
+                                        "--out", tmp_path / fps, "--no-video",
+                                        "--max-frames", "3"])
+        assert code == 0, err
+        said[fps] = "discretised at 30 frames/s (the video's is 10" in err
+    assert said == {"10": True, "30": False}
