@@ -36,8 +36,9 @@ _NEGATIVE_ZERO = re.compile(r"(?<=,)-0(?=[,\n])")
 def _mot_rows(frame: int, ids: list[int], values: np.ndarray, decimals: int) -> str:
     """Rows ``frame,id,x,y,w,h,conf,-1,-1,-1`` of ``values`` ``(n, 5)`` (1-based
     ``x, y, w, h, conf``), each number as :func:`format_numbers` writes it: formatted in
-    one pass over the rows and trimmed by three substitutions over the block (a tenth of
-    the time of formatting number by number; the same text, tested)."""
+    one pass over the rows and trimmed by three substitutions over the block (the same
+    text, tested; :meth:`MotWriter.write` of 25 rows 95 µs against 125 number by
+    number)."""
     row = f"{int(frame)},%d" + f",%.{decimals}f" * 5 + ",-1,-1,-1\n"
     text = "".join([row % (i, *v) for i, v in
                     zip(ids, np.round(values, decimals).tolist(), strict=True)])
@@ -165,12 +166,16 @@ class MotWriter:
             raise InputError(f"MotWriter for {self.path}: close it before sorting its rows")
         if self.in_frame_order:
             return
-        lines = self.path.read_text(encoding="utf-8").splitlines(keepends=True)
-        frames = np.array([int(line[:line.index(",")]) for line in lines], dtype=np.int64)
         sorting = self.path.with_name(self.path.name + ".sorting")
-        with open(sorting, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write("".join([lines[i] for i in np.argsort(frames, kind="stable")]))
-        os.replace(sorting, self.path)
+        try:
+            lines = self.path.read_text(encoding="utf-8").splitlines(keepends=True)
+            frames = np.array([int(line[:line.index(",")]) for line in lines], dtype=np.int64)
+            with open(sorting, "w", encoding="utf-8", newline="\n") as fh:
+                fh.write("".join([lines[i] for i in np.argsort(frames, kind="stable")]))
+            os.replace(sorting, self.path)
+        except OSError as exc:  # the rows as written are kept
+            raise InputError(f"cannot put {self.path} in frame order: "
+                             f"{' '.join(str(exc).split())}") from None
         self.in_frame_order = True
 
     def close(self) -> None:
