@@ -118,6 +118,8 @@ def _predict_gaussian(ctx: RuleContext, factor, frame) -> None:
 
 
 def _measurement(factor, frame):
+    if hasattr(factor, "measurement"):  # checked: its length and finiteness, named
+        return factor.measurement(frame)
     z = frame.measurements
     if isinstance(z, dict):
         z = z.get(factor.key if getattr(factor, "key", None) else factor.variables[0])

@@ -574,12 +574,26 @@ class LinearGaussianLikelihood(LikelihoodFactor):
         (:mod:`pgm.inference.vb`): the residuals ``y − H x`` ``(N, k)``, whose components
         carry independent zero-mean Gaussian noise of the noise variable's variances; None
         on a frame without a measurement."""
+        z = self.measurement(ctx)
+        return None if z is None else z - x @ self.H.T
+
+    def measurement(self, ctx: FrameContext) -> np.ndarray | None:
+        """This frame's measurement ``(k,)`` of this factor (None: the frame has none);
+        one of another length than ``H``'s rows, or not finite, is a ``ValueError`` naming
+        the factor and the frame (a frame without a measurement is ``measurements=None``,
+        or a dict without this factor's key)."""
         z = ctx.measurements
         if isinstance(z, dict):
             z = z.get(self.key if self.key is not None else self.variables[0])
         if z is None:
             return None
-        return np.asarray(z, dtype=float).reshape(-1) - x @ self.H.T
+        z = np.asarray(z, dtype=float).reshape(-1)
+        if z.size != self.H.shape[0] or not np.isfinite(z).all():
+            what = (f"has {z.size} components where H has {self.H.shape[0]} rows"
+                    if z.size != self.H.shape[0] else f"is not finite ({z.tolist()})")
+            raise ValueError(f"factor {self.name!r}: the measurement of frame {ctx.index} "
+                             f"{what} (a frame without one: measurements=None)")
+        return z
 
     def log_likelihood(self, x: np.ndarray, ctx: FrameContext) -> np.ndarray:
         r = self.noise_residuals(x, ctx)  # (N, k)

@@ -47,3 +47,25 @@ def test_a_transition_drawing_the_wrong_shape_is_named():
     eng.step(FrameContext(1, measurements=np.array([0.0])))
     with pytest.raises(ValueError, match="factor 'bad': sample"):
         eng.step(FrameContext(2, measurements=np.array([0.0])))
+
+
+@pytest.mark.parametrize("belief", ["particles", "gaussian"])
+@pytest.mark.parametrize("z, needle", [(np.array([np.nan]), "is not finite ([nan])"),
+                                       (np.array([1.0, 2.0]), "has 2 components where H has 1")])
+def test_a_measurement_that_cannot_be_read_is_named(belief, z, needle):
+    """A measurement of the wrong length or with NaN (the reference ``kalman_filter`` reads
+    a NaN row as missing; the engine's missing frame is ``measurements=None``): a
+    ``ValueError`` naming the factor and the frame, on particles and on the exact rule."""
+    from pgm.core.expfam import Gaussian
+
+    graph = FactorGraph([Variable("x", 1, role="state")],
+                        [GaussianPrior("x", mean=[0.0], cov=1.0),
+                         LinearGaussianTransition("x", F=np.eye(1), Q=0.1 * np.eye(1)),
+                         LinearGaussianLikelihood("x", H=np.eye(1), R=np.eye(1), name="z")])
+    engine = Engine(graph, 0, num_particles=50,
+                    belief_types={"x": Gaussian} if belief == "gaussian" else None)
+    engine.step(FrameContext(1, measurements=np.array([0.5])))
+    engine.step(FrameContext(2, measurements=None))  # a frame without one
+    with pytest.raises(ValueError, match=r"factor 'z': the measurement of frame 3 ") as err:
+        engine.step(FrameContext(3, measurements=z))
+    assert needle in str(err.value) and "measurements=None" in str(err.value)
