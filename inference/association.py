@@ -50,7 +50,7 @@ from pgm.factors.association import (
     DetectionAssociation,
     RoundPlan,
 )
-from pgm.factors.multitarget import VBNoise
+from pgm.factors.multitarget import VBNoise, vb_likelihood_refusal
 from pgm.factors.persistent_quantiles import PLACED_SCORE_MAPS
 
 from .association_terms import (
@@ -615,7 +615,7 @@ def vb_assigned(ctx: RuleContext, factor, frame: FrameContext) -> AssociationInf
         # a likelihood of the frame's own measurements: the single-graph VB-AKF, per replica
         return per_replica(_vb_gaussian, VBNoise)(ctx, factor, frame)
     if len(liks) != 1:
-        raise ValueError(f"factor {factor.name!r}: needs one likelihood on {target!r}")
+        raise vb_likelihood_refusal(factor, ctx.graph)
     if getattr(factor, "tie", None) is not None:
         raise ValueError(f"factor {factor.name!r}: tied noise components are implemented "
                          f"for the VB-PHD (Intensity) rule only")

@@ -50,7 +50,13 @@ from pgm.core.batched import BatchedInverseGamma
 from pgm.core.beliefs import Intensity, Particles
 from pgm.core.expfam import Gaussian, InverseGamma
 from pgm.factors import GaussianPrior, LinearGaussianLikelihood, LinearGaussianTransition
-from pgm.factors.multitarget import InverseGammaPrior, NoiseForgetting, PHDLikelihood, VBNoise
+from pgm.factors.multitarget import (
+    InverseGammaPrior,
+    NoiseForgetting,
+    PHDLikelihood,
+    VBNoise,
+    vb_likelihood_refusal,
+)
 
 from .context import RuleContext
 from .info import VBInfo
@@ -183,8 +189,7 @@ def _vb_likelihood(ctx: RuleContext, factor):
     liks = [f for f in ctx.graph.factors_of(factor.variables[1], "likelihood")
             if factor.likelihood in (None, f.name)]
     if len(liks) != 1:
-        raise ValueError(f"factor {factor.name!r}: needs one likelihood on "
-                         f"{factor.variables[1]!r}")
+        raise vb_likelihood_refusal(factor, ctx.graph)
     if getattr(factor, "tie", None) is not None:
         raise ValueError(f"factor {factor.name!r}: tied noise components are implemented "
                          f"for the VB-PHD (Intensity) rule only")

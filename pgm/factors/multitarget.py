@@ -497,6 +497,16 @@ class NoiseForgetting(TransitionFactor):
         return np.asarray(past[0], dtype=float)
 
 
+def vb_likelihood_refusal(factor, graph) -> ValueError:
+    """The error of a :class:`VBNoise` factor that does not find exactly one likelihood to
+    parameterise: what it asked for and what its target has."""
+    target = factor.variables[1]
+    names = [f.name for f in graph.factors_of(target, "likelihood")]
+    asked = f" named {factor.likelihood!r}" if factor.likelihood is not None else ""
+    return ValueError(f"factor {factor.name!r}: needs one likelihood on {target!r}{asked}; "
+                      f"{target!r} has {names or 'none'}")
+
+
 class VBNoise(ConjugateFactor):
     """Mean-field VB between a noise belief and the likelihood it parameterises.
 

@@ -69,3 +69,23 @@ def test_a_measurement_that_cannot_be_read_is_named(belief, z, needle):
     with pytest.raises(ValueError, match=r"factor 'z': the measurement of frame 3 ") as err:
         engine.step(FrameContext(3, measurements=z))
     assert needle in str(err.value) and "measurements=None" in str(err.value)
+
+
+@pytest.mark.parametrize("belief", ["particles", "gaussian"])
+def test_a_vb_noise_factor_naming_no_likelihood_of_its_target_says_what_there_is(belief):
+    """``VBNoise(likelihood=...)`` misspelled: the run's error names what it asked for and
+    the likelihoods its target has."""
+    from pgm.core.expfam import Gaussian
+    from pgm.factors.multitarget import InverseGammaPrior, VBNoise
+
+    graph = FactorGraph([Variable("x", 1, role="state"), Variable("noise", 1, role="noise")],
+                        [GaussianPrior("x", mean=[0.0], cov=1.0),
+                         LinearGaussianTransition("x", F=np.eye(1), Q=np.eye(1)),
+                         LinearGaussianLikelihood("x", H=np.eye(1), R=np.eye(1), name="lik"),
+                         InverseGammaPrior("noise", sigma=[1.0], alpha=2.0),
+                         VBNoise("noise", "x", likelihood="likk", name="vb")])
+    engine = Engine(graph, 0, num_particles=20,
+                    belief_types={"x": Gaussian} if belief == "gaussian" else None)
+    with pytest.raises(ValueError, match=r"'vb': needs one likelihood on 'x' named 'likk'; "
+                                         r"'x' has \['lik'\]"):
+        engine.step(FrameContext(1, measurements=np.array([0.3])))
