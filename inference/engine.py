@@ -188,7 +188,8 @@ class Engine:
                                row_belief_type=self.row_belief_type)
         #: likelihoods that learn something from the first frame (a template)
         self._initializers = [f.name for f in self.graph.factors_by_kind("likelihood")
-                              if type(f).initialize is not LikelihoodFactor.initialize]
+                              if getattr(type(f), "initialize", LikelihoodFactor.initialize)
+                              is not LikelihoodFactor.initialize]
         self._proposals = bool(self.graph.factors_by_kind("proposal"))
         self._groups_cache: dict[tuple, list[tuple[list[Factor], list[Rule], bool]]] = {}
         self._rule_cache: dict[tuple, Rule] = {}

@@ -6,6 +6,7 @@ import pytest
 from pgm import (
     AR2Transition,
     CouplingFactor,
+    Factor,
     FactorGraph,
     FrameContext,
     GaussianPrior,
@@ -137,6 +138,13 @@ def test_dispatch_walks_the_mro_and_missing_rules_fail_early(lg_problem):
     with pytest.raises(ValueError, match="factor 'coupling:a-b': no inference rule for "
                                          r"\(Stiff, Particles\)"):
         Engine(g2, np.random.default_rng(0), rules=rules)
+
+    class Bare(Factor):  # a likelihood by kind only: not a LikelihoodFactor
+        kind = "likelihood"
+
+    g3 = FactorGraph([Variable("a", 1)], [GaussianPrior("a", mean=[0.0]), Bare("a")])
+    with pytest.raises(ValueError, match=r"no inference rule for \(Bare, Particles\)"):
+        Engine(g3, np.random.default_rng(0))
     calls = []
     rules.register(Stiff, Particles)(
         lambda eng, f, frame, src, dst: calls.append((f.name, src, dst)))
